@@ -1,0 +1,47 @@
+"""Domain errors and the process exit codes they map to (documented in README)."""
+from __future__ import annotations
+
+EXIT_OK = 0
+EXIT_INTERNAL = 1
+EXIT_USAGE = 2
+EXIT_INPUT_MISSING = 3
+EXIT_BAD_LOG = 4
+EXIT_BAD_PARAMETERS = 5
+EXIT_NOT_IDENTIFIABLE = 6
+EXIT_OUTPUT = 7
+
+
+class TrmsError(Exception):
+    """Base class: one-line message, fixed exit code."""
+
+    exit_code = EXIT_INTERNAL
+
+
+class InputNotFoundError(TrmsError, FileNotFoundError):
+    exit_code = EXIT_INPUT_MISSING
+
+
+class LogFormatError(TrmsError, ValueError):
+    """The log cannot be used: message names the file, row or time, and what was expected."""
+
+    exit_code = EXIT_BAD_LOG
+
+
+class ParameterFileError(TrmsError, ValueError):
+    exit_code = EXIT_BAD_PARAMETERS
+
+
+class SettingsError(TrmsError, ValueError):
+    """An option value is out of range (e.g. a negative filter bandwidth)."""
+
+    exit_code = EXIT_USAGE
+
+
+class IdentificationError(TrmsError, RuntimeError):
+    """The log does not excite the parameters enough to identify them."""
+
+    exit_code = EXIT_NOT_IDENTIFIABLE
+
+
+class OutputError(TrmsError, OSError):
+    exit_code = EXIT_OUTPUT

@@ -1,0 +1,96 @@
+"""The one parameter table of the TRMS model (paper eq. 1, Table 1).
+
+Every default value, unit and meaning used by the estimator, the simulator, the
+CLI help and the reports comes from :data:`PARAMETERS`.  Known values can be
+overridden from a TOML file (:func:`load_parameter_file`).
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping
+
+from .errors import ParameterFileError
+
+
+@dataclass(frozen=True)
+class Parameter:
+    name: str
+    value: float
+    unit: str
+    meaning: str
+    role: str  # "estimated" (J, B) or "known"
+
+
+PARAMETERS: tuple[Parameter, ...] = (
+    Parameter("J1", 0.068, "kg m^2", "pitch moment of inertia", "estimated"),
+    Parameter("B1", 0.006, "N m s/rad", "pitch viscous friction", "estimated"),
+    Parameter("J2", 0.02, "kg m^2", "yaw moment of inertia", "estimated"),
+    Parameter("B2", 0.1, "N m s/rad", "yaw viscous friction", "estimated"),
+    Parameter("a1", 0.0135, "N m", "main rotor thrust, quadratic coefficient", "known"),
+    Parameter("b1", 0.0924, "N m", "main rotor thrust, linear coefficient", "known"),
+    Parameter("a2", 0.02, "N m", "tail rotor thrust, quadratic coefficient", "known"),
+    Parameter("b2", 0.09, "N m", "tail rotor thrust, linear coefficient", "known"),
+    Parameter("Mg", 0.32, "N m", "gravity moment", "known"),
+    Parameter("Kg", 0.05, "s/rad", "gyroscopic coefficient", "known"),
+    Parameter("k1", 1.1, "1/V", "main motor gain", "known"),
+    Parameter("k2", 0.8, "1/V", "tail motor gain", "known"),
+    Parameter("T11", 1.1, "s", "main motor time constant (s coefficient)", "known"),
+    Parameter("T10", 1.0, "-", "main motor denominator constant", "known"),
+    Parameter("T21", 1.0, "s", "tail motor time constant (s coefficient)", "known"),
+    Parameter("T20", 1.0, "-", "tail motor denominator constant", "known"),
+    Parameter("kc", -0.2, "N m", "main rotor reaction moment gain on yaw", "known"),
+    Parameter("T0", 3.5, "s", "reaction moment lead time constant", "known"),
+    Parameter("Tp", 2.0, "s", "reaction moment lag time constant", "known"),
+)
+
+ESTIMATED = tuple(p.name for p in PARAMETERS if p.role == "estimated")
+KNOWN = tuple(p.name for p in PARAMETERS if p.role == "known")
+BY_NAME: dict[str, Parameter] = {p.name: p for p in PARAMETERS}
+UNITS: dict[str, str] = {p.name: p.unit for p in PARAMETERS}
+
+THRUST_LAWS = {
+    "quadratic": "M = a tau^2 + b tau (paper eq. 1, the seed model)",
+    "signed": "M = a tau|tau| + b tau (sign-symmetric variant)",
+}
+
+
+def defaults() -> dict[str, float]:
+    """All parameter values of the table, by name."""
+    return {p.name: p.value for p in PARAMETERS}
+
+
+def merge(overrides: Mapping[str, float] | None, *, source: str = "overrides") -> dict[str, float]:
+    """Table defaults updated by ``overrides``; unknown names or bad values raise."""
+    values = defaults()
+    for name, value in (overrides or {}).items():
+        if name not in BY_NAME:
+            raise ParameterFileError(
+                f"{source}: unknown parameter {name!r}; expected one of {', '.join(BY_NAME)}"
+            )
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ParameterFileError(f"{source}: parameter {name} must be a finite number, got {value!r}")
+        values[name] = float(value)
+    for name in ("J1", "J2", "T11", "T21", "Tp", "Mg"):
+        if values[name] <= 0:
+            raise ParameterFileError(f"{source}: parameter {name} must be > 0, got {values[name]}")
+    return values
+
+
+def load_parameter_file(path: str | Path) -> dict[str, float]:
+    """Read parameter overrides from TOML: top-level ``name = value`` or a ``[parameters]`` table."""
+    path = Path(path)
+    try:
+        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ParameterFileError(f"{path}: parameter file not found") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ParameterFileError(f"{path}: not valid TOML ({exc})") from None
+    table = raw.get("parameters", raw)
+    if not isinstance(table, dict):
+        raise ParameterFileError(f"{path}: [parameters] must be a table of name = value")
+    overrides = {k: v for k, v in table.items() if k != "parameters"}
+    merge(overrides, source=str(path))  # validate now, with the file's name in the message
+    return overrides
