@@ -1,0 +1,81 @@
+"""Unmodelled physics the simulator can inject (never written to the log, only to the truth file).
+
+Each effect has an axis and one physical parameter with a unit (see shared notes, model.md).
+The simulator packs them into a flat float array for its compiled kernel.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Effect:
+    name: str
+    axes: tuple[str, ...]
+    parameter: str
+    unit: str
+    meaning: str
+
+
+EFFECTS: dict[str, Effect] = {
+    e.name: e
+    for e in (
+        Effect("coulomb_friction", ("pitch", "yaw"), "Fc", "N m", "torque -Fc*sign(omega)"),
+        Effect("quadratic_drag", ("pitch", "yaw"), "c", "N m s^2/rad^2", "torque -c*omega*|omega|"),
+        Effect("cable_stiffness", ("yaw",), "k", "N m/rad", "yaw restoring torque -k*beta"),
+        Effect("com_offset", ("pitch",), "delta", "rad", "gravity moment Mg*sin(alpha + delta)"),
+        Effect("sensor_offset", ("pitch", "yaw"), "delta", "rad", "logged angle = angle + delta"),
+        Effect("dead_zone", ("pitch", "yaw"), "w", "V", "|u| < w applies no voltage"),
+        Effect("input_saturation", ("pitch", "yaw"), "U", "V", "plant sees clip(u, -U, U)"),
+        Effect("input_delay", ("both",), "d", "s", "plant sees u(t - d)"),
+        Effect("motor_lag", ("pitch", "yaw"), "T", "s", "true motor time constant T11 or T21"),
+    )
+}
+
+# Layout of the kernel's effect vector.
+I_COULOMB = (0, 1)
+I_DRAG = (2, 3)
+I_CABLE = 4
+I_COM = 5
+I_SENSOR = (6, 7)
+I_DEADZONE = (8, 9)
+I_SAT = (10, 11)
+I_DELAY = 12
+N_EFFECT_SLOTS = 13
+AXIS_INDEX = {"pitch": 0, "yaw": 1}
+
+
+def pack(effects: list[dict]) -> list[float]:
+    """Turn ``[{"effect": name, "axis": "pitch", "value": x}, ...]`` into the kernel vector.
+
+    ``motor_lag`` is not packed: it changes T11/T21 of the plant instead (see simulate).
+    """
+    vec = [0.0] * N_EFFECT_SLOTS
+    vec[I_SAT[0]] = vec[I_SAT[1]] = float("inf")
+    for spec in effects:
+        name, value = spec["effect"], float(spec["value"])
+        if name not in EFFECTS:
+            raise ValueError(f"unknown effect {name!r}; expected one of {', '.join(EFFECTS)}")
+        axis = spec.get("axis", EFFECTS[name].axes[0])
+        if axis not in EFFECTS[name].axes:
+            raise ValueError(f"effect {name} acts on {'/'.join(EFFECTS[name].axes)}, not {axis!r}")
+        if name == "motor_lag":
+            continue
+        slot = {
+            "coulomb_friction": I_COULOMB,
+            "quadratic_drag": I_DRAG,
+            "sensor_offset": I_SENSOR,
+            "dead_zone": I_DEADZONE,
+            "input_saturation": I_SAT,
+        }.get(name)
+        if slot is not None:
+            vec[slot[AXIS_INDEX[axis]]] = value
+        elif name == "cable_stiffness":
+            vec[I_CABLE] = value
+        elif name == "com_offset":
+            vec[I_COM] = value
+        elif name == "input_delay":
+            if value < 0:
+                raise ValueError("input_delay must be >= 0 s")
+            vec[I_DELAY] = value
+    return vec

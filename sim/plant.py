@@ -1,0 +1,166 @@
+"""Compiled closed-loop kernel: TRMS plant (paper eq. 1) under a digital PID (paper eq. 9).
+
+Written independently of the estimator (``trms_ident``): tests that feed simulated
+logs to the estimator are a real cross-check.  State vector:
+``[alpha, alpha', beta, beta', tau1, tau2, zeta]`` with zeta the lag state of the
+main-rotor reaction moment M_R = kc (T0 s + 1)/(Tp s + 1) tau1.
+
+The controller samples the (noisy, quantized) angles at t_k, holds the voltage
+over [t_k, t_k+1) and the plant is integrated with classical RK4 sub-steps.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+# Order of the plant parameter vector.
+PARAM_ORDER = ("J1", "B1", "J2", "B2", "a1", "b1", "a2", "b2", "Mg", "Kg",
+               "k1", "k2", "T11", "T10", "T21", "T20", "kc", "T0", "Tp")
+OMEGA_SMOOTH = 1e-3  # rad/s: Coulomb sign() is smoothed as tanh(omega / OMEGA_SMOOTH)
+
+
+@njit(cache=True)
+def _thrust(tau, a, b, law):
+    if law == 1:
+        return a * tau * abs(tau) + b * tau
+    return a * tau * tau + b * tau
+
+
+@njit(cache=True)
+def _deadzone_sat(u, w, big_u):
+    if abs(u) < w:
+        return 0.0
+    return min(max(u, -big_u), big_u)
+
+
+@njit(cache=True)
+def _deriv(x, u1, u2, p, law, fx, dx):
+    J1, B1, J2, B2 = p[0], p[1], p[2], p[3]
+    a1, b1, a2, b2, Mg, Kg = p[4], p[5], p[6], p[7], p[8], p[9]
+    k1, k2, T11, T10, T21, T20 = p[10], p[11], p[12], p[13], p[14], p[15]
+    kc, T0, Tp = p[16], p[17], p[18]
+    al, dal, be, dbe, tau1, tau2, zeta = x[0], x[1], x[2], x[3], x[4], x[5], x[6]
+    M1 = _thrust(tau1, a1, b1, law)
+    M2 = _thrust(tau2, a2, b2, law)
+    MR = kc * (T0 / Tp * tau1 + (1.0 - T0 / Tp) * zeta)
+    extra1 = -fx[0] * math.tanh(dal / OMEGA_SMOOTH) - fx[2] * dal * abs(dal)
+    extra2 = -fx[1] * math.tanh(dbe / OMEGA_SMOOTH) - fx[3] * dbe * abs(dbe) - fx[4] * be
+    dx[0] = dal
+    dx[1] = (M1 - B1 * dal - Mg * math.sin(al + fx[5]) - Kg * M1 * dbe * math.cos(al) + extra1) / J1
+    dx[2] = dbe
+    dx[3] = (M2 - B2 * dbe - MR + extra2) / J2
+    dx[4] = (k1 * u1 - T10 * tau1) / T11
+    dx[5] = (k2 * u2 - T20 * tau2) / T21
+    dx[6] = (tau1 - zeta) / Tp
+
+
+@njit(cache=True)
+def _rk4(x, u1, u2, p, law, fx, h, nsteps):
+    n = x.size
+    k1 = np.empty(n)
+    k2 = np.empty(n)
+    k3 = np.empty(n)
+    k4 = np.empty(n)
+    xt = np.empty(n)
+    for _ in range(nsteps):
+        _deriv(x, u1, u2, p, law, fx, k1)
+        for i in range(n):
+            xt[i] = x[i] + 0.5 * h * k1[i]
+        _deriv(xt, u1, u2, p, law, fx, k2)
+        for i in range(n):
+            xt[i] = x[i] + 0.5 * h * k2[i]
+        _deriv(xt, u1, u2, p, law, fx, k3)
+        for i in range(n):
+            xt[i] = x[i] + h * k3[i]
+        _deriv(xt, u1, u2, p, law, fx, k4)
+        for i in range(n):
+            x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+
+
+@njit(cache=True)
+def _quantize(v, q):
+    if q > 0.0:
+        return q * math.floor(v / q + 0.5)
+    return v
+
+
+@njit(cache=True)
+def closed_loop(dt, aref, bref, p, law, gains, u_lim, fx, noise_a, noise_b, q, h_max, x0):
+    """Run the loop for ``aref.size`` samples; returns (u1, u2, alpha_log, beta_log, state_true).
+
+    gains = [Kp1, Ki1, Kd1, Kp2, Ki2, Kd2, Tf] (PID per axis, derivative on the
+    measurement filtered with time constant Tf [s]).  u_lim [V] is the controller's
+    output limit; the logged u is the commanded (applied) voltage.
+    """
+    n = aref.size
+    x = x0.copy()
+    u1_log = np.empty(n)
+    u2_log = np.empty(n)
+    a_log = np.empty(n)
+    b_log = np.empty(n)
+    true_state = np.empty((n, 4))
+    integ1 = 0.0
+    integ2 = 0.0
+    d1 = 0.0
+    d2 = 0.0
+    prev_a = 0.0
+    prev_b = 0.0
+    tf = gains[6]
+    delay = fx[12]
+    m_del = int(math.floor(delay / dt + 1e-12))
+    r_del = delay - m_del * dt
+    for k in range(n):
+        a_meas = _quantize(x[0] + fx[6] + noise_a[k], q)
+        b_meas = _quantize(x[2] + fx[7] + noise_b[k], q)
+        a_log[k] = a_meas
+        b_log[k] = b_meas
+        true_state[k, 0] = x[0]
+        true_state[k, 1] = x[1]
+        true_state[k, 2] = x[2]
+        true_state[k, 3] = x[3]
+        if k == 0:
+            prev_a = a_meas
+            prev_b = b_meas
+        # eq. (9): PID per axis, derivative on measurement (no kick on reference steps)
+        e1 = aref[k] - a_meas
+        e2 = bref[k] - b_meas
+        d1 = (tf * d1 - (a_meas - prev_a)) / (tf + dt)
+        d2 = (tf * d2 - (b_meas - prev_b)) / (tf + dt)
+        prev_a = a_meas
+        prev_b = b_meas
+        v1 = gains[0] * e1 + integ1 + gains[2] * d1
+        v2 = gains[3] * e2 + integ2 + gains[5] * d2
+        u1 = min(max(v1, -u_lim), u_lim)
+        u2 = min(max(v2, -u_lim), u_lim)
+        # conditional integration (anti-windup)
+        if u1 == v1 or (u1 > 0) != (e1 > 0):
+            integ1 += gains[1] * e1 * dt
+        if u2 == v2 or (u2 > 0) != (e2 > 0):
+            integ2 += gains[4] * e2 * dt
+        u1_log[k] = u1
+        u2_log[k] = u2
+        if k == n - 1:
+            break
+        # the plant sees u(t - delay): over [t_k, t_k + r) the older command, then the newer
+        i_new = k - m_del
+        i_old = i_new - 1
+        ua1 = u1_log[i_old] if i_old >= 0 else 0.0
+        ua2 = u2_log[i_old] if i_old >= 0 else 0.0
+        ub1 = u1_log[i_new] if i_new >= 0 else 0.0
+        ub2 = u2_log[i_new] if i_new >= 0 else 0.0
+        pieces_len = (r_del, dt - r_del)
+        pieces_u1 = (ua1, ub1)
+        pieces_u2 = (ua2, ub2)
+        for j in range(2):
+            length = pieces_len[j]
+            if length <= 0.0:
+                continue
+            ns = int(math.ceil(length / h_max - 1e-9))
+            if ns < 1:
+                ns = 1
+            w1 = _deadzone_sat(pieces_u1[j], fx[8], fx[10])
+            w2 = _deadzone_sat(pieces_u2[j], fx[9], fx[11])
+            _rk4(x, w1, w2, p, law, fx, length / ns, ns)
+    return u1_log, u2_log, a_log, b_log, true_state
