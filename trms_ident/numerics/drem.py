@@ -1,0 +1,87 @@
+"""DREM: regressor extension (eq. 5-6), mixing (eq. 7) and scalar gradient estimators (eq. 8)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from .filters import discretize, second_order_lowpass
+
+
+@dataclass(frozen=True)
+class MixedRegression:
+    """Scalar regressions eps_i = phi * q_i (eq. 7), one per parameter of the axis."""
+
+    phi: np.ndarray  # det M(t)
+    eps: np.ndarray  # (n, 2): adj(M) [g; H g], columns J, B
+    excitation: float  # rms(phi) / (rms(m1) rms(Hm2) + rms(m2) rms(Hm1)): 0 = singular mixing
+
+
+def extend_and_mix(g: np.ndarray, m: np.ndarray, dt_s: float, b_rad_s: float,
+                   gain: float) -> MixedRegression:
+    """Extend g = m^T q with H = gain/(s+b)^2 (eq. 5), stack (eq. 6), multiply by adj(M) (eq. 7)."""
+    num, den = second_order_lowpass(b_rad_s, gain)
+    h = discretize(num, den, dt_s, "bilinear")
+    hg = h.apply(g)
+    hm1 = h.apply(m[:, 0])
+    hm2 = h.apply(m[:, 1])
+    m1, m2 = m[:, 0], m[:, 1]
+    # eq. (6): M = [[m1, m2], [Hm1, Hm2]];  eq. (7): phi = det M, eps = adj(M) [g; Hg]
+    phi = m1 * hm2 - m2 * hm1
+    eps = np.empty((g.size, 2))
+    eps[:, 0] = hm2 * g - m2 * hg
+    eps[:, 1] = m1 * hg - hm1 * g
+    rms = lambda v: float(np.sqrt(np.mean(v * v)))  # noqa: E731
+    scale = rms(m1) * rms(hm2) + rms(m2) * rms(hm1)
+    return MixedRegression(phi, eps, rms(phi) / scale if scale > 0 else 0.0)
+
+
+@njit(cache=True)
+def _gradient(eps, phi, gamma, dt, q0, out):
+    q = q0
+    for k in range(phi.size):
+        ph = phi[k]
+        x = gamma[k] * ph * ph * dt
+        if x > 0.0 and math.isfinite(x):
+            w = -math.expm1(-x)
+            q += w * (eps[k] / ph - q)
+        out[k] = q
+    return out
+
+
+def gradient_estimator(eps: np.ndarray, phi: np.ndarray, gamma: np.ndarray | float, dt_s: float,
+                       q0: float = 0.0) -> np.ndarray:
+    """eq. (8): q' = gamma (eps phi - phi^2 q), discretized exactly for eps, phi held per sample.
+
+    Over one sample q moves to the point eps/phi by the fraction 1 - exp(-gamma phi^2 dt):
+    the step never overshoots, so the recursion is monotone and stable for any gamma >= 0
+    and any sample time (forward Euler diverges once gamma phi^2 dt > 2).
+    """
+    gamma_arr = np.broadcast_to(np.asarray(gamma, dtype=float), phi.shape).copy()
+    return _gradient(np.ascontiguousarray(eps, dtype=float), np.ascontiguousarray(phi, dtype=float),
+                     gamma_arr, float(dt_s), float(q0), np.empty(phi.size))
+
+
+def normalized_gain(phi: np.ndarray, rate_per_s: float, floor_fraction: float = 0.05) -> np.ndarray:
+    """Normalized gain: gamma_k = rate / max(mean(phi^2 over samples 0..k), floor).
+
+    With it the estimation error decays on average like exp(-rate t) whatever the scale of
+    phi (filter convention, excitation level, units), so no one has to guess gamma.  The
+    floor, ``floor_fraction`` times the mean of phi^2 over the whole log, keeps the first
+    samples after the onset of motion (tiny phi, large relative error of eps/phi) from
+    receiving a scale-free full weight.  The floor is the only non-causal ingredient.
+    """
+    phi2 = phi * phi
+    running = np.cumsum(phi2) / np.arange(1, phi.size + 1)
+    energy = np.maximum(running, floor_fraction * float(np.mean(phi2)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(energy > 0, rate_per_s / energy, 0.0)
+
+
+def offline_optimum(eps: np.ndarray, phi: np.ndarray, weights: np.ndarray | None = None) -> float:
+    """Least-squares optimum of eps = phi q over the whole record: sum(eps phi) / sum(phi^2)."""
+    w = np.ones_like(phi) if weights is None else weights
+    den = float(np.sum(w * phi * phi))
+    return float(np.sum(w * eps * phi) / den) if den > 0 else float("nan")
