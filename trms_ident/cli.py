@@ -1,0 +1,211 @@
+"""Command line: flags, human text on stderr, --json on stdout or a file, exit codes.
+
+Exit codes (also in README): 0 ok, 1 internal error, 2 usage or bad option value,
+3 input file missing or unreadable, 4 log unusable, 5 parameter file invalid,
+6 log does not excite the parameters, 7 output cannot be written.
+"""
+from __future__ import annotations
+
+import functools
+import json
+import math
+import os
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from . import __version__
+from .errors import EXIT_INTERNAL, SettingsError, TrmsError
+from .identify import GAIN_CONVENTIONS, HEADLINES, Settings
+from .params import ESTIMATED, THRUST_LAWS, UNITS, load_parameter_file
+
+app = typer.Typer(
+    name="trms-ident",
+    help="Identify J1, B1, J2, B2 of a Twin Rotor MIMO System from recorded logs (DREM).",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # help texts carry units in [brackets]; print them as written
+)
+
+
+def say(msg: str = "") -> None:
+    """Human text goes to stderr, so that --json - on stdout stays machine-readable."""
+    typer.echo(msg, err=True)
+
+
+def handled(fn):
+    """Map domain errors to one line on stderr and their exit code; never a traceback."""
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        try:
+            return fn(*args, **kwargs)
+        except TrmsError as exc:
+            say(f"error: {exc}")
+            raise typer.Exit(exc.exit_code) from None
+        except (typer.Exit, typer.Abort):
+            raise
+        except KeyboardInterrupt:
+            say("interrupted")
+            raise typer.Exit(130) from None
+        except Exception as exc:  # a bug: say so in one line, traceback only on request
+            if os.environ.get("TRMS_IDENT_DEBUG"):
+                raise
+            say(f"internal error: {type(exc).__name__}: {exc} (set TRMS_IDENT_DEBUG=1 for a traceback)")
+            raise typer.Exit(EXIT_INTERNAL) from None
+
+    return wrapper
+
+
+def _version(value: bool):
+    if value:
+        typer.echo(f"trms-ident {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def main(version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True,
+                                               help="Print the version and exit.")] = False) -> None:
+    """trms-ident: DREM parameter identification for the TRMS bench."""
+
+
+def parse_gamma(text: str) -> dict | None:
+    """'auto' -> None; '100' -> all four; 'J1=10,B1=10,J2=100,B2=100' -> per parameter."""
+    text = text.strip()
+    if text.lower() == "auto":
+        return None
+    try:
+        if "=" not in text:
+            return {k: float(text) for k in ESTIMATED}
+        out = {}
+        for part in text.split(","):
+            k, v = part.split("=")
+            out[k.strip()] = float(v)
+        return out
+    except ValueError:
+        raise SettingsError(f"--gamma {text!r}: expected 'auto', a number, or J1=..,B1=..,J2=..,B2=..") from None
+
+
+def emit_json(doc: dict, target: str) -> None:
+    from .io.atomic import write_text
+    from .report.summary import to_json
+
+    if target == "-":
+        sys.stdout.write(to_json(doc))
+    else:
+        write_text(target, to_json(doc))
+
+
+@app.command()
+@handled
+def estimate(
+    log: Annotated[Path, typer.Argument(help="Log file: CSV (t,u1,u2,alpha,beta) or MCAP.", show_default=False)],
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Folder for report.html, traces.csv, "
+                                                "result.json [default: ./<log name>_ident].")] = None,
+    json_path: Annotated[Optional[str], typer.Option("--json", help="Also write the result JSON here; '-' = stdout.")] = None,
+    params: Annotated[Optional[Path], typer.Option("--params", help="TOML file overriding known parameters.")] = None,
+    a: Annotated[float, typer.Option("--a", help="Bandwidth of F(s), eq. (3) [rad/s].")] = Settings.filter_a_rad_s,
+    b: Annotated[float, typer.Option("--b", help="Bandwidth of H(s), eq. (5) [rad/s].")] = Settings.filter_b_rad_s,
+    gain_convention: Annotated[str, typer.Option(help=f"Filter gains: 'unit' (a^2/(s+a)^2, DC gain 1) or 'paper' "
+                                                 f"(a/(s+a)^2 exactly as printed). One of {GAIN_CONVENTIONS}.")] = "unit",
+    gamma: Annotated[str, typer.Option(help="Gradient gain of eq. (8): 'auto' (normalized), a number, or "
+                                       "J1=..,B1=..,J2=..,B2=..")] = "auto",
+    settle: Annotated[float, typer.Option("--settle", help="Auto gain: time for the trace error to fall to 1 % [s].")
+                      ] = Settings.settle_time_s,
+    thrust_law: Annotated[str, typer.Option(help=f"One of {tuple(THRUST_LAWS)}.")] = "quadratic",
+    headline: Annotated[str, typer.Option(help=f"Which number is the estimate: {HEADLINES}.")] = "offline",
+    angle_unit: Annotated[str, typer.Option(help="Unit of the logged angles: rad or deg.")] = "rad",
+    truth: Annotated[Optional[Path], typer.Option(help="Ground-truth JSON [default: <log>.truth.json if present].")] = None,
+    no_report: Annotated[bool, typer.Option("--no-report", help="Skip the HTML report.")] = False,
+) -> None:
+    """Estimate J1, B1, J2, B2 from a log and write a report."""
+    from .commands import estimate_file
+
+    if angle_unit not in ("rad", "deg"):
+        raise SettingsError(f"--angle-unit {angle_unit!r}: expected rad or deg")
+    settings = Settings(filter_a_rad_s=a, filter_b_rad_s=b, gain_convention=gain_convention,
+                        gamma=parse_gamma(gamma), settle_time_s=settle, thrust_law=thrust_law, headline=headline,
+                        overrides=load_parameter_file(params) if params else {})
+    settings.validate()
+    out_dir = out if out is not None else Path(f"{log.name.split('.')[0]}_ident")
+    res = estimate_file(log, settings, out_dir, angle_unit=angle_unit, html=not no_report, truth_file=truth)
+    s = res.summary
+    say(f"{log}: {s['input']['samples']} samples, {s['input']['duration_s']:.6g} s at "
+        f"{1.0 / s['input']['sample_time_s']:.6g} Hz")
+    tv = s.get("truth", {})
+    for k in ESTIMATED:
+        line = f"  {k} = {s['estimates'][k]:<12.6g} {UNITS[k]}"
+        if tv:
+            line += f"   truth {tv['values'][k]:.6g}, error {tv['error_percent'][k]:+.3f} %"
+        say(line)
+    for axis, x in s["excitation"].items():
+        if x < 1e-3:
+            say(f"warning: the {axis} axis is barely excited (conditioning {x:.2g}); its estimates are unreliable")
+    say("wrote " + ", ".join(str(p) for p in res.written))
+    if json_path:
+        emit_json(s, json_path)
+
+
+def parse_effect(text: str) -> dict:
+    """'name=value' or 'name:axis=value' (e.g. coulomb_friction:yaw=0.01)."""
+    try:
+        lhs, value = text.split("=")
+        name, _, axis = lhs.partition(":")
+        spec = {"effect": name.strip(), "value": float(value)}
+        if axis:
+            spec["axis"] = axis.strip()
+        return spec
+    except ValueError:
+        raise SettingsError(f"--effect {text!r}: expected NAME=VALUE or NAME:AXIS=VALUE") from None
+
+
+@app.command()
+@handled
+def simulate(
+    ref: Annotated[str, typer.Option(help="Reference: square, sine (the paper's), multisine, steps, chirp.")] = "square",
+    output: Annotated[Optional[Path], typer.Option("--output", "-o", help="Log to write [default: sim_<ref>.csv]; "
+                                                   "the truth goes beside it as <name>.truth.json.")] = None,
+    duration: Annotated[Optional[float], typer.Option(help="Length [s] (default: 60 for square, 120 otherwise).")] = None,
+    rate: Annotated[float, typer.Option("--rate", help="Sample rate of the controller and the log [Hz].")] = 1000.0,
+    seed: Annotated[int, typer.Option(help="Seed for noise and random references.")] = 0,
+    noise: Annotated[float, typer.Option(help="Gaussian measurement noise, standard deviation [rad].")] = 0.0,
+    quantization: Annotated[float, typer.Option(help="Encoder quantum [rad] (0 = none).")] = 0.0,
+    encoder_bits: Annotated[Optional[int], typer.Option(help="Encoder resolution; sets quantum = 2 pi / 2^bits.")] = None,
+    params: Annotated[Optional[Path], typer.Option("--params", help="TOML file overriding true parameters.")] = None,
+    thrust_law: Annotated[str, typer.Option(help=f"One of {tuple(THRUST_LAWS)}.")] = "quadratic",
+    u_limit: Annotated[float, typer.Option(help="Controller output limit [V].")] = 2.5,
+    effect: Annotated[Optional[list[str]], typer.Option(help="Inject unmodelled physics, NAME[:AXIS]=VALUE "
+                                                        "(repeatable); recorded only in the truth file.")] = None,
+) -> None:
+    """Simulate the closed-loop bench (paper eq. 1 with PID eq. 9) and write a log with its ground truth."""
+    from sim import SimSettings
+    from sim import simulate as run_sim
+
+    from .io.atomic import write_text
+    from .io.csv_log import truth_path, write_csv_log
+
+    if encoder_bits is not None:
+        if not 1 <= encoder_bits <= 32:
+            raise SettingsError(f"--encoder-bits {encoder_bits}: expected 1..32")
+        quantization = 2 * math.pi / 2 ** encoder_bits
+    settings = SimSettings(ref=ref, duration_s=duration, sample_rate_hz=rate, seed=seed, noise_std_rad=noise,
+                           quantization_rad=quantization, thrust_law=thrust_law, u_limit_v=u_limit,
+                           overrides=load_parameter_file(params) if params else {},
+                           effects=[parse_effect(e) for e in effect or []])
+    try:
+        result = run_sim(settings)
+    except ValueError as exc:
+        raise SettingsError(str(exc)) from None
+    path = output or Path(f"sim_{ref}.csv")
+    if path.suffix.lower() != ".csv":
+        raise SettingsError(f"--output {path}: expected a .csv file name")
+    write_csv_log(path, result.t_s, result.u1_v, result.u2_v, result.alpha_rad, result.beta_rad)
+    write_text(truth_path(path), json.dumps(result.truth, indent=2) + "\n")
+    say(f"wrote {path} ({result.t_s.size} samples, {result.t_s[-1]:.6g} s at {rate:g} Hz) and {truth_path(path)}")
+
+
+def run() -> None:
+    app()

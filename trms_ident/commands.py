@@ -1,0 +1,43 @@
+"""What each command does, as plain functions: read, compute, write. The CLI adds flags and exit codes."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from .identify import Result, Settings, identify
+from .io.atomic import write_text
+from .io.csv_log import truth_path
+from .io.readers import read_log
+from .log import Log
+from .report.html import render
+from .report.summary import load_truth, summarize, to_json
+from .report.traces import write_traces
+
+
+@dataclass
+class EstimateOutput:
+    log: Log
+    result: Result
+    summary: dict
+    written: list[Path]
+
+
+def estimate_file(log_path: str | Path, settings: Settings, out_dir: str | Path | None,
+                  *, angle_unit: str = "rad", html: bool = True, truth_file: str | Path | None = None
+                  ) -> EstimateOutput:
+    """Identify J1, B1, J2, B2 from one log; write report.html, traces.csv and result.json to out_dir."""
+    log = read_log(log_path, angle_unit=angle_unit)
+    result = identify(log, settings)
+    tpath = Path(truth_file) if truth_file else truth_path(log_path)
+    truth = load_truth(tpath)
+    summary = summarize(result, log, truth, str(tpath) if truth else None)
+    written: list[Path] = []
+    if out_dir is not None:
+        out = Path(out_dir)
+        write_text(out / "result.json", to_json(summary))
+        write_traces(out / "traces.csv", result)
+        written += [out / "result.json", out / "traces.csv"]
+        if html:
+            write_text(out / "report.html", render(summary, result, log))
+            written.append(out / "report.html")
+    return EstimateOutput(log, result, summary, written)

@@ -1,0 +1,60 @@
+"""Self-contained HTML report (figures embedded), built from the summary dict and the Result."""
+from __future__ import annotations
+
+import html
+
+from ..identify import Result
+from ..log import Log
+from ..params import ESTIMATED, UNITS
+from .figures import signals_figure, traces_figure
+
+CSS = """body{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto;color:#222}
+table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:4px 10px;text-align:right}
+th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}code{background:#f5f5f5;padding:1px 4px}
+.note{color:#555;font-size:0.92em}img{max-width:100%}"""
+
+
+def _row(cells, tag="td") -> str:
+    return "<tr>" + "".join(f"<{tag}>{html.escape(str(c))}</{tag}>" for c in cells) + "</tr>"
+
+
+def _g(x: float) -> str:
+    return f"{x:.6g}"
+
+
+def render(doc: dict, result: Result, log: Log) -> str:
+    truth = doc.get("truth", {}).get("values")
+    head = ["parameter", "unit", f"estimate ({doc['headline']})", "DREM final", "offline optimum"]
+    if truth:
+        head += ["ground truth", "error [%]"]
+    rows = []
+    for k in ESTIMATED:
+        r = [k, UNITS[k], _g(doc["estimates"][k]), _g(doc["drem_final"][k]), _g(doc["offline_optimum"][k])]
+        if truth:
+            r += [_g(truth[k]), f"{doc['truth']['error_percent'][k]:+.3f}"]
+        rows.append(_row(r))
+    settings = doc["settings"]
+    set_rows = "".join(_row([k, v]) for k, v in settings.items() if k != "overrides")
+    par_rows = "".join(_row([k, _g(v["value"]), v["unit"], v["source"], v["meaning"]])
+                       for k, v in doc["parameters"].items())
+    inp = doc["input"]
+    ver = ", ".join(f"{k} {v}" for k, v in doc["versions"].items())
+    excitation = ", ".join(f"{a}: {v:.3g}" for a, v in doc["excitation"].items())
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>trms-ident report: {html.escape(inp['path'])}</title>
+<style>{CSS}</style></head><body>
+<h1>TRMS parameter identification</h1>
+<p>Log <code>{html.escape(inp['path'])}</code>: {inp['samples']} samples, {inp['duration_s']:.6g} s,
+sample time {inp['sample_time_s']:.6g} s.<br><span class="note">sha256 {inp['sha256']}</span></p>
+<h2>Estimates</h2>
+<table>{_row(head, 'th')}{''.join(rows)}</table>
+<p class="note">Headline: {html.escape(doc['headline_meaning'])}. Excitation (conditioning of the DREM
+mixing, 0 = none): {excitation}.</p>
+<h2>Estimate traces</h2><img alt="estimate traces" src="{traces_figure(result, truth)}">
+<h2>Signals used</h2><img alt="signals" src="{signals_figure(log)}">
+<h2>Settings</h2><table>{_row(['setting', 'value'], 'th')}{set_rows}</table>
+<h2>Known parameters used</h2>
+<table>{_row(['name', 'value', 'unit', 'source', 'meaning'], 'th')}{par_rows}</table>
+<p class="note">Versions: {html.escape(ver)}.</p>
+</body></html>
+"""

@@ -1,0 +1,83 @@
+"""The result as a plain dict: the JSON contract, and the source of the HTML tables."""
+from __future__ import annotations
+
+import json
+import platform
+from dataclasses import asdict
+from importlib import metadata
+from pathlib import Path
+
+from .. import __version__
+from ..identify import AXES, Result
+from ..log import Log
+from ..params import BY_NAME, ESTIMATED, THRUST_LAWS, UNITS, defaults
+
+
+def versions() -> dict[str, str]:
+    out = {"trms-ident": __version__, "python": platform.python_version()}
+    for pkg in ("numpy", "scipy", "pandas", "numba"):
+        try:
+            out[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            out[pkg] = "not installed"
+    return out
+
+
+def load_truth(path: Path) -> dict | None:
+    """Ground truth from a simulator sidecar file, or None when absent or unreadable."""
+    try:
+        truth = json.loads(path.read_text(encoding="utf-8"))
+        est = truth["estimated"]
+        return {k: float(est[k]) for k in ESTIMATED}
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def summarize(result: Result, log: Log, truth: dict | None = None, truth_source: str | None = None) -> dict:
+    s = result.settings
+    table = defaults()
+    doc = {
+        "tool": "trms-ident",
+        "estimates": {k: result.estimates[k] for k in ESTIMATED},
+        "units": {k: UNITS[k] for k in ESTIMATED},
+        "headline": s.headline,
+        "headline_meaning": (
+            "offline optimum sum(eps*phi)/sum(phi^2) of each DREM scalar regression (eq. 7) over the whole log"
+            if s.headline == "offline" else "final value of the causal DREM gradient trace (eq. 8)"),
+        "drem_final": result.drem_final,
+        "offline_optimum": result.offline,
+        "excitation": {axis: result.axes[axis].excitation for axis in AXES},
+        "input": {
+            "path": log.source,
+            "sha256": log.sha256,
+            "samples": len(log),
+            "sample_time_s": log.sample_time_s,
+            "duration_s": log.duration_s,
+            **{k: v for k, v in log.meta.items() if isinstance(v, (str, int, float))},
+        },
+        "settings": {
+            **asdict(s),
+            "filter_F": f"{'a^2' if s.gain_convention == 'unit' else 'a'}/(s+a)^2, a = {s.filter_a_rad_s} rad/s",
+            "filter_H": f"{'b^2' if s.gain_convention == 'unit' else 'b'}/(s+b)^2, b = {s.filter_b_rad_s} rad/s",
+            "gain": ("fixed gamma " + json.dumps(s.gamma)) if s.gamma else
+                    f"normalized, 1 % settling in about {s.settle_time_s} s",
+            "thrust_law_meaning": THRUST_LAWS[s.thrust_law],
+            "discretization": "ZOH for motor lags and M_R (held voltages); bilinear for F and H; "
+                              "central difference for beta' (one sample latency)",
+        },
+        "parameters": {
+            name: {"value": value, "unit": UNITS[name], "meaning": BY_NAME[name].meaning,
+                   "source": "override" if name in s.overrides else "table"}
+            for name, value in result.parameters.items() if BY_NAME[name].role == "known"
+        },
+        "table_defaults_changed": sorted(k for k in s.overrides if s.overrides[k] != table[k]),
+        "versions": versions(),
+    }
+    if truth:
+        doc["truth"] = {"source": truth_source, "values": truth,
+                        "error_percent": {k: 100.0 * (result.estimates[k] / truth[k] - 1.0) for k in ESTIMATED}}
+    return doc
+
+
+def to_json(doc: dict) -> str:
+    return json.dumps(doc, indent=2, sort_keys=False, allow_nan=True) + "\n"
