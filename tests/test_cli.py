@@ -1,0 +1,119 @@
+"""The command line through typer's runner, and one real subprocess."""
+import json
+import os
+import re
+import subprocess
+import sys
+
+import pytest
+from typer.testing import CliRunner
+
+from trms_ident.cli import app
+from trms_ident.errors import EXIT_BAD_PARAMETERS, EXIT_OUTPUT, EXIT_USAGE
+
+runner = CliRunner()
+
+
+def test_help_lists_commands():
+    res = runner.invoke(app, ["--help"])
+    assert res.exit_code == 0
+    for cmd in ("estimate", "simulate"):
+        assert cmd in res.output
+    res = runner.invoke(app, ["estimate", "--help"])
+    assert res.exit_code == 0 and "--gain-convention" in res.output and "[rad/s]" in res.output
+
+
+def test_simulate_then_estimate_with_json_on_stdout(tmp_path):
+    log = tmp_path / "sq.csv"
+    res = runner.invoke(app, ["simulate", "--ref", "square", "--duration", "15", "--rate", "500", "-o", str(log)])
+    assert res.exit_code == 0, res.output
+    assert log.exists() and (tmp_path / "sq.truth.json").exists()
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["estimate", str(log), "-o", str(out), "--json", "-"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert set(doc["estimates"]) == {"J1", "B1", "J2", "B2"}
+    assert doc["estimates"]["J1"] == pytest.approx(0.068, rel=1e-3)
+    assert doc["truth"]["values"]["B2"] == 0.1
+    assert len(doc["input"]["sha256"]) == 64
+    assert doc["settings"]["filter_a_rad_s"] == 1.0 and "numpy" in doc["versions"]
+    assert doc["parameters"]["Mg"] == {"value": 0.32, "unit": "N m", "meaning": "gravity moment", "source": "table"}
+    for name in ("report.html", "traces.csv", "result.json"):
+        assert (out / name).stat().st_size > 0
+    shown = re.search(r"J1 = (\S+)\s+kg m\^2\s+truth 0.068, error ([-+]\d+\.\d+) %", res.stderr)
+    assert shown and float(shown.group(1)) == pytest.approx(0.068, rel=1e-3), res.stderr
+    assert abs(float(shown.group(2))) < 0.1
+    header = (out / "traces.csv").read_text().splitlines()[0]
+    assert header == "t,J1,B1,J2,B2"
+    html = (out / "report.html").read_text()
+    assert "data:image/png;base64," in html and "kg m^2" in html
+
+
+def test_json_to_file_and_params_file(square_csv, tmp_path):
+    params = tmp_path / "bench.toml"
+    params.write_text("[parameters]\nMg = 0.33\n")
+    target = tmp_path / "r.json"
+    res = runner.invoke(app, ["estimate", str(square_csv), "-o", str(tmp_path / "o"), "--no-report",
+                              "--params", str(params), "--json", str(target)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(target.read_text())
+    assert doc["parameters"]["Mg"]["value"] == 0.33 and doc["parameters"]["Mg"]["source"] == "override"
+    assert doc["table_defaults_changed"] == ["Mg"]
+
+
+@pytest.mark.parametrize("args, code, message", [
+    (["--a", "-1"], EXIT_USAGE, "filter_a_rad_s must be a positive number"),
+    (["--a", "2", "--b", "2"], EXIT_USAGE, "must differ"),
+    (["--gamma", "fast"], EXIT_USAGE, "--gamma 'fast': expected 'auto'"),
+    (["--gamma", "J9=3"], EXIT_USAGE, "gamma given for 'J9'"),
+    (["--thrust-law", "cubic"], EXIT_USAGE, "thrust law must be one of"),
+    (["--angle-unit", "grad"], EXIT_USAGE, "--angle-unit 'grad': expected rad or deg"),
+])
+def test_bad_options(square_csv, tmp_path, args, code, message):
+    res = runner.invoke(app, ["estimate", str(square_csv), "-o", str(tmp_path / "o"), *args])
+    assert res.exit_code == code and message in res.output and "Traceback" not in res.output
+
+
+def test_bad_params_file_exit_code(square_csv, tmp_path):
+    p = tmp_path / "p.toml"
+    p.write_text("Jx = 1\n")
+    res = runner.invoke(app, ["estimate", str(square_csv), "--params", str(p), "-o", str(tmp_path / "o")])
+    assert res.exit_code == EXIT_BAD_PARAMETERS and "unknown parameter 'Jx'" in res.output
+
+
+def test_unwritable_output_leaves_nothing_behind(square_csv, tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    res = runner.invoke(app, ["estimate", str(square_csv), "-o", str(blocker / "sub"), "--no-report"])
+    assert res.exit_code == EXIT_OUTPUT and "cannot write" in res.output
+    assert blocker.read_text() == "x"
+
+
+def test_existing_outputs_survive_a_failed_run(square_csv, tmp_path):
+    out = tmp_path / "o"
+    assert runner.invoke(app, ["estimate", str(square_csv), "-o", str(out), "--no-report"]).exit_code == 0
+    before = (out / "result.json").read_bytes()
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,u1,u2,alpha,beta\n1,2,3\n")
+    assert runner.invoke(app, ["estimate", str(bad), "-o", str(out), "--no-report"]).exit_code != 0
+    assert (out / "result.json").read_bytes() == before
+    assert not [p for p in out.iterdir() if p.name.endswith(".part")]
+
+
+def test_simulate_bad_options(tmp_path):
+    res = runner.invoke(app, ["simulate", "--ref", "ramp", "-o", str(tmp_path / "x.csv")])
+    assert res.exit_code == EXIT_USAGE and "unknown reference 'ramp'" in res.output
+    res = runner.invoke(app, ["simulate", "--effect", "coulomb_friction", "-o", str(tmp_path / "x.csv")])
+    assert res.exit_code == EXIT_USAGE and "expected NAME=VALUE" in res.output
+    assert not (tmp_path / "x.csv").exists()
+
+
+def test_python_dash_m_subprocess(square_csv, tmp_path):
+    env = {**os.environ, "PYTHONIOENCODING": "utf-8"}
+    proc = subprocess.run([sys.executable, "-m", "trms_ident", "estimate", str(square_csv), "-o", str(tmp_path / "o"),
+                           "--no-report", "--json", "-"], capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout)["estimates"]["J2"] == pytest.approx(0.02, rel=1e-3)
+    proc = subprocess.run([sys.executable, "-m", "trms_ident", "estimate", str(tmp_path / "missing.csv")],
+                          capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 3 and proc.stderr.strip() == f"error: {tmp_path / 'missing.csv'}: no such file"

@@ -1,0 +1,104 @@
+"""Every bad-input case: a one-line message naming file and place, a documented exit code, no traceback."""
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from trms_ident.cli import app
+from trms_ident.errors import EXIT_BAD_LOG, EXIT_INPUT_MISSING
+from trms_ident.io.csv_log import read_csv_log
+
+runner = CliRunner()
+
+
+def _rows(n=50, dt=0.01):
+    t = np.arange(n) * dt
+    return [f"{ti:.6f},{0.5:.3f},{-0.2:.3f},{0.1 * np.sin(ti):.6f},{0.2 * np.cos(ti):.6f}" for ti in t]
+
+
+def _write(tmp_path, lines, name="log.csv", encoding="utf-8"):
+    p = tmp_path / name
+    p.write_text("\n".join(lines) + "\n", encoding=encoding)
+    return p
+
+
+def _run(path, *extra):
+    res = runner.invoke(app, ["estimate", str(path), "-o", str(path.parent / "out"), "--no-report", *extra])
+    assert "Traceback" not in res.output
+    return res
+
+
+HEADER = "t,u1,u2,alpha,beta"
+
+
+@pytest.mark.parametrize("mutate, message", [
+    (lambda r: ["t,u1,u2,alpha"] + [x.rsplit(",", 1)[0] for x in r], r"line 1: missing column\(s\) beta"),
+    (lambda r: [HEADER] + r[:9] + ["0.090000,0.5,abc,0.1,0.2"] + r[10:], r"line 11: column u2 holds 'abc'; expected a number"),
+    (lambda r: [HEADER] + r[:4] + ["0.040000,0.5,-0.2,nan,0.2"] + r[5:], r"line 6 \(t = 0.04 s\): alpha is nan"),
+    (lambda r: [HEADER] + r[:4] + ["0.040000,0.5,-0.2,,0.2"] + r[5:], r"line 6 \(t = 0.04 s\): alpha is nan"),
+    (lambda r: [HEADER] + r[:5] + [r[4]] + r[6:], r"line 7 .*repeats the previous time"),
+    (lambda r: [HEADER] + r[:5] + [r[3]] + r[6:], r"line 7 .*goes back in time"),
+    (lambda r: [HEADER] + r[:20] + r[25:], r"line 22 .*a gap of 0.06 s after t = 0.19 s; expected uniform sampling every 0.01 s"),
+    (lambda r: [HEADER] + [",".join(x.split(",")[:3] + [str(float(x.split(",")[3]) * 57.3 + 30), x.split(",")[4]])
+                           for x in r], r"alpha = .* exceeds 1.57 rad; the angles look like degrees"),
+    (lambda r: [HEADER] + r[:5], r"only 5 samples; expected at least 10"),
+    (lambda r: [HEADER] + r[:5] + [r[5] + ",1,2"] + r[6:], r"Expected 5 fields in line 7, saw 7"),
+])
+def test_bad_csv(tmp_path, mutate, message):
+    p = _write(tmp_path, mutate(_rows()))
+    res = _run(p)
+    assert res.exit_code == EXIT_BAD_LOG, res.output
+    assert res.output.startswith(f"error: {p}: ")
+    assert len(res.output.strip().splitlines()) == 1
+    assert pytest.importorskip("re").search(message, res.output), res.output
+    assert not (tmp_path / "out").exists()  # nothing written on failure
+
+
+def test_empty_file(tmp_path):
+    p = tmp_path / "empty.csv"
+    p.write_bytes(b"")
+    res = _run(p)
+    assert res.exit_code == EXIT_BAD_LOG and "file is empty; expected a header line t,u1,u2,alpha,beta" in res.output
+
+
+def test_missing_file(tmp_path):
+    res = _run(tmp_path / "nope.csv")
+    assert res.exit_code == EXIT_INPUT_MISSING and "nope.csv: no such file" in res.output
+
+
+def test_unknown_suffix(tmp_path):
+    p = _write(tmp_path, [HEADER] + _rows(), name="log.xlsx")
+    res = _run(p)
+    assert res.exit_code == EXIT_BAD_LOG and "unknown log type '.xlsx'; expected .csv or .mcap" in res.output
+
+
+def test_binary_file(tmp_path):
+    p = tmp_path / "bin.csv"
+    p.write_bytes(bytes(range(256)) * 10)
+    res = _run(p)
+    assert res.exit_code == EXIT_BAD_LOG and "not a text file" in res.output
+
+
+def test_bom_semicolon_and_unit_row_are_read(tmp_path):
+    rows = _rows()
+    plain = read_csv_log(_write(tmp_path, [HEADER] + rows, "plain.csv"))
+    bom = read_csv_log(_write(tmp_path, [HEADER] + rows, "bom.csv", encoding="utf-8-sig"))
+    semi = read_csv_log(_write(tmp_path, [HEADER.replace(",", ";")] + [r.replace(",", ";") for r in rows], "semi.csv"))
+    deg_rows = [",".join(x.split(",")[:3] + [str(np.degrees(float(v))) for v in x.split(",")[3:]]) for x in rows]
+    units = read_csv_log(_write(tmp_path, [HEADER, "s,V,V,deg,deg"] + deg_rows, "units.csv"))
+    for other in (bom, semi):
+        np.testing.assert_array_equal(other.alpha_rad, plain.alpha_rad)
+    np.testing.assert_allclose(units.alpha_rad, plain.alpha_rad, atol=1e-12)
+
+
+def test_bad_unit_row(tmp_path):
+    p = _write(tmp_path, [HEADER, "s,V,V,grad,rad"] + _rows())
+    res = _run(p)
+    assert res.exit_code == EXIT_BAD_LOG and "line 2: unit 'grad' for column alpha; expected one of rad, deg" in res.output
+
+
+def test_angle_unit_option_converts_degrees(tmp_path):
+    rows = [",".join(x.split(",")[:3] + [str(np.degrees(float(v))) for v in x.split(",")[3:]]) for x in _rows()]
+    p = _write(tmp_path, [HEADER] + rows)
+    deg = read_csv_log(p, angle_unit="deg")
+    rad = read_csv_log(_write(tmp_path, [HEADER] + _rows(), "rad.csv"))
+    np.testing.assert_allclose(deg.beta_rad, rad.beta_rad, atol=1e-12)
