@@ -1,0 +1,59 @@
+"""The fast path against its oracles: closed-form coefficients vs scipy, fused kernel vs reference path."""
+import numpy as np
+import pytest
+from scipy import signal
+
+from trms_ident.numerics.coefficients import bilinear_second_order, zoh_first_order, zoh_reaction
+from trms_ident.numerics.drem import extend_and_mix
+from trms_ident.numerics.fused import biquad, mixed_regressions
+from trms_ident.numerics.regressors import filtered_regression, plant_signals
+from trms_ident.params import defaults
+
+from .conftest import sim_cached
+
+
+def _scipy(num, den, dt, method):
+    b, a, _ = signal.cont2discrete((num, den), dt, method=method)
+    b = np.atleast_1d(np.squeeze(b))  # coefficients of powers of z^-1: pad at the end
+    return np.concatenate([b, np.zeros(3 - b.size)]) / a[0], np.concatenate([a, np.zeros(3 - a.size)]) / a[0]
+
+
+@pytest.mark.parametrize("dt", [1e-3, 1e-2])
+def test_coefficients_match_scipy(dt):
+    b, a = zoh_first_order(0.8, 1.0, 1.0, dt)
+    rb, ra = _scipy([0.8], [1.0, 1.0], dt, "zoh")
+    np.testing.assert_allclose(b, rb, atol=1e-14)
+    np.testing.assert_allclose(a, ra, atol=1e-14)
+    for tp in (2.0, 1.1, 1.1 + 1e-9):  # distinct, equal and nearly equal poles
+        b, a = zoh_reaction(-0.2, 1.1, 3.5, tp, 1.1, 1.0, dt)
+        rb, ra = _scipy(-0.22 * np.array([3.5, 1.0]), np.polymul([tp, 1.0], [1.1, 1.0]), dt, "zoh")
+        np.testing.assert_allclose(b, rb, atol=1e-13)
+        np.testing.assert_allclose(a, ra, atol=1e-13)
+    for order in range(3):
+        b, a = bilinear_second_order(2.0, 4.0, order, dt)
+        rb, ra = _scipy([4.0] + [0.0] * order, [1.0, 4.0, 4.0], dt, "bilinear")
+        np.testing.assert_allclose(b, rb, atol=1e-12)
+        np.testing.assert_allclose(a, ra, atol=1e-14)
+
+
+def test_biquad_matches_lfilter_with_steady_state_start():
+    rng = np.random.default_rng(0)
+    x = 0.3 + rng.standard_normal(5000)
+    b, a = bilinear_second_order(3.0, 9.0, 1, 1e-3)
+    ref = signal.lfilter(b, a, x, zi=signal.lfilter_zi(b, a) * x[0])[0]
+    np.testing.assert_allclose(biquad(b, a, x), ref, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("law", ["quadratic", "signed"])
+def test_fused_kernel_equals_reference_path(law):
+    r = sim_cached("multisine", 200.0, 40.0, 0.0, 2 * np.pi / 4096)
+    p, dt = defaults(), 1 / 200.0
+    fused = mixed_regressions(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, dt, p, law, 1.0, 2.0, 1.0, 4.0)
+    ps = plant_signals(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, dt, p, law)
+    for axis, y, x in (("pitch", ps.y_pitch_nm, r.alpha_rad), ("yaw", ps.y_yaw_nm, r.beta_rad)):
+        g, m = filtered_regression(y, x, dt, 1.0, 1.0)
+        mix = extend_and_mix(g, m, dt, 2.0, 4.0)
+        phi, eps = fused[axis]
+        # equal up to round-off of equivalent coefficients in poles near z = 1
+        np.testing.assert_allclose(phi, mix.phi, atol=1e-9 * np.abs(mix.phi).max())
+        np.testing.assert_allclose(eps, mix.eps, atol=1e-9 * np.abs(mix.eps).max())
