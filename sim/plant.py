@@ -164,3 +164,18 @@ def closed_loop(dt, aref, bref, p, law, gains, u_lim, fx, noise_a, noise_b, q, h
             w2 = _deadzone_sat(pieces_u2[j], fx[9], fx[11])
             _rk4(x, w1, w2, p, law, fx, length / ns, ns)
     return u1_log, u2_log, a_log, b_log, true_state
+
+
+@njit(cache=True)
+def open_loop(dt, u1, u2, p, law, fx, h_max, x0):
+    """Plant driven by logged, held voltages (no controller); returns true (alpha, beta) per sample."""
+    n = u1.size
+    x = x0.copy()
+    out = np.empty((n, 2))
+    ns = max(1, int(math.ceil(dt / h_max - 1e-9)))
+    for k in range(n):
+        out[k, 0] = x[0]
+        out[k, 1] = x[2]
+        if k < n - 1:
+            _rk4(x, _deadzone_sat(u1[k], fx[8], fx[10]), _deadzone_sat(u2[k], fx[9], fx[11]), p, law, fx, dt / ns, ns)
+    return out

@@ -36,11 +36,15 @@ def test_simulate_then_estimate_with_json_on_stdout(tmp_path):
     assert doc["estimates"]["J1"] == pytest.approx(0.068, rel=1e-3)
     assert doc["truth"]["values"]["B2"] == 0.1
     assert len(doc["input"]["sha256"]) == 64
-    assert doc["settings"]["filter_a_rad_s"] == 1.0 and "numpy" in doc["versions"]
+    assert doc["settings"]["filter_a_rad_s"] == 10.0 and "numpy" in doc["versions"]  # noise-free: fast filters
+    assert "fastest candidate" in doc["settings"]["filter_design"]
+    lo, hi = doc["ci95"]["J1"]
+    assert lo <= doc["estimates"]["J1"] <= hi and doc["identifiable"] == {k: True for k in ("J1", "B1", "J2", "B2")}
     assert doc["parameters"]["Mg"] == {"value": 0.32, "unit": "N m", "meaning": "gravity moment", "source": "table"}
     for name in ("report.html", "traces.csv", "result.json"):
         assert (out / name).stat().st_size > 0
-    shown = re.search(r"J1 = (\S+)\s+kg m\^2\s+truth 0.068, error ([-+]\d+\.\d+) %", res.stderr)
+    shown = re.search(r"J1 = (\S+)\s+kg m\^2\s+95 % \[\S+, \S+\]\s+truth 0.068, error ([-+]\d+\.\d+) %",
+                      res.stderr)
     assert shown and float(shown.group(1)) == pytest.approx(0.068, rel=1e-3), res.stderr
     assert abs(float(shown.group(2))) < 0.1
     header = (out / "traces.csv").read_text().splitlines()[0]
@@ -63,6 +67,7 @@ def test_json_to_file_and_params_file(square_csv, tmp_path):
 
 @pytest.mark.parametrize("args, code, message", [
     (["--a", "-1"], EXIT_USAGE, "filter_a_rad_s must be a positive number"),
+    (["--a", "fast"], EXIT_USAGE, "--a 'fast': expected 'auto' or a number in rad/s"),
     (["--a", "2", "--b", "2"], EXIT_USAGE, "must differ"),
     (["--gamma", "fast"], EXIT_USAGE, "--gamma 'fast': expected 'auto'"),
     (["--gamma", "J9=3"], EXIT_USAGE, "gamma given for 'J9'"),

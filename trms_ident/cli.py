@@ -89,6 +89,15 @@ def parse_gamma(text: str) -> dict | None:
         raise SettingsError(f"--gamma {text!r}: expected 'auto', a number, or J1=..,B1=..,J2=..,B2=..") from None
 
 
+def parse_auto(flag: str, text: str) -> float | None:
+    if text.strip().lower() == "auto":
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise SettingsError(f"{flag} {text!r}: expected 'auto' or a number in rad/s") from None
+
+
 def emit_json(doc: dict, target: str) -> None:
     from .io.atomic import write_text
     from .report.summary import to_json
@@ -107,8 +116,9 @@ def estimate(
                                                 "result.json [default: ./<log name>_ident].")] = None,
     json_path: Annotated[Optional[str], typer.Option("--json", help="Also write the result JSON here; '-' = stdout.")] = None,
     params: Annotated[Optional[Path], typer.Option("--params", help="TOML file overriding known parameters.")] = None,
-    a: Annotated[float, typer.Option("--a", help="Bandwidth of F(s), eq. (3) [rad/s].")] = Settings.filter_a_rad_s,
-    b: Annotated[float, typer.Option("--b", help="Bandwidth of H(s), eq. (5) [rad/s].")] = Settings.filter_b_rad_s,
+    a: Annotated[str, typer.Option("--a", help="Bandwidth of F(s), eq. (3) [rad/s], or 'auto': designed from the "
+                                   "log's noise level and excitation.")] = "auto",
+    b: Annotated[str, typer.Option("--b", help="Bandwidth of H(s), eq. (5) [rad/s], or 'auto' (2 a).")] = "auto",
     gain_convention: Annotated[str, typer.Option(help=f"Filter gains: 'unit' (a^2/(s+a)^2, DC gain 1) or 'paper' "
                                                  f"(a/(s+a)^2 exactly as printed). One of {GAIN_CONVENTIONS}.")] = "unit",
     gamma: Annotated[str, typer.Option(help="Gradient gain of eq. (8): 'auto' (normalized), a number, or "
@@ -126,7 +136,8 @@ def estimate(
 
     if angle_unit not in ("rad", "deg"):
         raise SettingsError(f"--angle-unit {angle_unit!r}: expected rad or deg")
-    settings = Settings(filter_a_rad_s=a, filter_b_rad_s=b, gain_convention=gain_convention,
+    settings = Settings(filter_a_rad_s=parse_auto("--a", a), filter_b_rad_s=parse_auto("--b", b),
+                        gain_convention=gain_convention,
                         gamma=parse_gamma(gamma), settle_time_s=settle, thrust_law=thrust_law, headline=headline,
                         overrides=load_parameter_file(params) if params else {})
     settings.validate()
@@ -135,15 +146,19 @@ def estimate(
     s = res.summary
     say(f"{log}: {s['input']['samples']} samples, {s['input']['duration_s']:.6g} s at "
         f"{1.0 / s['input']['sample_time_s']:.6g} Hz")
+    say(f"  filters: a = {res.result.settings.filter_a_rad_s:g} rad/s, b = {res.result.settings.filter_b_rad_s:g} rad/s"
+        f" ({'designed from the log' if res.result.design else 'given'})")
     tv = s.get("truth", {})
     for k in ESTIMATED:
-        line = f"  {k} = {s['estimates'][k]:<12.6g} {UNITS[k]}"
+        est, (lo, hi) = s["estimates"][k], s["ci95"][k]
+        if est is None:
+            say(f"  {k}: not identifiable from this log ({s['identifiability'][k]})")
+            continue
+        line = f"  {k} = {est:<11.6g} {UNITS[k]:<10}"
+        line += f" 95 % [{lo:.6g}, {hi:.6g}]" if lo is not None else " (no interval: log too short)"
         if tv:
             line += f"   truth {tv['values'][k]:.6g}, error {tv['error_percent'][k]:+.3f} %"
         say(line)
-    for axis, x in s["excitation"].items():
-        if x < 1e-3:
-            say(f"warning: the {axis} axis is barely excited (conditioning {x:.2g}); its estimates are unreliable")
     say("wrote " + ", ".join(str(p) for p in res.written))
     if json_path:
         emit_json(s, json_path)

@@ -5,15 +5,17 @@ Pure: arrays and settings in, a Result out.  No files, no printing.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
 from .errors import IdentificationError, SettingsError
 from .log import Log
-from .numerics.drem import extend_and_mix, gradient_estimator, normalized_gain, offline_optimum
-from .numerics.regressors import filtered_regression, plant_signals
-from .params import ESTIMATED, THRUST_LAWS, UNITS, merge
+from .numerics.design import FilterDesign, design_filters
+from .numerics.drem import gradient_estimator, normalized_gain
+from .numerics.fused import mixed_regressions
+from .numerics.stats import Interval, block_length, confidence_interval
+from .params import ESTIMATED, THRUST_LAWS, merge
 
 AXES = {"pitch": ("J1", "B1"), "yaw": ("J2", "B2")}
 GAIN_CONVENTIONS = ("unit", "paper")
@@ -24,8 +26,8 @@ HEADLINES = ("offline", "drem")
 class Settings:
     """Every choice that changes the numbers; recorded verbatim in the report."""
 
-    filter_a_rad_s: float = 1.0  # F(s) bandwidth, eq. (3)
-    filter_b_rad_s: float = 2.0  # H(s) bandwidth, eq. (5)
+    filter_a_rad_s: float | None = None  # F(s) bandwidth, eq. (3); None = designed from the data
+    filter_b_rad_s: float | None = None  # H(s) bandwidth, eq. (5); None = 2 a
     gain_convention: str = "unit"  # "unit": a^2/(s+a)^2, b^2/(s+b)^2; "paper": a/(s+a)^2, b/(s+b)^2
     gamma: dict | None = None  # fixed gains per parameter; None = normalized gain (auto)
     settle_time_s: float = 2.5  # auto gain: mean error decays to 1 % in this time
@@ -36,9 +38,11 @@ class Settings:
     def validate(self) -> None:
         for name in ("filter_a_rad_s", "filter_b_rad_s", "settle_time_s"):
             v = getattr(self, name)
+            if v is None and name != "settle_time_s":
+                continue
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise SettingsError(f"{name} must be a positive number, got {v!r}")
-        if self.filter_a_rad_s == self.filter_b_rad_s:
+        if self.filter_a_rad_s is not None and self.filter_a_rad_s == self.filter_b_rad_s:
             raise SettingsError("filter bandwidths a and b must differ, or the extended regressor "
                                 f"matrix is singular (eq. 6); got a = b = {self.filter_a_rad_s} rad/s")
         if self.gain_convention not in GAIN_CONVENTIONS:
@@ -65,8 +69,8 @@ class AxisResult:
     axis: str
     phi: np.ndarray  # det M(t), eq. (7)
     eps: np.ndarray  # (n, 2) mixed regressands, eq. (7)
-    gamma: np.ndarray  # gain used at each sample [1/(s phi^2)]
-    excitation: float  # rms(phi) / (rms(m1) rms(Hm2) + rms(m2) rms(Hm1)): 0 none, O(0.1) good
+    gamma: dict[str, np.ndarray]  # gain used at each sample, per parameter
+    phi_energy: float  # sum(phi^2) dt: how much the log excites this axis (convention-dependent scale)
 
 
 @dataclass
@@ -75,14 +79,28 @@ class Result:
     traces: dict[str, np.ndarray]  # DREM estimate traces, eq. (8)
     drem_final: dict[str, float]
     offline: dict[str, float]  # sum(eps phi) / sum(phi^2) per parameter
-    estimates: dict[str, float]  # the headline numbers (settings.headline)
+    intervals: dict[str, Interval]  # 95 % intervals of the offline optimum; identifiability
+    estimates: dict[str, float | None]  # headline numbers; None where not identifiable
     axes: dict[str, AxisResult]
     parameters: dict[str, float]  # every model value used (table + overrides)
-    settings: Settings
+    settings: Settings  # as used: designed bandwidths filled in
+    design: FilterDesign | None  # how the bandwidths were chosen (None when given)
     sample_time_s: float
 
     def settings_dict(self) -> dict:
         return asdict(self.settings)
+
+
+def resolve_filters(log: Log, settings: Settings) -> tuple[Settings, FilterDesign | None]:
+    """Fill in data-designed bandwidths where the settings leave them open."""
+    if settings.filter_a_rad_s is not None:
+        b = settings.filter_b_rad_s if settings.filter_b_rad_s is not None else 2.0 * settings.filter_a_rad_s
+        return replace(settings, filter_b_rad_s=b), None
+    design = design_filters(log.alpha_rad, log.beta_rad, log.sample_time_s)
+    b = settings.filter_b_rad_s if settings.filter_b_rad_s is not None else design.b_rad_s
+    if b == design.a_rad_s:
+        raise SettingsError(f"--b {b} equals the designed a; choose another b")
+    return replace(settings, filter_a_rad_s=design.a_rad_s, filter_b_rad_s=b), design
 
 
 def identify(log: Log, settings: Settings | None = None) -> Result:
@@ -90,30 +108,40 @@ def identify(log: Log, settings: Settings | None = None) -> Result:
     settings = settings or Settings()
     settings.validate()
     params = merge(settings.overrides, source="parameter overrides")
+    settings, design = resolve_filters(log, settings)
     dt = log.sample_time_s
-    ps = plant_signals(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, dt, params, settings.thrust_law)
     f_gain, h_gain = settings.filter_gains()
-    traces, drem_final, offline, axes = {}, {}, {}, {}
-    for axis, y, x in (("pitch", ps.y_pitch_nm, log.alpha_rad), ("yaw", ps.y_yaw_nm, log.beta_rad)):
-        g, m = filtered_regression(y, x, dt, settings.filter_a_rad_s, f_gain)  # eq. (3)
-        mix = extend_and_mix(g, m, dt, settings.filter_b_rad_s, h_gain)  # eqs. (5)-(7)
-        if not np.all(np.isfinite(mix.phi)) or not np.any(mix.phi):
+    # eqs. (1), (3), (5)-(7) in one compiled pass per axis
+    mixed = mixed_regressions(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, dt, params, settings.thrust_law,
+                              settings.filter_a_rad_s, settings.filter_b_rad_s, f_gain, h_gain)
+    block = block_length(len(log), dt, 1.0 / min(settings.filter_a_rad_s, settings.filter_b_rad_s))
+    traces, drem_final, offline, intervals, axes = {}, {}, {}, {}, {}
+    for axis, (phi, eps) in mixed.items():
+        if not np.all(np.isfinite(phi)) or not np.any(phi):
             raise IdentificationError(
                 f"the {axis} axis is not excited: det M is zero over the whole log "
                 f"(constant input and angle?); {', '.join(AXES[axis])} cannot be identified")
+        auto_gain = None
+        gains = {}
+        # known bias bounds added to the interval: errors in variables (designed filters only) and the
+        # bilinear transform's relative magnitude error at the fastest filter pole, (w dt)^2 / 12
+        warp = (max(settings.filter_a_rad_s, settings.filter_b_rad_s) * dt) ** 2 / 12.0
+        bias = (design.predicted_bias[axis] if design else 0.0) + warp
         for i, name in enumerate(AXES[axis]):
             if settings.gamma is not None and name in settings.gamma:
-                gamma = np.full(mix.phi.size, float(settings.gamma[name]))
+                gains[name] = np.full(phi.size, float(settings.gamma[name]))
             else:
-                gamma = normalized_gain(mix.phi, math.log(100.0) / settings.settle_time_s)
-            trace = gradient_estimator(mix.eps[:, i], mix.phi, gamma, dt)  # eq. (8)
-            traces[name] = trace
-            drem_final[name] = float(trace[-1])
-            offline[name] = offline_optimum(mix.eps[:, i], mix.phi)
-        axes[axis] = AxisResult(axis, mix.phi, mix.eps, gamma, mix.excitation)
-    estimates = offline if settings.headline == "offline" else drem_final
-    return Result(log.t_s, traces, drem_final, offline, dict(estimates), axes, params, settings, dt)
-
-
-def units_of(name: str) -> str:
-    return UNITS[name]
+                if auto_gain is None:
+                    auto_gain = normalized_gain(phi, math.log(100.0) / settings.settle_time_s)
+                gains[name] = auto_gain
+            traces[name] = gradient_estimator(eps[:, i], phi, gains[name], dt)  # eq. (8)
+            drem_final[name] = float(traces[name][-1])
+            ci = confidence_interval(eps[:, i], phi, block)
+            if math.isfinite(ci.low):  # widen by the bias bounds
+                ci = confidence_interval(eps[:, i], phi, block, extra_half_width=abs(ci.estimate) * bias)
+            intervals[name] = ci
+            offline[name] = ci.estimate
+        axes[axis] = AxisResult(axis, phi, eps, gains, float(np.dot(phi, phi)) * dt)
+    chosen = offline if settings.headline == "offline" else drem_final
+    estimates = {k: (chosen[k] if intervals[k].identifiable else None) for k in ESTIMATED}
+    return Result(log.t_s, traces, drem_final, offline, intervals, estimates, axes, params, settings, design, dt)

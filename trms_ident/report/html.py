@@ -23,23 +23,28 @@ def _g(x: float) -> str:
 
 
 def render(doc: dict, result: Result, log: Log) -> str:
+    settings = doc["settings"]
     truth = doc.get("truth", {}).get("values")
-    head = ["parameter", "unit", f"estimate ({doc['headline']})", "DREM final", "offline optimum"]
+    head = ["parameter", "unit", f"estimate ({doc['headline']})", "95 % interval", "DREM final", "offline optimum"]
     if truth:
         head += ["ground truth", "error [%]"]
     rows = []
     for k in ESTIMATED:
-        r = [k, UNITS[k], _g(doc["estimates"][k]), _g(doc["drem_final"][k]), _g(doc["offline_optimum"][k])]
+        est = doc["estimates"][k]
+        lo, hi = doc["ci95"][k]
+        r = [k, UNITS[k], _g(est) if est is not None else "not identifiable",
+             f"[{_g(lo)}, {_g(hi)}]" if lo is not None else "-", _g(doc["drem_final"][k]), _g(doc["offline_optimum"][k])]
         if truth:
-            r += [_g(truth[k]), f"{doc['truth']['error_percent'][k]:+.3f}"]
+            err = doc["truth"]["error_percent"][k]
+            r += [_g(truth[k]), f"{err:+.3f}" if err is not None else "-"]
         rows.append(_row(r))
-    settings = doc["settings"]
     set_rows = "".join(_row([k, v]) for k, v in settings.items() if k != "overrides")
     par_rows = "".join(_row([k, _g(v["value"]), v["unit"], v["source"], v["meaning"]])
                        for k, v in doc["parameters"].items())
     inp = doc["input"]
     ver = ", ".join(f"{k} {v}" for k, v in doc["versions"].items())
-    excitation = ", ".join(f"{a}: {v:.3g}" for a, v in doc["excitation"].items())
+    excitation = "; ".join(f"{a}: {v['verdict']}" for a, v in doc["excitation"].items())
+    notes = "".join(f"<li>{html.escape(k)}: {html.escape(v)}</li>" for k, v in doc["identifiability"].items())
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>trms-ident report: {html.escape(inp['path'])}</title>
 <style>{CSS}</style></head><body>
@@ -48,8 +53,11 @@ def render(doc: dict, result: Result, log: Log) -> str:
 sample time {inp['sample_time_s']:.6g} s.<br><span class="note">sha256 {inp['sha256']}</span></p>
 <h2>Estimates</h2>
 <table>{_row(head, 'th')}{''.join(rows)}</table>
-<p class="note">Headline: {html.escape(doc['headline_meaning'])}. Excitation (conditioning of the DREM
-mixing, 0 = none): {excitation}.</p>
+<p class="note">Headline: {html.escape(doc['headline_meaning'])}. Intervals: batch means over blocks longer
+than the filters' memory (valid for correlated residuals), widened by the predicted errors-in-variables bias.</p>
+<p>Excitation: {html.escape(excitation)}.</p><ul class="note">{notes}</ul>
+<p class="note">Filters: {html.escape(settings['filter_F'])}; {html.escape(settings['filter_H'])}.
+{html.escape(settings['filter_design'])}.</p>
 <h2>Estimate traces</h2><img alt="estimate traces" src="{traces_figure(result, truth)}">
 <h2>Signals used</h2><img alt="signals" src="{signals_figure(log)}">
 <h2>Settings</h2><table>{_row(['setting', 'value'], 'th')}{set_rows}</table>

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import math
 import platform
 from dataclasses import asdict
 from importlib import metadata
@@ -15,7 +16,7 @@ from ..params import BY_NAME, ESTIMATED, THRUST_LAWS, UNITS, defaults
 
 def versions() -> dict[str, str]:
     out = {"trms-ident": __version__, "python": platform.python_version()}
-    for pkg in ("numpy", "scipy", "pandas", "numba"):
+    for pkg in ("numpy", "scipy", "numba", "pyarrow"):
         try:
             out[pkg] = metadata.version(pkg)
         except metadata.PackageNotFoundError:
@@ -39,6 +40,9 @@ def summarize(result: Result, log: Log, truth: dict | None = None, truth_source:
     doc = {
         "tool": "trms-ident",
         "estimates": {k: result.estimates[k] for k in ESTIMATED},
+        "ci95": {k: _pair(result.intervals[k]) for k in ESTIMATED},
+        "identifiable": {k: result.intervals[k].identifiable for k in ESTIMATED},
+        "identifiability": {k: result.intervals[k].reason for k in ESTIMATED},
         "units": {k: UNITS[k] for k in ESTIMATED},
         "headline": s.headline,
         "headline_meaning": (
@@ -46,7 +50,8 @@ def summarize(result: Result, log: Log, truth: dict | None = None, truth_source:
             if s.headline == "offline" else "final value of the causal DREM gradient trace (eq. 8)"),
         "drem_final": result.drem_final,
         "offline_optimum": result.offline,
-        "excitation": {axis: result.axes[axis].excitation for axis in AXES},
+        "excitation": {axis: {"phi_energy": result.axes[axis].phi_energy,
+                              "verdict": _verdict([result.intervals[k] for k in AXES[axis]])} for axis in AXES},
         "input": {
             "path": log.source,
             "sha256": log.sha256,
@@ -57,11 +62,13 @@ def summarize(result: Result, log: Log, truth: dict | None = None, truth_source:
         },
         "settings": {
             **asdict(s),
-            "filter_F": f"{'a^2' if s.gain_convention == 'unit' else 'a'}/(s+a)^2, a = {s.filter_a_rad_s} rad/s",
-            "filter_H": f"{'b^2' if s.gain_convention == 'unit' else 'b'}/(s+b)^2, b = {s.filter_b_rad_s} rad/s",
+            "filter_F": f"{'a^2' if s.gain_convention == 'unit' else 'a'}/(s+a)^2, a = {s.filter_a_rad_s:g} rad/s",
+            "filter_H": f"{'b^2' if s.gain_convention == 'unit' else 'b'}/(s+b)^2, b = {s.filter_b_rad_s:g} rad/s",
             "gain": ("fixed gamma " + json.dumps(s.gamma)) if s.gamma else
                     f"normalized, 1 % settling in about {s.settle_time_s} s",
             "thrust_law_meaning": THRUST_LAWS[s.thrust_law],
+            "filter_design": result.design.reason if result.design else "bandwidths given by the user",
+            "noise_estimate_rad": result.design.noise_rad if result.design else None,
             "discretization": "ZOH for motor lags and M_R (held voltages); bilinear for F and H; "
                               "central difference for beta' (one sample latency)",
         },
@@ -75,8 +82,24 @@ def summarize(result: Result, log: Log, truth: dict | None = None, truth_source:
     }
     if truth:
         doc["truth"] = {"source": truth_source, "values": truth,
-                        "error_percent": {k: 100.0 * (result.estimates[k] / truth[k] - 1.0) for k in ESTIMATED}}
+                        "error_percent": {k: (100.0 * (result.estimates[k] / truth[k] - 1.0) if result.estimates[k] is not None
+                                  else None) for k in ESTIMATED},
+        "inside_ci95": {k: (bool(result.intervals[k].low <= truth[k] <= result.intervals[k].high)
+                            if math.isfinite(result.intervals[k].low) else None) for k in ESTIMATED}}
     return doc
+
+
+def _pair(ci) -> list[float | None]:
+    return [None if math.isnan(ci.low) else ci.low, None if math.isnan(ci.high) else ci.high]
+
+
+def _verdict(intervals) -> str:
+    if not all(ci.identifiable for ci in intervals):
+        return "insufficient: " + "; ".join(ci.reason for ci in intervals if not ci.identifiable)
+    worst = max((ci.rel_half_width for ci in intervals if math.isfinite(ci.low)), default=math.nan)
+    if math.isnan(worst):
+        return "unknown (log too short for intervals)"
+    return ("good" if worst < 0.01 else "adequate") + f": widest 95 % interval ±{100 * worst:.2g} %"
 
 
 def to_json(doc: dict) -> str:

@@ -1,0 +1,79 @@
+"""Data-driven choice of the filter bandwidths a (F, eq. 3) and b (H, eq. 5).
+
+Measurement noise on the angles enters the regressor F s^2[x] and biases J towards zero
+(errors in variables, model.md item 4).  White noise of standard deviation sigma passes
+F s^2 = a^2 s^2/(s + a)^2 with variance ~ sigma^2 a^4, while the signal part of F s^2[x]
+shrinks as a falls below the excitation band.  We estimate sigma from third differences,
+measure the signal power for each candidate a with one compiled filter pass, and take the
+largest candidate whose predicted relative bias SAFETY * N/S stays below TARGET_BIAS.
+Below a = 1 rad/s, B1 degrades at low sample rates (measured), so that is the floor.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .coefficients import bilinear_second_order
+from .fused import biquad
+
+CANDIDATES_RAD_S = (10.0, 5.0, 3.0, 2.0, 1.0)
+B_OVER_A = 2.0
+TARGET_BIAS = 5e-4
+#: the mixing (products of filtered signals in det M) amplifies the simple ratio; measured 3-4x
+SAFETY = 5.0
+
+
+@dataclass(frozen=True)
+class FilterDesign:
+    a_rad_s: float
+    b_rad_s: float
+    noise_rad: dict  # estimated sigma per angle
+    predicted_bias: dict  # predicted relative J bias per axis at the chosen a
+    reason: str
+
+
+def noise_std(x: np.ndarray) -> float:
+    """sigma of white measurement noise from the third difference (variance 20 sigma^2)."""
+    if x.size < 8:
+        return 0.0
+    d3 = np.diff(x, 3)
+    return math.sqrt(float(np.dot(d3, d3)) / d3.size / 20.0)
+
+
+def predicted_bias(x: np.ndarray, sigma: float, a: float, dt: float) -> float:
+    num, den = bilinear_second_order(a, a * a, 2, dt)
+    m1 = biquad(num, den, x)
+    signal_power = float(np.dot(m1, m1)) / m1.size - sigma ** 2 * a ** 4
+    if signal_power <= 0:
+        return math.inf
+    return SAFETY * sigma ** 2 * a ** 4 / signal_power
+
+
+def design_filters(alpha_rad: np.ndarray, beta_rad: np.ndarray, dt_s: float) -> FilterDesign:
+    sig = {"alpha": noise_std(alpha_rad), "beta": noise_std(beta_rad)}
+    nyquist = math.pi / dt_s
+    chosen, bias = None, {}
+    for a in CANDIDATES_RAD_S:
+        if B_OVER_A * a > 0.2 * nyquist:
+            continue
+        bias = {"pitch": predicted_bias(alpha_rad, sig["alpha"], a, dt_s),
+                "yaw": predicted_bias(beta_rad, sig["beta"], a, dt_s)}
+        if max(bias.values()) <= TARGET_BIAS:
+            chosen = a
+            break
+    if chosen is None:
+        chosen = CANDIDATES_RAD_S[-1]
+        bias = {"pitch": predicted_bias(alpha_rad, sig["alpha"], chosen, dt_s),
+                "yaw": predicted_bias(beta_rad, sig["beta"], chosen, dt_s)}
+        reason = (f"noise (alpha {sig['alpha']:.2g} rad, beta {sig['beta']:.2g} rad) is high for the excitation: "
+                  f"even the slowest candidate a = {chosen:g} rad/s predicts a J bias of "
+                  f"{100 * max(bias.values()):.2g} %")
+    else:
+        slower = [c for c in CANDIDATES_RAD_S if c > chosen]
+        reason = (f"estimated noise alpha {sig['alpha']:.2g} rad, beta {sig['beta']:.2g} rad; a = {chosen:g} rad/s is "
+                  f"the fastest candidate whose predicted J bias (errors in variables through F s^2) is below "
+                  f"{100 * TARGET_BIAS:g} %" + (f" (faster: {', '.join(f'{c:g}' for c in slower)} rejected)"
+                                               if slower else ""))
+    return FilterDesign(chosen, B_OVER_A * chosen, sig, bias, reason)

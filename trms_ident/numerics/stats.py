@@ -1,0 +1,67 @@
+"""Uncertainty of the DREM scalar regressions eps = phi q + r (eq. 7), valid for correlated r.
+
+The residual r is filtered (F and H), hence strongly autocorrelated: sample-based
+least-squares errors would be far too optimistic.  Batch means: the record is cut into K
+blocks longer than the filters' memory, the per-block scores S_b = sum(phi r) are nearly
+independent, and Var(sum phi r) ~ K/(K-1) sum S_b^2.  The interval uses Student's t with
+K - 1 degrees of freedom.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import stdtrit
+
+#: a parameter whose 95 % half-width exceeds this fraction of its value is not identifiable
+IDENTIFIABLE_REL_HALF_WIDTH = 0.25
+MIN_BLOCKS = 4
+
+
+@dataclass(frozen=True)
+class Interval:
+    estimate: float
+    low: float
+    high: float
+    blocks: int
+    identifiable: bool
+    reason: str  # plain words for the report
+
+    @property
+    def rel_half_width(self) -> float:
+        return (self.high - self.low) / 2 / abs(self.estimate) if self.estimate else math.inf
+
+
+def block_length(n: int, dt_s: float, memory_s: float, max_blocks: int = 40) -> int:
+    """Samples per block: at least 5 filter memories, and no more than max_blocks blocks."""
+    return max(int(math.ceil(5.0 * memory_s / dt_s)), int(math.ceil(n / max_blocks)), 1)
+
+
+def confidence_interval(eps: np.ndarray, phi: np.ndarray, block: int, level: float = 0.95,
+                        extra_half_width: float = 0.0) -> Interval:
+    """Offline optimum sum(eps phi)/sum(phi^2) with its batch-means interval.
+
+    ``extra_half_width`` adds a known bound on bias (e.g. errors-in-variables) to the half-width.
+    """
+    energy = float(np.dot(phi, phi))
+    if not energy > 0:
+        return Interval(math.nan, math.nan, math.nan, 0, False, "not excited: det M is zero throughout")
+    q = float(np.dot(eps, phi)) / energy
+    k = phi.size // block
+    if k < MIN_BLOCKS:
+        return Interval(q, math.nan, math.nan, k, q > 0,
+                        f"no interval: the log holds {k} independent blocks, {MIN_BLOCKS} are needed")
+    m = k * block
+    score = (phi[:m] * (eps[:m] - phi[:m] * q)).reshape(k, block).sum(axis=1)
+    score -= score.mean()
+    se = math.sqrt(k / (k - 1) * float(np.dot(score, score))) / energy
+    half = float(stdtrit(k - 1, 0.5 + level / 2)) * se + extra_half_width
+    rel = half / abs(q) if q else math.inf
+    if q <= 0:
+        ok, reason = False, f"estimate {q:.3g} is not positive: the log does not determine it"
+    elif rel > IDENTIFIABLE_REL_HALF_WIDTH:
+        ok, reason = False, f"weakly excited: 95 % interval is ±{100 * rel:.3g} % of the value"
+    else:
+        ok, reason = True, f"95 % interval ±{100 * rel:.2g} %"
+    return Interval(q, q - half, q + half, k, ok, reason)
