@@ -9,10 +9,10 @@ from __future__ import annotations
 import hashlib
 import io
 import math
+import threading
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from ..errors import InputNotFoundError, LogFormatError
 from ..log import COLUMNS, Log, validated
@@ -27,15 +27,40 @@ UNIT_SCALE = {
 }
 
 
-def read_bytes(path: Path) -> bytes:
+def check_readable(path: Path) -> None:
     if not path.exists():
         raise InputNotFoundError(f"{path}: no such file")
     if path.is_dir():
         raise LogFormatError(f"{path}: is a folder; expected a log file")
     try:
-        return path.read_bytes()
+        with open(path, "rb"):
+            pass
     except OSError as exc:
         raise InputNotFoundError(f"{path}: cannot read ({exc.strerror or exc})") from None
+
+
+def read_bytes(path: Path) -> bytes:
+    check_readable(path)
+    return path.read_bytes()
+
+
+class Sha256Thread(threading.Thread):
+    """Hash a file in the background (hashlib releases the GIL) while it is being parsed."""
+
+    def __init__(self, path: Path):
+        super().__init__(daemon=True)
+        self.path, self.hexdigest = path, None
+
+    def run(self) -> None:
+        h = hashlib.sha256()
+        with open(self.path, "rb") as f:
+            while chunk := f.read(1 << 22):
+                h.update(chunk)
+        self.hexdigest = h.hexdigest()
+
+    def result(self) -> str:
+        self.join()
+        return self.hexdigest
 
 
 def _is_number(token: str) -> bool:
@@ -49,19 +74,22 @@ def _is_number(token: str) -> bool:
 def read_csv_log(path: str | Path, angle_unit: str = "rad") -> Log:
     """Read and validate a CSV log; ``angle_unit="deg"`` converts angle columns from degrees."""
     path = Path(path)
-    raw = read_bytes(path)
-    sha = hashlib.sha256(raw).hexdigest()
+    check_readable(path)
+    hasher = Sha256Thread(path)
+    hasher.start()
+    with open(path, "rb") as f:
+        head = f.read(65536)
     try:
-        text_head = raw[:65536].decode("utf-8-sig")
+        text_head = head.decode("utf-8-sig")
     except UnicodeDecodeError:
         raise LogFormatError(f"{path}: not a text file; expected a CSV log with header "
                              f"{','.join(COLUMNS)}") from None
     lines = text_head.splitlines()
-    if not raw.strip() or not lines:
+    if not head.strip() or not lines:
         raise LogFormatError(f"{path}: file is empty; expected a header line {','.join(COLUMNS)}")
     header = lines[0]
     delim = max((",", ";", "\t"), key=header.count)
-    names = [c.strip().lower() for c in header.split(delim)]
+    names = [c.strip().strip('"').strip().lower() for c in header.split(delim)]
     missing = [c for c in COLUMNS if c not in names]
     if missing:
         raise LogFormatError(f"{path}: line 1: missing column(s) {', '.join(missing)}; expected a header "
@@ -83,16 +111,58 @@ def read_csv_log(path: str | Path, angle_unit: str = "rad") -> Log:
                                          f"{', '.join(UNIT_SCALE[c])}")
                 scale[c] = UNIT_SCALE[c][unit]
             first_data_line = 3
-    frame = _parse(path, raw, delim, first_data_line)
-    cols = [frame[c].to_numpy(dtype=float) * scale[c] if scale[c] != 1.0 else frame[c].to_numpy(dtype=float)
-            for c in COLUMNS]
+    cols = _parse_fast(path, names, delim, first_data_line)
+    if cols is None:  # something is off: the slow parser names the line and cell
+        cols = _parse_located(path, delim, first_data_line)
+    cols = [cols[c] * scale[c] if scale[c] != 1.0 else cols[c] for c in COLUMNS]
     t = cols[0]
-    return validated(*cols, source=str(path), sha256=sha,
+    return validated(*cols, source=str(path), sha256=hasher.result(),
                      locate=lambda i: f"line {i + first_data_line} (t = {t[i]:.6g} s)",
                      meta={"format": "csv", "delimiter": delim})
 
 
-def _parse(path: Path, raw: bytes, delim: str, first_data_line: int) -> pd.DataFrame:
+def _parse_fast(path: Path, names: list[str], delim: str, first_data_line: int) -> dict | None:
+    """pyarrow's multithreaded parser (faster than pandas here); None when the file is not clean."""
+    import pyarrow as pa
+    import pyarrow.csv as pc
+
+    unique = [n if n in COLUMNS else f"_extra{i}" for i, n in enumerate(names)]
+    try:
+        table = pc.read_csv(
+            path,
+            read_options=pc.ReadOptions(column_names=unique, skip_rows=first_data_line - 1, block_size=1 << 24),
+            parse_options=pc.ParseOptions(delimiter=delim, ignore_empty_lines=False),
+            convert_options=pc.ConvertOptions(column_types={c: pa.float64() for c in COLUMNS},
+                                              include_columns=list(COLUMNS)))
+    except (pa.ArrowInvalid, pa.ArrowKeyError, UnicodeDecodeError):
+        return None
+    cols = {c: _to_numpy(table.column(c)) for c in COLUMNS}
+    del table
+    pa.default_memory_pool().release_unused()  # hand the parse buffers back before identification
+    return cols
+
+
+def _to_numpy(column) -> np.ndarray:
+    """Join the float64 chunks through views of their data buffers.
+
+    ChunkedArray.to_numpy() is slow with many chunks and makes pyarrow import pandas
+    (0.6 s); nulls (empty cells) become NaN, which the validator reports with their line.
+    """
+    parts = []
+    for ch in column.chunks:
+        data = np.frombuffer(ch.buffers()[1], dtype=np.float64)[ch.offset:ch.offset + len(ch)]
+        if ch.null_count:
+            data = data.copy()
+            data[np.asarray(ch.is_null(), dtype=bool)] = np.nan
+        parts.append(data)
+    return np.concatenate(parts) if len(parts) != 1 else parts[0].copy()
+
+
+def _parse_located(path: Path, delim: str, first_data_line: int) -> dict:
+    """pandas, cell by cell when needed: slow, but it names the first bad line and cell."""
+    import pandas as pd
+
+    raw = read_bytes(path)
     opts = dict(sep=delim, encoding="utf-8-sig", skiprows=range(1, first_data_line - 1),
                 skip_blank_lines=False, skipinitialspace=True)
     try:
@@ -102,7 +172,7 @@ def _parse(path: Path, raw: bytes, delim: str, first_data_line: int) -> pd.DataF
                              "fields on every line, as many as the header") from None
     except (ValueError, TypeError):
         frame = None
-    if frame is None:  # slow path, only to name the first cell that is not a number
+    if frame is None:
         frame = pd.read_csv(io.BytesIO(raw), dtype=str, keep_default_na=False, **opts)
         frame.columns = [c.strip().lower() for c in frame.columns]
         for c in COLUMNS:
@@ -116,14 +186,28 @@ def _parse(path: Path, raw: bytes, delim: str, first_data_line: int) -> pd.DataF
                                      f"{cells.iloc[i]!r}; expected a number")
         raise LogFormatError(f"{path}: cannot parse as numbers; expected numeric columns {','.join(COLUMNS)}")
     frame.columns = [c.strip().lower() for c in frame.columns]
-    return frame
+    blank = np.flatnonzero(frame[list(COLUMNS)].isna().all(axis=1).to_numpy())
+    if blank.size:
+        raise LogFormatError(f"{path}: line {int(blank[0]) + first_data_line} is empty; expected "
+                             f"{len(COLUMNS)} numbers")
+    return {c: frame[c].to_numpy(dtype=float) for c in COLUMNS}
 
 
 def write_csv_log(path: str | Path, t_s, u1_v, u2_v, alpha_rad, beta_rad) -> None:
-    """Write a log atomically; every double round-trips exactly."""
-    frame = pd.DataFrame(dict(zip(COLUMNS, (t_s, u1_v, u2_v, alpha_rad, beta_rad))))
+    """Write a log atomically; every double round-trips exactly (shortest repr)."""
+    write_columns(path, dict(zip(COLUMNS, (t_s, u1_v, u2_v, alpha_rad, beta_rad))))
+
+
+def write_columns(path: str | Path, columns: dict[str, np.ndarray]) -> None:
+    """Numeric columns to CSV, atomically, with pyarrow's writer (exact round trip)."""
+    import pyarrow as pa
+    import pyarrow.csv as pc
+
+    table = pa.table({k: np.ascontiguousarray(v, dtype=float) for k, v in columns.items()})
     with atomic_path(path) as tmp:
-        frame.to_csv(tmp, index=False)  # shortest repr that round-trips exactly
+        with open(tmp, "wb") as f:
+            f.write((",".join(columns) + "\n").encode())  # pyarrow would quote the names
+            pc.write_csv(table, f, write_options=pc.WriteOptions(include_header=False, quoting_style="none"))
 
 
 def truth_path(log_path: str | Path) -> Path:

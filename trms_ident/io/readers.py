@@ -5,7 +5,7 @@ from pathlib import Path
 
 from ..errors import LogFormatError
 from ..log import Log
-from .csv_log import read_bytes, read_csv_log
+from .csv_log import check_readable, read_csv_log
 
 LOG_SUFFIXES = (".csv", ".mcap")
 
@@ -19,5 +19,5 @@ def read_log(path: str | Path, angle_unit: str = "rad") -> Log:
         return read_mcap_log(path, angle_unit=angle_unit)
     if suffix in (".csv", ".txt", ".tsv"):
         return read_csv_log(path, angle_unit=angle_unit)
-    read_bytes(path)  # a missing file is reported as missing, not as a format problem
+    check_readable(path)  # a missing file is reported as missing, not as a format problem
     raise LogFormatError(f"{path}: unknown log type {suffix or '(no suffix)'!r}; expected .csv or .mcap")

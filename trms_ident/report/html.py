@@ -6,7 +6,6 @@ import html
 from ..identify import Result
 from ..log import Log
 from ..params import ESTIMATED, UNITS
-from .figures import signals_figure, traces_figure
 
 CSS = """body{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto;color:#222}
 table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:4px 10px;text-align:right}
@@ -23,6 +22,8 @@ def _g(x: float) -> str:
 
 
 def render(doc: dict, result: Result, log: Log) -> str:
+    from .figures import signals_figure, traces_figure  # matplotlib only when a report is asked for
+
     settings = doc["settings"]
     truth = doc.get("truth", {}).get("values")
     head = ["parameter", "unit", f"estimate ({doc['headline']})", "95 % interval", "DREM final", "offline optimum"]

@@ -3,14 +3,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pandas as pd
-
 from ..identify import Result
-from ..io.atomic import atomic_path
+from ..io.csv_log import write_columns
 from ..params import ESTIMATED
 
 
 def write_traces(path: str | Path, result: Result) -> None:
-    frame = pd.DataFrame({"t": result.t_s, **{k: result.traces[k] for k in ESTIMATED}})
-    with atomic_path(path) as tmp:
-        frame.to_csv(tmp, index=False, float_format="%.10g")
+    """Write the traces as identify kept them (every ``result.trace_step``-th sample)."""
+    write_columns(path, {"t": result.t_s, **{name: result.traces[name] for name in ESTIMATED}})
