@@ -78,3 +78,13 @@ def test_same_input_same_numbers():
     a, b = identify(as_log(r)), identify(as_log(r))
     assert a.estimates == b.estimates
     np.testing.assert_array_equal(a.traces["J1"], b.traces["J1"])
+
+
+def test_causal_traces_within_1_percent_in_5_s_on_paper_square():
+    r = sim_cached("square", 1000.0, 60.0)
+    res = identify(as_log(r), Settings())
+    for k in NAMES:
+        err = np.abs(res.traces[k] / r.truth["estimated"][k] - 1)
+        outside = np.flatnonzero(err > 0.01)
+        settled_at = res.t_s[outside[-1] + 1] if outside.size else 0.0
+        assert settled_at <= 5.0, (k, settled_at)

@@ -2,8 +2,7 @@
 import numpy as np
 import pytest
 
-from trms_ident.numerics.drem import (extend_and_mix, gradient_estimator, normalized_gain,
-                                      offline_optimum)
+from trms_ident.numerics.drem import extend_and_mix, gradient_estimator, offline_optimum
 from trms_ident.numerics.filters import discretize, second_order_lowpass
 
 
@@ -39,7 +38,8 @@ def test_gradient_law_matches_analytic_solution():
     dt, gamma, phi0, q = 1e-3, 50.0, 0.4, 2.5
     n = 3000
     phi = np.full(n, phi0)
-    trace = gradient_estimator(phi * q, phi, gamma, dt)
+    trace, final = gradient_estimator(phi * q, phi, gamma, dt)
+    assert final == trace[-1]
     t = (np.arange(n) + 1) * dt
     np.testing.assert_allclose(trace, q * (1 - np.exp(-gamma * phi0 ** 2 * t)), rtol=1e-12)
 
@@ -47,29 +47,35 @@ def test_gradient_law_matches_analytic_solution():
 def test_gradient_law_is_monotone_and_stable_for_huge_gain():
     # forward Euler would diverge once gamma phi^2 dt > 2; the exact step lands on eps/phi
     phi = np.full(100, 3.0)
-    trace = gradient_estimator(phi * 0.1, phi, 1e9, 0.01)
+    trace, _ = gradient_estimator(phi * 0.1, phi, 1e9, 0.01)
     assert np.all(np.isfinite(trace))
     np.testing.assert_allclose(trace, 0.1, rtol=1e-12)
     rng = np.random.default_rng(0)
     phi = rng.standard_normal(5000)
-    trace = gradient_estimator(phi * 0.7, phi, 1e4, 1e-3)
+    trace, _ = gradient_estimator(phi * 0.7, phi, 1e4, 1e-3)
     assert np.all(np.diff(trace) >= -1e-15) and trace[-1] == pytest.approx(0.7, rel=1e-12)
 
 
 def test_gradient_skips_samples_without_excitation():
     phi = np.zeros(10)
-    np.testing.assert_array_equal(gradient_estimator(phi, phi, 1.0, 0.1, q0=0.3), 0.3)
+    np.testing.assert_array_equal(gradient_estimator(phi, phi, 1.0, 0.1, q0=0.3)[0], 0.3)
 
 
-def test_normalized_gain_is_scale_free():
+def test_normalized_gain_is_scale_free_and_converges_at_its_rate():
     rng = np.random.default_rng(2)
-    phi = rng.standard_normal(1000)
-    g1 = normalized_gain(phi, 2.0)
-    g2 = normalized_gain(1e-4 * phi, 2.0)
-    np.testing.assert_allclose(g1 * phi ** 2, g2 * (1e-4 * phi) ** 2, rtol=1e-9)
+    phi = rng.standard_normal(20000)
+    a, _ = gradient_estimator(0.3 * phi, phi, None, 1e-3, rate_per_s=2.0)
+    b, _ = gradient_estimator(0.3 * 1e-4 * phi, 1e-4 * phi, None, 1e-3, rate_per_s=2.0)
+    np.testing.assert_allclose(a, b, rtol=1e-9)
+    # stationary excitation: error ~ exp(-rate t); at t = 5 s about exp(-10)
+    assert abs(a[5000] / 0.3 - 1) < 1e-3 and abs(a[1000] / 0.3 - 1) > 0.05
 
 
-def test_offline_optimum():
-    phi = np.array([1.0, 2.0, -1.0])
-    assert offline_optimum(phi * 3.0, phi) == pytest.approx(3.0)
-    assert np.isnan(offline_optimum(np.zeros(3), np.zeros(3)))
+def test_decimated_trace_keeps_exact_final_value():
+    rng = np.random.default_rng(3)
+    phi = rng.standard_normal(1001)
+    eps = phi * 2.0 + 0.01 * rng.standard_normal(1001)
+    full, f1 = gradient_estimator(eps, phi, 5.0, 1e-3)
+    part, f2 = gradient_estimator(eps, phi, 5.0, 1e-3, step=10)
+    np.testing.assert_array_equal(part, full[::10])
+    assert f1 == f2 == full[-1]

@@ -1,6 +1,7 @@
 """What each command does, as plain functions: read, compute, write. The CLI adds flags and exit codes."""
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -9,6 +10,7 @@ from .io.atomic import write_text
 from .io.csv_log import truth_path
 from .io.readers import read_log
 from .log import Log
+from .numerics.fused import warm_up
 from .report.html import render
 from .report.summary import load_truth, summarize, to_json
 from .report.traces import write_traces
@@ -26,7 +28,10 @@ def estimate_file(log_path: str | Path, settings: Settings, out_dir: str | Path 
                   *, angle_unit: str = "rad", html: bool = True, truth_file: str | Path | None = None
                   ) -> EstimateOutput:
     """Identify J1, B1, J2, B2 from one log; write report.html, traces.csv and result.json to out_dir."""
+    warm = threading.Thread(target=warm_up, daemon=True)  # overlaps numba's start-up with the parse
+    warm.start()
     log = read_log(log_path, angle_unit=angle_unit)
+    warm.join()
     result = identify(log, settings)
     tpath = Path(truth_file) if truth_file else truth_path(log_path)
     truth = load_truth(tpath)

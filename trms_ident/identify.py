@@ -5,6 +5,7 @@ Pure: arrays and settings in, a Result out.  No files, no printing.
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
@@ -12,12 +13,14 @@ import numpy as np
 from .errors import IdentificationError, SettingsError
 from .log import Log
 from .numerics.design import FilterDesign, design_filters
-from .numerics.drem import gradient_estimator, normalized_gain
+from .numerics.drem import gradient_estimator
 from .numerics.fused import mixed_regressions
 from .numerics.stats import Interval, block_length, confidence_interval
 from .params import ESTIMATED, THRUST_LAWS, merge
 
 AXES = {"pitch": ("J1", "B1"), "yaw": ("J2", "B2")}
+#: traces of longer logs keep every k-th sample (Result.trace_step = k)
+MAX_TRACE_POINTS = 200_000
 GAIN_CONVENTIONS = ("unit", "paper")
 HEADLINES = ("offline", "drem")
 
@@ -69,14 +72,14 @@ class AxisResult:
     axis: str
     phi: np.ndarray  # det M(t), eq. (7)
     eps: np.ndarray  # (n, 2) mixed regressands, eq. (7)
-    gamma: dict[str, np.ndarray]  # gain used at each sample, per parameter
     phi_energy: float  # sum(phi^2) dt: how much the log excites this axis (convention-dependent scale)
 
 
 @dataclass
 class Result:
-    t_s: np.ndarray
-    traces: dict[str, np.ndarray]  # DREM estimate traces, eq. (8)
+    t_s: np.ndarray  # times of the trace points [s]
+    traces: dict[str, np.ndarray]  # DREM estimate traces, eq. (8), every trace_step-th sample
+    trace_step: int
     drem_final: dict[str, float]
     offline: dict[str, float]  # sum(eps phi) / sum(phi^2) per parameter
     intervals: dict[str, Interval]  # 95 % intervals of the offline optimum; identifiability
@@ -115,33 +118,32 @@ def identify(log: Log, settings: Settings | None = None) -> Result:
     mixed = mixed_regressions(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, dt, params, settings.thrust_law,
                               settings.filter_a_rad_s, settings.filter_b_rad_s, f_gain, h_gain)
     block = block_length(len(log), dt, 1.0 / min(settings.filter_a_rad_s, settings.filter_b_rad_s))
+    step = max(1, math.ceil(len(log) / MAX_TRACE_POINTS))
+    rate = math.log(100.0) / settings.settle_time_s
     traces, drem_final, offline, intervals, axes = {}, {}, {}, {}, {}
-    for axis, (phi, eps) in mixed.items():
+    for axis, (phi, _) in mixed.items():
         if not np.all(np.isfinite(phi)) or not np.any(phi):
             raise IdentificationError(
                 f"the {axis} axis is not excited: det M is zero over the whole log "
                 f"(constant input and angle?); {', '.join(AXES[axis])} cannot be identified")
-        auto_gain = None
-        gains = {}
+
+    def estimate_axis(axis: str) -> None:
+        phi, eps = mixed[axis]
         # known bias bounds added to the interval: errors in variables (designed filters only) and the
         # bilinear transform's relative magnitude error at the fastest filter pole, (w dt)^2 / 12
         warp = (max(settings.filter_a_rad_s, settings.filter_b_rad_s) * dt) ** 2 / 12.0
         bias = (design.predicted_bias[axis] if design else 0.0) + warp
-        for i, name in enumerate(AXES[axis]):
-            if settings.gamma is not None and name in settings.gamma:
-                gains[name] = np.full(phi.size, float(settings.gamma[name]))
-            else:
-                if auto_gain is None:
-                    auto_gain = normalized_gain(phi, math.log(100.0) / settings.settle_time_s)
-                gains[name] = auto_gain
-            traces[name] = gradient_estimator(eps[:, i], phi, gains[name], dt)  # eq. (8)
-            drem_final[name] = float(traces[name][-1])
-            ci = confidence_interval(eps[:, i], phi, block)
-            if math.isfinite(ci.low):  # widen by the bias bounds
-                ci = confidence_interval(eps[:, i], phi, block, extra_half_width=abs(ci.estimate) * bias)
-            intervals[name] = ci
-            offline[name] = ci.estimate
-        axes[axis] = AxisResult(axis, phi, eps, gains, float(np.dot(phi, phi)) * dt)
+        names = AXES[axis]
+        gammas = [settings.gamma.get(name) if settings.gamma else None for name in names]
+        trace, final = gradient_estimator(eps, phi, gammas, dt, rate_per_s=rate, step=step)  # eq. (8)
+        for i, name in enumerate(names):
+            traces[name], drem_final[name] = trace[:, i], float(final[i])
+            intervals[name] = confidence_interval(eps[:, i], phi, block, bias_bound=bias)
+            offline[name] = intervals[name].estimate
+        axes[axis] = AxisResult(axis, phi, eps, float(np.dot(phi, phi)) * dt)
+
+    with ThreadPoolExecutor(max_workers=2) as pool:  # the compiled loops release the GIL
+        list(pool.map(estimate_axis, AXES))
     chosen = offline if settings.headline == "offline" else drem_final
     estimates = {k: (chosen[k] if intervals[k].identifiable else None) for k in ESTIMATED}
-    return Result(log.t_s, traces, drem_final, offline, intervals, estimates, axes, params, settings, design, dt)
+    return Result(log.t_s[::step], traces, step, drem_final, offline, intervals, estimates, axes, params, settings, design, dt)

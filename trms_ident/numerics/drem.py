@@ -7,7 +7,6 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from .filters import discretize, second_order_lowpass
 
 
 @dataclass(frozen=True)
@@ -21,7 +20,12 @@ class MixedRegression:
 
 def extend_and_mix(g: np.ndarray, m: np.ndarray, dt_s: float, b_rad_s: float,
                    gain: float) -> MixedRegression:
-    """Extend g = m^T q with H = gain/(s+b)^2 (eq. 5), stack (eq. 6), multiply by adj(M) (eq. 7)."""
+    """Extend g = m^T q with H = gain/(s+b)^2 (eq. 5), stack (eq. 6), multiply by adj(M) (eq. 7).
+
+    Reference path (scipy.signal filters), used by tests and diagnostics; ``fused`` is the fast one.
+    """
+    from .filters import discretize, second_order_lowpass  # scipy.signal: ~1 s to import
+
     num, den = second_order_lowpass(b_rad_s, gain)
     h = discretize(num, den, dt_s, "bilinear")
     hg = h.apply(g)
@@ -38,46 +42,63 @@ def extend_and_mix(g: np.ndarray, m: np.ndarray, dt_s: float, b_rad_s: float,
     return MixedRegression(phi, eps, rms(phi) / scale if scale > 0 else 0.0)
 
 
-@njit(cache=True)
-def _gradient(eps, phi, gamma, dt, q0, out):
-    q = q0
+@njit(cache=True, nogil=True)
+def _gradient(eps, phi, gamma, rate, floor, dt, q0, out, step):
+    """eq. (8) stepped exactly for each column of eps (same phi, same gain).
+
+    gamma[j] < 0 selects the normalized gain rate / max(running mean phi^2, floor).
+    """
+    m = eps.shape[1]
+    q = q0.copy()
+    energy = 0.0
     for k in range(phi.size):
         ph = phi[k]
-        x = gamma[k] * ph * ph * dt
-        if x > 0.0 and math.isfinite(x):
-            w = -math.expm1(-x)
-            q += w * (eps[k] / ph - q)
-        out[k] = q
-    return out
+        energy += ph * ph
+        norm = max(energy / (k + 1), floor)
+        for j in range(m):
+            g = gamma[j]
+            if g < 0.0:
+                g = rate / norm if norm > 0.0 else 0.0
+            x = g * ph * ph * dt
+            if x > 0.0 and math.isfinite(x):
+                w = -math.expm1(-x)
+                q[j] += w * (eps[k, j] / ph - q[j])
+            if k % step == 0:
+                out[k // step, j] = q[j]
+    return q
 
 
-def gradient_estimator(eps: np.ndarray, phi: np.ndarray, gamma: np.ndarray | float, dt_s: float,
-                       q0: float = 0.0) -> np.ndarray:
+def gradient_estimator(eps: np.ndarray, phi: np.ndarray, gamma, dt_s: float, q0=0.0,
+                       *, rate_per_s: float = 0.0, floor_fraction: float = 0.02, step: int = 1):
     """eq. (8): q' = gamma (eps phi - phi^2 q), discretized exactly for eps, phi held per sample.
 
     Over one sample q moves to the point eps/phi by the fraction 1 - exp(-gamma phi^2 dt):
     the step never overshoots, so the recursion is monotone and stable for any gamma >= 0
     and any sample time (forward Euler diverges once gamma phi^2 dt > 2).
+
+    ``gamma=None`` selects the normalized gain gamma_k = rate / max(mean(phi^2 over samples 0..k),
+    floor): the error then decays on average like exp(-rate t) whatever the scale of phi
+    (filter convention, excitation level, units), so no one has to guess gamma.  The floor,
+    ``floor_fraction`` times the mean of phi^2 over the whole log, keeps the first samples
+    after the onset of motion (tiny phi, large relative error of eps/phi) from receiving a
+    scale-free full weight; it is the only non-causal ingredient.
+
+    ``eps`` may be one regression (n,) or several sharing phi (n, m), with ``gamma`` and ``q0``
+    scalars or one per column.  Returns every ``step``-th value of the trace(s) and the final value(s).
     """
-    gamma_arr = np.broadcast_to(np.asarray(gamma, dtype=float), phi.shape).copy()
-    return _gradient(np.ascontiguousarray(eps, dtype=float), np.ascontiguousarray(phi, dtype=float),
-                     gamma_arr, float(dt_s), float(q0), np.empty(phi.size))
-
-
-def normalized_gain(phi: np.ndarray, rate_per_s: float, floor_fraction: float = 0.05) -> np.ndarray:
-    """Normalized gain: gamma_k = rate / max(mean(phi^2 over samples 0..k), floor).
-
-    With it the estimation error decays on average like exp(-rate t) whatever the scale of
-    phi (filter convention, excitation level, units), so no one has to guess gamma.  The
-    floor, ``floor_fraction`` times the mean of phi^2 over the whole log, keeps the first
-    samples after the onset of motion (tiny phi, large relative error of eps/phi) from
-    receiving a scale-free full weight.  The floor is the only non-causal ingredient.
-    """
-    phi2 = phi * phi
-    running = np.cumsum(phi2) / np.arange(1, phi.size + 1)
-    energy = np.maximum(running, floor_fraction * float(np.mean(phi2)))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(energy > 0, rate_per_s / energy, 0.0)
+    phi = np.ascontiguousarray(phi, dtype=float)
+    e = np.asarray(eps, dtype=float)
+    single = e.ndim == 1
+    e = np.ascontiguousarray(e.reshape(phi.size, -1))
+    m = e.shape[1]
+    gam = np.array([-1.0 if g is None else float(g) for g in np.broadcast_to(np.array(gamma, dtype=object), (m,))])
+    q0v = np.broadcast_to(np.asarray(q0, dtype=float), (m,)).copy()
+    floor = floor_fraction * float(np.dot(phi, phi)) / max(phi.size, 1)
+    out = np.empty(((phi.size + step - 1) // step, m))
+    final = _gradient(e, phi, gam, float(rate_per_s), floor, float(dt_s), q0v, out, int(step))
+    if single:
+        return out[:, 0], float(final[0])
+    return out, final
 
 
 def offline_optimum(eps: np.ndarray, phi: np.ndarray, weights: np.ndarray | None = None) -> float:

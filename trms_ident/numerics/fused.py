@@ -35,7 +35,7 @@ def _step(b, a, i, x, z):
 
 
 @njit(cache=True, nogil=True)
-def _axis(pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, phi, eps_j, eps_b):
+def _axis(pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, phi, eps):
     n = x.size
     z = np.zeros((8, 2))
     for k in range(n):
@@ -72,8 +72,8 @@ def _axis(pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, phi, 
         hm1 = _step(b, a, HM1, m1, z)
         hm2 = _step(b, a, HM2, m2, z)
         phi[k] = m1 * hm2 - m2 * hm1  # eq. (7): det M
-        eps_j[k] = hm2 * g - m2 * hg  # eq. (7): adj(M) [g; Hg]
-        eps_b[k] = m1 * hg - hm1 * g
+        eps[k, 0] = hm2 * g - m2 * hg  # eq. (7): adj(M) [g; Hg]
+        eps[k, 1] = m1 * hg - hm1 * g
 
 
 def _coefficients(pitch: bool, p: dict, dt: float, a_rad_s: float, b_rad_s: float, f_gain: float, h_gain: float):
@@ -99,11 +99,11 @@ def mixed_regressions(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law
     def run(axis: str):
         pitch = axis == "pitch"
         b, a = _coefficients(pitch, p, dt_s, a_rad_s, b_rad_s, f_gain, h_gain)
-        phi, eps = np.empty(n), np.empty((2, n))
+        phi, eps = np.empty(n), np.empty((n, 2))
         th_a, th_b = (p["a1"], p["b1"]) if pitch else (p["a2"], p["b2"])
         _axis(pitch, u1_v if pitch else u2_v, u1_v, alpha_rad if pitch else beta_rad, beta_rad, dt_s, b, a,
-              th_a, th_b, law == "signed", p["Mg"], p["Kg"], phi, eps[0], eps[1])
-        out[axis] = (phi, eps.T)
+              th_a, th_b, law == "signed", p["Mg"], p["Kg"], phi, eps)
+        out[axis] = (phi, eps)
 
     with ThreadPoolExecutor(max_workers=2) as pool:
         list(pool.map(run, ("pitch", "yaw")))
@@ -126,3 +126,21 @@ def biquad(b: np.ndarray, a: np.ndarray, x: np.ndarray) -> np.ndarray:
     _biquad(np.ascontiguousarray(b, dtype=float), np.ascontiguousarray(a, dtype=float),
             np.ascontiguousarray(x, dtype=float), y)
     return y
+
+
+def warm_up() -> None:
+    """Load every compiled kernel from numba's cache on a tiny input.
+
+    The first load initialises numba's code generator (~0.5 s); commands call this in a
+    background thread while the log is being read, so that the wait overlaps the parse.
+    """
+    from .drem import gradient_estimator
+    from .stats import _block_scores
+
+    x = np.linspace(0.0, 1.0, 16)
+    p = {"k1": 1.0, "T11": 1.0, "T10": 1.0, "k2": 1.0, "T21": 1.0, "T20": 1.0, "kc": -0.2, "T0": 3.5, "Tp": 2.0,
+         "a1": 0.01, "b1": 0.1, "a2": 0.01, "b2": 0.1, "Mg": 0.3, "Kg": 0.05}
+    mixed_regressions(x, x, x, x, 0.01, p, "quadratic", 1.0, 2.0, 1.0, 4.0)
+    biquad(np.array([1.0, 0.0, 0.0]), np.array([1.0, 0.0, 0.0]), x)
+    gradient_estimator(np.column_stack([x, x]), x, [None, None], 0.01, rate_per_s=1.0)
+    _block_scores(x, x, 1.0, 4, 4)

@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from scipy.special import stdtrit
 
 #: a parameter whose 95 % half-width exceeds this fraction of its value is not identifiable
@@ -33,16 +34,29 @@ class Interval:
         return (self.high - self.low) / 2 / abs(self.estimate) if self.estimate else math.inf
 
 
+@njit(cache=True, nogil=True)
+def _block_scores(eps, phi, q, block, k):
+    """S_b = sum over block b of phi (eps - phi q), without temporaries the size of the log."""
+    out = np.zeros(k)
+    for b in range(k):
+        acc = 0.0
+        for i in range(b * block, (b + 1) * block):
+            acc += phi[i] * (eps[i] - phi[i] * q)
+        out[b] = acc
+    return out
+
+
 def block_length(n: int, dt_s: float, memory_s: float, max_blocks: int = 40) -> int:
     """Samples per block: at least 5 filter memories, and no more than max_blocks blocks."""
     return max(int(math.ceil(5.0 * memory_s / dt_s)), int(math.ceil(n / max_blocks)), 1)
 
 
 def confidence_interval(eps: np.ndarray, phi: np.ndarray, block: int, level: float = 0.95,
-                        extra_half_width: float = 0.0) -> Interval:
+                        bias_bound: float = 0.0) -> Interval:
     """Offline optimum sum(eps phi)/sum(phi^2) with its batch-means interval.
 
-    ``extra_half_width`` adds a known bound on bias (e.g. errors-in-variables) to the half-width.
+    ``bias_bound`` (relative to the estimate) is a known bound on bias, e.g. errors in
+    variables, added to the half-width.
     """
     energy = float(np.dot(phi, phi))
     if not energy > 0:
@@ -52,11 +66,10 @@ def confidence_interval(eps: np.ndarray, phi: np.ndarray, block: int, level: flo
     if k < MIN_BLOCKS:
         return Interval(q, math.nan, math.nan, k, q > 0,
                         f"no interval: the log holds {k} independent blocks, {MIN_BLOCKS} are needed")
-    m = k * block
-    score = (phi[:m] * (eps[:m] - phi[:m] * q)).reshape(k, block).sum(axis=1)
+    score = _block_scores(eps, phi, q, block, k)
     score -= score.mean()
     se = math.sqrt(k / (k - 1) * float(np.dot(score, score))) / energy
-    half = float(stdtrit(k - 1, 0.5 + level / 2)) * se + extra_half_width
+    half = float(stdtrit(k - 1, 0.5 + level / 2)) * se + abs(q) * bias_bound
     rel = half / abs(q) if q else math.inf
     if q <= 0:
         ok, reason = False, f"estimate {q:.3g} is not positive: the log does not determine it"

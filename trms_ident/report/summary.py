@@ -49,6 +49,7 @@ def summarize(result: Result, log: Log, truth: dict | None = None, truth_source:
             "offline optimum sum(eps*phi)/sum(phi^2) of each DREM scalar regression (eq. 7) over the whole log"
             if s.headline == "offline" else "final value of the causal DREM gradient trace (eq. 8)"),
         "drem_final": result.drem_final,
+        "traces_every_nth_sample": result.trace_step,
         "offline_optimum": result.offline,
         "excitation": {axis: {"phi_energy": result.axes[axis].phi_energy,
                               "verdict": _verdict([result.intervals[k] for k in AXES[axis]])} for axis in AXES},
