@@ -1,0 +1,120 @@
+"""Accuracy benchmark (issue #3): every cell of reference x sample rate x noise, this tool vs baselines.
+
+    python benchmarks/accuracy.py            # full grid, writes the accuracy section of benchmarks/RESULTS.md
+    python benchmarks/accuracy.py --quick    # 1 kHz column only, no output-error fit
+
+Errors are relative to the simulator's ground truth, in %.  "n.i." = the tool reported the
+parameter as not identifiable from the log (counts as honest, not as an error).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from baselines import NAMES, output_error, paper_literal, rls, timed  # noqa: E402
+
+from sim import SimSettings, simulate  # noqa: E402
+from trms_ident.identify import identify  # noqa: E402
+from trms_ident.log import validated  # noqa: E402
+
+REFS = ("square", "sine", "multisine", "steps")
+RATES = (1000.0, 200.0, 100.0)
+NOISES = {"noise-free": (0.0, 0.0), "12-bit": (0.0, 2 * math.pi / 4096), "1 mrad": (1e-3, 0.0)}
+DURATION = {"square": 60.0, "sine": 120.0, "multisine": 120.0, "steps": 120.0}
+TOL = {"J1": 0.5, "J2": 0.5, "B1": 2.0, "B2": 2.0}
+
+
+def cell(ref, rate, noise_name, with_oe):
+    sigma, q = NOISES[noise_name]
+    r = simulate(SimSettings(ref=ref, sample_rate_hz=rate, duration_s=DURATION[ref], noise_std_rad=sigma,
+                             quantization_rad=q, seed=1))
+    truth = r.truth["estimated"]
+    log = validated(r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad)
+    identify(log)  # warm the compiled kernels so that wall time is the estimate's own
+    res, t_tool = timed(identify, log)
+    row = {"ref": ref, "rate": rate, "noise": noise_name, "t_tool": t_tool, "a": res.settings.filter_a_rad_s}
+    for k in NAMES:
+        est = res.estimates[k]
+        row[f"tool_{k}"] = None if est is None else 100 * (est / truth[k] - 1)
+        ci = res.intervals[k]
+        row[f"cover_{k}"] = bool(ci.low <= truth[k] <= ci.high) if math.isfinite(ci.low) else None
+    for name, fn, args in (("paper", paper_literal, (log, ref)), ("rls", rls, (log,))) + (
+            (("oe", output_error, (log, truth)),) if with_oe else ()):
+        est, t = timed(fn, *args)
+        row[f"t_{name}"] = t
+        for k in NAMES:
+            row[f"{name}_{k}"] = 100 * (est[k] / truth[k] - 1)
+    return row
+
+
+def fmt(v):
+    return "n.i." if v is None else f"{v:+.3f}"
+
+
+def table(rows, with_oe) -> str:
+    methods = ["tool", "paper", "rls"] + (["oe"] if with_oe else [])
+    head = ["ref", "rate [Hz]", "noise", "a [rad/s]"] + [f"tool {k} [%]" for k in NAMES] + ["CI covers"] + \
+           [f"{m} max J/B err [%]" for m in methods[1:]] + [f"{m} time [s]" for m in methods]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        cover = sum(bool(r[f"cover_{k}"]) for k in NAMES)
+        cells = [r["ref"], f"{r['rate']:g}", r["noise"], f"{r['a']:g}"] + [fmt(r[f"tool_{k}"]) for k in NAMES] + \
+                [f"{cover}/4"]
+        for m in methods[1:]:
+            cells.append(f"{max(abs(r[f'{m}_J1']), abs(r[f'{m}_J2'])):.3g} / {max(abs(r[f'{m}_B1']), abs(r[f'{m}_B2'])):.3g}")
+        cells += [f"{r['t_' + m]:.3f}" for m in methods]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def verdict(rows, with_oe) -> str:
+    n = len(rows)
+    ok = sum(all(r[f"tool_{k}"] is None or abs(r[f"tool_{k}"]) <= TOL[k] for k in NAMES) for r in rows)
+    silent_bad = [(r["ref"], r["rate"], r["noise"], k) for r in rows for k in NAMES
+                  if r[f"tool_{k}"] is not None and abs(r[f"tool_{k}"]) > TOL[k]]
+    pairs = [r[f"cover_{k}"] for r in rows for k in NAMES if r[f"cover_{k}"] is not None]
+    cells_covered = sum(all(r[f"cover_{k}"] for k in NAMES) for r in rows)
+    out = [f"- cells within J 0.5 % / B 2 % (or honestly not identifiable): {ok}/{n}",
+           f"- silent wrong numbers: {silent_bad or 'none'}",
+           f"- 95 % interval covers the truth: {sum(pairs)}/{len(pairs)} (parameter, cell) pairs "
+           f"({100 * sum(pairs) / max(len(pairs), 1):.1f} %); cells with all four covered: {cells_covered}/{n}"]
+    methods = ["paper", "rls"] + (["oe"] if with_oe else [])
+    for m in methods:
+        worse = sum(max(abs(r[f"{m}_{k}"]) for k in NAMES) >
+                    max(abs(r[f"tool_{k}"]) if r[f"tool_{k}"] is not None else 0 for k in NAMES) for r in rows)
+        out.append(f"- tool's worst error below {m}'s in {worse}/{n} cells; median time tool "
+                   f"{np.median([r['t_tool'] for r in rows]):.3f} s, {m} {np.median([r['t_' + m] for r in rows]):.3f} s")
+    return "\n".join(out)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--out", default=str(Path(__file__).with_name("RESULTS.md")))
+    args = ap.parse_args()
+    with_oe = not args.quick
+    rates = RATES[:1] if args.quick else RATES
+    rows = []
+    t0 = time.perf_counter()
+    for ref in REFS:
+        for rate in rates:
+            for noise in NOISES:
+                rows.append(cell(ref, rate, noise, with_oe))
+                print(f"{ref:9s} {rate:6g} Hz {noise:10s} " + " ".join(f"{k} {fmt(rows[-1]['tool_' + k])}" for k in NAMES),
+                      file=sys.stderr)
+    text = (f"## Accuracy (benchmarks/accuracy.py{' --quick' if args.quick else ''}, "
+            f"{time.perf_counter() - t0:.0f} s)\n\n{table(rows, with_oe)}\n\n{verdict(rows, with_oe)}\n")
+    from results import update_section
+    update_section(Path(args.out), "Accuracy", text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,107 @@
+"""Speed benchmark (issue #3): `trms-ident estimate` end to end on 10 min, 1 h and 4 h of 1 kHz data.
+
+    python benchmarks/speed.py              # all three lengths, writes the speed section of RESULTS.md
+    python benchmarks/speed.py --only 1h
+
+Logs come from the simulator (multisine, 12-bit encoder) written at logger precision
+(t to 1 ms, u to 1 uV, angles to 1 nrad): one hour is 3.6 M rows, about 200 MB of CSV.
+End to end = a fresh `python -m trms_ident estimate LOG --no-report` process (imports,
+reading and hashing the CSV, validation, identification, result.json and traces.csv);
+the HTML report is excluded as the issue states.  Peak memory is the child's max RSS.
+Estimation = `identify()` alone, in a warm process.  Median of --repeat runs.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from sim import SimSettings, simulate  # noqa: E402
+from trms_ident.io.csv_log import write_columns  # noqa: E402
+
+LENGTHS_S = {"10min": 600.0, "1h": 3600.0, "4h": 14400.0}
+
+CHILD = """
+import resource, runpy, sys, time
+t0 = time.perf_counter()
+sys.argv = ["trms-ident", "estimate", sys.argv[1], "-o", sys.argv[2], "--no-report"]
+try:
+    runpy.run_module("trms_ident", run_name="__main__")
+except SystemExit as exc:
+    if exc.code:
+        raise
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)
+"""
+
+
+def make_log(path: Path, seconds: float) -> int:
+    r = simulate(SimSettings(ref="multisine", duration_s=seconds, quantization_rad=2 * np.pi / 4096, seed=5))
+    write_columns(path, {"t": np.round(r.t_s, 3), "u1": np.round(r.u1_v, 6), "u2": np.round(r.u2_v, 6),
+                         "alpha": np.round(r.alpha_rad, 9), "beta": np.round(r.beta_rad, 9)})
+    return r.t_s.size
+
+
+def end_to_end(path: Path, out: Path) -> tuple[float, float]:
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-c", CHILD, str(path), str(out)], capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    if proc.returncode:
+        raise RuntimeError(proc.stderr)
+    return wall, int(proc.stderr.strip().splitlines()[-1]) / 1024.0
+
+
+def estimation_only(path: Path) -> float:
+    from trms_ident.identify import identify
+    from trms_ident.io.readers import read_log
+
+    log = read_log(path)
+    identify(log)  # load compiled kernels
+    t0 = time.perf_counter()
+    identify(log)
+    return time.perf_counter() - t0
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--only", choices=list(LENGTHS_S))
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--out", default=str(Path(__file__).with_name("RESULTS.md")))
+    args = ap.parse_args()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, seconds in LENGTHS_S.items():
+            if args.only and name != args.only:
+                continue
+            path = Path(tmp) / f"{name}.csv"
+            n = make_log(path, seconds)
+            size_mb = path.stat().st_size / 1e6
+            runs = [end_to_end(path, Path(tmp) / "out") for _ in range(args.repeat)]
+            wall = statistics.median(r[0] for r in runs)
+            rss = max(r[1] for r in runs)
+            est = statistics.median(estimation_only(path) for _ in range(args.repeat))
+            rows.append(dict(name=name, samples=n, csv_mb=size_mb, wall_s=wall, estimation_s=est, peak_mb=rss,
+                             ns_per_sample=1e9 * wall / n))
+            print(json.dumps(rows[-1]), file=sys.stderr)
+            path.unlink()
+    head = "| log | samples | CSV [MB] | end to end [s] | estimation only [s] | peak memory [MB] | end to end per sample [ns] |"
+    lines = [head, "|---|---|---|---|---|---|---|"] + [
+        f"| {r['name']} | {r['samples']:,} | {r['csv_mb']:.0f} | {r['wall_s']:.2f} | {r['estimation_s']:.2f} | "
+        f"{r['peak_mb']:.0f} | {r['ns_per_sample']:.0f} |" for r in rows]
+    text = ("## Speed (benchmarks/speed.py, median of %d runs, this 2-core machine)\n\n" % args.repeat) + \
+        "\n".join(lines) + "\n\nTargets for 1 h: end to end <= 3 s, estimation <= 1 s, peak <= 1 GB, linear growth.\n"
+    from results import update_section
+    update_section(Path(args.out), "Speed", text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
