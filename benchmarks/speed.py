@@ -86,18 +86,21 @@ def main():
             size_mb = path.stat().st_size / 1e6
             runs = [end_to_end(path, Path(tmp) / "out") for _ in range(args.repeat)]
             wall = statistics.median(r[0] for r in runs)
+            best = min(r[0] for r in runs)
             rss = max(r[1] for r in runs)
             est = statistics.median(estimation_only(path) for _ in range(args.repeat))
-            rows.append(dict(name=name, samples=n, csv_mb=size_mb, wall_s=wall, estimation_s=est, peak_mb=rss,
+            rows.append(dict(name=name, samples=n, csv_mb=size_mb, wall_s=wall, best_s=best, estimation_s=est, peak_mb=rss,
                              ns_per_sample=1e9 * wall / n))
             print(json.dumps(rows[-1]), file=sys.stderr)
             path.unlink()
-    head = "| log | samples | CSV [MB] | end to end [s] | estimation only [s] | peak memory [MB] | end to end per sample [ns] |"
-    lines = [head, "|---|---|---|---|---|---|---|"] + [
-        f"| {r['name']} | {r['samples']:,} | {r['csv_mb']:.0f} | {r['wall_s']:.2f} | {r['estimation_s']:.2f} | "
+    head = ("| log | samples | CSV [MB] | end to end, median [s] | best [s] | estimation only [s] | peak memory [MB] "
+            "| end to end per sample [ns] |")
+    lines = [head, "|---|---|---|---|---|---|---|---|"] + [
+        f"| {r['name']} | {r['samples']:,} | {r['csv_mb']:.0f} | {r['wall_s']:.2f} | {r['best_s']:.2f} | {r['estimation_s']:.2f} | "
         f"{r['peak_mb']:.0f} | {r['ns_per_sample']:.0f} |" for r in rows]
     text = ("## Speed (benchmarks/speed.py, median of %d runs, this 2-core machine)\n\n" % args.repeat) + \
-        "\n".join(lines) + "\n\nTargets for 1 h: end to end <= 3 s, estimation <= 1 s, peak <= 1 GB, linear growth.\n"
+        "\n".join(lines) + "\n\nTargets for 1 h: end to end <= 3 s, estimation <= 1 s, peak <= 1 GB, linear growth.\n" + \
+        "The machine is shared: identical runs varied from 2.8 s to 6.9 s wall for 1 h; CPU time is about 4.5 s.\n"
     from results import update_section
     update_section(Path(args.out), "Speed", text)
     print(text)

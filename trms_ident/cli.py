@@ -18,7 +18,7 @@ import typer
 
 from . import __version__
 from .errors import EXIT_INTERNAL, SettingsError, TrmsError
-from .identify import GAIN_CONVENTIONS, HEADLINES, Settings
+from .settings import GAIN_CONVENTIONS, HEADLINES, Settings
 from .params import ESTIMATED, THRUST_LAWS, UNITS, load_parameter_file
 
 app = typer.Typer(

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -16,56 +16,10 @@ from .numerics.design import FilterDesign, design_filters
 from .numerics.drem import gradient_estimator
 from .numerics.fused import mixed_regressions
 from .numerics.stats import Interval, block_length, confidence_interval
-from .params import ESTIMATED, THRUST_LAWS, merge
+from .params import ESTIMATED, merge
+from .settings import AXES, GAIN_CONVENTIONS, HEADLINES, MAX_TRACE_POINTS, Settings
 
-AXES = {"pitch": ("J1", "B1"), "yaw": ("J2", "B2")}
-#: traces of longer logs keep every k-th sample (Result.trace_step = k)
-MAX_TRACE_POINTS = 200_000
-GAIN_CONVENTIONS = ("unit", "paper")
-HEADLINES = ("offline", "drem")
-
-
-@dataclass
-class Settings:
-    """Every choice that changes the numbers; recorded verbatim in the report."""
-
-    filter_a_rad_s: float | None = None  # F(s) bandwidth, eq. (3); None = designed from the data
-    filter_b_rad_s: float | None = None  # H(s) bandwidth, eq. (5); None = 2 a
-    gain_convention: str = "unit"  # "unit": a^2/(s+a)^2, b^2/(s+b)^2; "paper": a/(s+a)^2, b/(s+b)^2
-    gamma: dict | None = None  # fixed gains per parameter; None = normalized gain (auto)
-    settle_time_s: float = 2.5  # auto gain: mean error decays to 1 % in this time
-    thrust_law: str = "quadratic"
-    headline: str = "offline"  # which number is "the estimate": offline optimum or DREM final
-    overrides: dict = field(default_factory=dict)  # known-parameter values replacing the table's
-
-    def validate(self) -> None:
-        for name in ("filter_a_rad_s", "filter_b_rad_s", "settle_time_s"):
-            v = getattr(self, name)
-            if v is None and name != "settle_time_s":
-                continue
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise SettingsError(f"{name} must be a positive number, got {v!r}")
-        if self.filter_a_rad_s is not None and self.filter_a_rad_s == self.filter_b_rad_s:
-            raise SettingsError("filter bandwidths a and b must differ, or the extended regressor "
-                                f"matrix is singular (eq. 6); got a = b = {self.filter_a_rad_s} rad/s")
-        if self.gain_convention not in GAIN_CONVENTIONS:
-            raise SettingsError(f"gain convention must be one of {GAIN_CONVENTIONS}, got {self.gain_convention!r}")
-        if self.thrust_law not in THRUST_LAWS:
-            raise SettingsError(f"thrust law must be one of {tuple(THRUST_LAWS)}, got {self.thrust_law!r}")
-        if self.headline not in HEADLINES:
-            raise SettingsError(f"headline must be one of {HEADLINES}, got {self.headline!r}")
-        if self.gamma is not None:
-            for name, v in self.gamma.items():
-                if name not in ESTIMATED:
-                    raise SettingsError(f"gamma given for {name!r}; expected one of {ESTIMATED}")
-                if not (math.isfinite(v) and v >= 0):
-                    raise SettingsError(f"gamma for {name} must be >= 0, got {v!r}")
-
-    def filter_gains(self) -> tuple[float, float]:
-        """Numerator constants of F and H for the chosen convention (model.md, item 1)."""
-        a, b = self.filter_a_rad_s, self.filter_b_rad_s
-        return (a * a, b * b) if self.gain_convention == "unit" else (a, b)
-
+__all__ = ["AXES", "GAIN_CONVENTIONS", "HEADLINES", "AxisResult", "Result", "Settings", "identify"]
 
 @dataclass
 class AxisResult:

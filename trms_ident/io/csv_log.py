@@ -203,7 +203,10 @@ def write_columns(path: str | Path, columns: dict[str, np.ndarray]) -> None:
     import pyarrow as pa
     import pyarrow.csv as pc
 
-    table = pa.table({k: np.ascontiguousarray(v, dtype=float) for k, v in columns.items()})
+    arrays = [np.ascontiguousarray(v, dtype=np.float64) for v in columns.values()]
+    # from raw buffers: pa.array(ndarray) would make pyarrow import pandas (0.3-0.6 s)
+    table = pa.Table.from_arrays([pa.Array.from_buffers(pa.float64(), a.size, [None, pa.py_buffer(a)]) for a in arrays],
+                                 names=list(columns))
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as f:
             f.write((",".join(columns) + "\n").encode())  # pyarrow would quote the names

@@ -1,6 +1,8 @@
 """Figures in the spirit of the paper's: signals used (Figs. 2-3) and estimate traces (Figs. 4-5)."""
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import base64
 import io
 
@@ -10,9 +12,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..identify import Result  # noqa: E402
 from ..log import Log  # noqa: E402
 from ..params import UNITS  # noqa: E402
+
+if TYPE_CHECKING:
+    from ..identify import Result
 
 MAX_POINTS = 4000  # per line; longer signals are strided for drawing only
 
@@ -64,3 +68,4 @@ def traces_figure(result: Result, truth: dict | None) -> str:
     ax[0, 0].legend(fontsize=8, loc="lower right")
     fig.suptitle("Parameter estimates over time")
     return png_data_uri(fig)
+

@@ -1,11 +1,15 @@
 """Self-contained HTML report (figures embedded), built from the summary dict and the Result."""
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import html
 
-from ..identify import Result
 from ..log import Log
 from ..params import ESTIMATED, UNITS
+
+if TYPE_CHECKING:
+    from ..identify import Result
 
 CSS = """body{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto;color:#222}
 table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:4px 10px;text-align:right}
@@ -67,3 +71,4 @@ than the filters' memory (valid for correlated residuals), widened by the predic
 <p class="note">Versions: {html.escape(ver)}.</p>
 </body></html>
 """
+

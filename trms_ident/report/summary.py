@@ -7,11 +7,15 @@ import platform
 from dataclasses import asdict
 from importlib import metadata
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .. import __version__
-from ..identify import AXES, Result
+from ..settings import AXES
 from ..log import Log
 from ..params import BY_NAME, ESTIMATED, THRUST_LAWS, UNITS, defaults
+
+if TYPE_CHECKING:
+    from ..identify import Result
 
 
 def versions() -> dict[str, str]:
