@@ -130,6 +130,11 @@ def estimate(
     angle_unit: Annotated[str, typer.Option(help="Unit of the logged angles: rad or deg.")] = "rad",
     truth: Annotated[Optional[Path], typer.Option(help="Ground-truth JSON [default: <log>.truth.json if present].")] = None,
     no_report: Annotated[bool, typer.Option("--no-report", help="Skip the HTML report.")] = False,
+    signal: Annotated[Optional[list[str]], typer.Option("--signal", help="MCAP: where a signal comes from, "
+                                                        "NAME=TOPIC:FIELD, e.g. alpha=/arm/joint_states:position[pitch] "
+                                                        "(repeatable; see `inspect`).")] = None,
+    time_source: Annotated[str, typer.Option(help="MCAP message time: auto (header.stamp when present, else log "
+                                             "time), header, log or publish.")] = "auto",
 ) -> None:
     """Estimate J1, B1, J2, B2 from a log and write a report."""
     from .commands import estimate_file
@@ -142,7 +147,10 @@ def estimate(
                         overrides=load_parameter_file(params) if params else {})
     settings.validate()
     out_dir = out if out is not None else Path(f"{log.name.split('.')[0]}_ident")
-    res = estimate_file(log, settings, out_dir, angle_unit=angle_unit, html=not no_report, truth_file=truth)
+    res = estimate_file(log, settings, out_dir, angle_unit=angle_unit, html=not no_report, truth_file=truth,
+                        signals=signal, time_source=time_source)
+    for warning in filter(None, [res.log.meta.get("warnings")]):
+        say(f"warning: {warning}")
     s = res.summary
     say(f"{log}: {s['input']['samples']} samples, {s['input']['duration_s']:.6g} s at "
         f"{1.0 / s['input']['sample_time_s']:.6g} Hz")
@@ -181,8 +189,9 @@ def parse_effect(text: str) -> dict:
 @handled
 def simulate(
     ref: Annotated[str, typer.Option(help="Reference: square, sine (the paper's), multisine, steps, chirp.")] = "square",
-    output: Annotated[Optional[Path], typer.Option("--output", "-o", help="Log to write [default: sim_<ref>.csv]; "
-                                                   "the truth goes beside it as <name>.truth.json.")] = None,
+    output: Annotated[Optional[Path], typer.Option("--output", "-o", help="Log to write [default: sim_<ref>.csv or "
+                                                   ".mcap]; the truth goes beside it as <name>.truth.json.")] = None,
+    fmt: Annotated[str, typer.Option("--format", help="csv, mcap (ROS 2 CDR) or mcap-json.")] = "csv",
     duration: Annotated[Optional[float], typer.Option(help="Length [s] (default: 60 for square, 120 otherwise).")] = None,
     rate: Annotated[float, typer.Option("--rate", help="Sample rate of the controller and the log [Hz].")] = 1000.0,
     seed: Annotated[int, typer.Option(help="Seed for noise and random references.")] = 0,
@@ -202,6 +211,9 @@ def simulate(
     from .io.atomic import write_text
     from .io.csv_log import truth_path, write_csv_log
 
+    formats = {"csv": ".csv", "mcap": ".mcap", "mcap-json": ".mcap"}
+    if fmt not in formats:
+        raise SettingsError(f"--format {fmt!r}: expected one of {', '.join(formats)}")
     if encoder_bits is not None:
         if not 1 <= encoder_bits <= 32:
             raise SettingsError(f"--encoder-bits {encoder_bits}: expected 1..32")
@@ -214,12 +226,47 @@ def simulate(
         result = run_sim(settings)
     except ValueError as exc:
         raise SettingsError(str(exc)) from None
-    path = output or Path(f"sim_{ref}.csv")
-    if path.suffix.lower() != ".csv":
-        raise SettingsError(f"--output {path}: expected a .csv file name")
-    write_csv_log(path, result.t_s, result.u1_v, result.u2_v, result.alpha_rad, result.beta_rad)
+    path = output or Path(f"sim_{ref}{formats[fmt]}")
+    if path.suffix.lower() != formats[fmt]:
+        raise SettingsError(f"--output {path}: expected a {formats[fmt]} file name for --format {fmt}")
+    columns = (result.t_s, result.u1_v, result.u2_v, result.alpha_rad, result.beta_rad)
+    if fmt == "csv":
+        write_csv_log(path, *columns)
+    else:
+        from .io.mcap_log import write_mcap_log
+
+        write_mcap_log(path, *columns, encoding="cdr" if fmt == "mcap" else "json")
     write_text(truth_path(path), json.dumps(result.truth, indent=2) + "\n")
     say(f"wrote {path} ({result.t_s.size} samples, {result.t_s[-1]:.6g} s at {rate:g} Hz) and {truth_path(path)}")
+
+
+@app.command()
+@handled
+def inspect(
+    file: Annotated[Path, typer.Argument(help="An MCAP recording (or a CSV log).", show_default=False)],
+    json_out: Annotated[bool, typer.Option("--json", help="Print the description as JSON on stdout.")] = False,
+) -> None:
+    """Describe a recording: topics, types, encodings, counts, rates, time span, numeric fields, --signal mapping."""
+    from .io.readers import describe
+
+    doc = describe(file)
+    if json_out:
+        emit_json(doc, "-")
+        return
+    say(f"{doc['file']}: {doc['bytes']:,} bytes, {doc['duration_s']:.6g} s")
+    for t in doc.get("topics", []):
+        rate = f"{t['rate_hz']:.6g} Hz" if t.get("rate_hz") else "-"
+        say(f"  {t['topic']}  {t['type'] or '?'} ({t['message_encoding']}): {t['messages']} messages, {rate}")
+        if t["numeric_fields"]:
+            say("      numeric: " + ", ".join(t["numeric_fields"]))
+    for c in doc.get("columns", []):
+        say(f"  column {c}")
+    if doc.get("suggested_signals"):
+        say("suggested mapping: " + " ".join(f"--signal {v}" for v in doc["suggested_signals"].values()))
+    elif "topics" in doc:
+        say("no obvious mapping for alpha, beta, u1, u2: pass --signal NAME=TOPIC:FIELD for each")
+    for w in doc.get("warnings", []):
+        say(f"warning: {w}")
 
 
 def run() -> None:

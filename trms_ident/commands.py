@@ -36,12 +36,12 @@ class EstimateOutput:
 
 
 def estimate_file(log_path: str | Path, settings: Settings, out_dir: str | Path | None,
-                  *, angle_unit: str = "rad", html: bool = True, truth_file: str | Path | None = None
-                  ) -> EstimateOutput:
+                  *, angle_unit: str = "rad", html: bool = True, truth_file: str | Path | None = None,
+                  signals: list[str] | None = None, time_source: str = "auto") -> EstimateOutput:
     """Identify J1, B1, J2, B2 from one log; write report.html, traces.csv and result.json to out_dir."""
     warm = threading.Thread(target=_load_numerics, daemon=True)  # overlaps with reading the log
     warm.start()
-    log = read_log(log_path, angle_unit=angle_unit)
+    log = read_log(log_path, angle_unit=angle_unit, signals=signals, time_source=time_source)
     warm.join()
     from .identify import identify
 

@@ -10,14 +10,33 @@ from .csv_log import check_readable, read_csv_log
 LOG_SUFFIXES = (".csv", ".mcap")
 
 
-def read_log(path: str | Path, angle_unit: str = "rad") -> Log:
+def read_log(path: str | Path, angle_unit: str = "rad", signals: list[str] | None = None,
+             time_source: str = "auto") -> Log:
+    """Read a CSV or MCAP log; ``signals``/``time_source`` apply to MCAP (see mcap_log)."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".mcap":
-        from .mcap_log import read_mcap_log  # optional heavy import, only when needed
+        from .mcap_log import read_mcap_log  # mcap and its decoders only when needed
 
-        return read_mcap_log(path, angle_unit=angle_unit)
+        return read_mcap_log(path, angle_unit=angle_unit, signals=signals, time_source=time_source)
+    if signals:
+        from ..errors import SettingsError
+
+        raise SettingsError(f"--signal applies to MCAP logs; {path} is a CSV file with fixed column names")
     if suffix in (".csv", ".txt", ".tsv"):
         return read_csv_log(path, angle_unit=angle_unit)
     check_readable(path)  # a missing file is reported as missing, not as a format problem
     raise LogFormatError(f"{path}: unknown log type {suffix or '(no suffix)'!r}; expected .csv or .mcap")
+
+
+def describe(path: str | Path) -> dict:
+    """What ``inspect`` shows: an MCAP's topics and fields, or a CSV log's columns and sampling."""
+    path = Path(path)
+    if path.suffix.lower() == ".mcap":
+        from .mcap_log import inspect_mcap
+
+        return inspect_mcap(path)
+    log = read_log(path)
+    return {"file": str(path), "bytes": path.stat().st_size, "duration_s": log.duration_s,
+            "samples": len(log), "sample_time_s": log.sample_time_s, "columns": ["t", "u1", "u2", "alpha", "beta"],
+            "sha256": log.sha256}
