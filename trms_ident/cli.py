@@ -2,7 +2,8 @@
 
 Exit codes (also in README): 0 ok, 1 internal error, 2 usage or bad option value,
 3 input file missing or unreadable, 4 log unusable, 5 parameter file invalid,
-6 log does not excite the parameters, 7 output cannot be written.
+6 log does not excite the parameters, 7 output cannot be written,
+8 batch: some logs failed, 9 batch: every log failed.
 """
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from typing import Annotated, Optional
 import typer
 
 from . import __version__
-from .errors import EXIT_INTERNAL, SettingsError, TrmsError
+from .errors import EXIT_ALL_FAILED, EXIT_INTERNAL, EXIT_SOME_FAILED, SettingsError, TrmsError
 from .settings import GAIN_CONVENTIONS, HEADLINES, Settings
 from .params import ESTIMATED, THRUST_LAWS, UNITS, load_parameter_file
 
@@ -108,6 +109,51 @@ def emit_json(doc: dict, target: str) -> None:
         write_text(target, to_json(doc))
 
 
+# ---- options shared by estimate and batch (defined once) ----------------------------------------
+ParamsOpt = Annotated[Optional[Path], typer.Option("--params", help="TOML file overriding known parameters.")]
+AOpt = Annotated[str, typer.Option("--a", help="Bandwidth of F(s), eq. (3) [rad/s], or 'auto': designed from the "
+                                   "log's noise level and excitation.")]
+BOpt = Annotated[str, typer.Option("--b", help="Bandwidth of H(s), eq. (5) [rad/s], or 'auto' (2 a).")]
+GainOpt = Annotated[str, typer.Option("--gain-convention", help=f"Filter gains: 'unit' (a^2/(s+a)^2, DC gain 1) or "
+                                      f"'paper' (a/(s+a)^2 exactly as printed). One of {GAIN_CONVENTIONS}.")]
+GammaOpt = Annotated[str, typer.Option("--gamma", help="Gradient gain of eq. (8): 'auto' (normalized), a number, "
+                                       "or J1=..,B1=..,J2=..,B2=..")]
+SettleOpt = Annotated[float, typer.Option("--settle", help="Auto gain: time for the trace error to fall to 1 % [s].")]
+LawOpt = Annotated[str, typer.Option("--thrust-law", help=f"One of {tuple(THRUST_LAWS)}.")]
+HeadlineOpt = Annotated[str, typer.Option("--headline", help=f"Which number is the estimate: {HEADLINES}.")]
+AngleOpt = Annotated[str, typer.Option("--angle-unit", help="Unit of the logged angles: rad or deg.")]
+NoReportOpt = Annotated[bool, typer.Option("--no-report", help="Skip the HTML report.")]
+SignalOpt = Annotated[Optional[list[str]], typer.Option("--signal", help="MCAP: where a signal comes from, "
+                                                        "NAME=TOPIC:FIELD, e.g. alpha=/arm/joint_states:position[pitch] "
+                                                        "(repeatable; see `inspect`).")]
+TimeSourceOpt = Annotated[str, typer.Option("--time-source", help="MCAP message time: auto (header.stamp when "
+                                            "present, else log time), header, log or publish.")]
+
+
+def build_settings(a: str, b: str, gain_convention: str, gamma: str, settle: float, thrust_law: str, headline: str,
+                   params: Path | None, angle_unit: str) -> Settings:
+    if angle_unit not in ("rad", "deg"):
+        raise SettingsError(f"--angle-unit {angle_unit!r}: expected rad or deg")
+    settings = Settings(filter_a_rad_s=parse_auto("--a", a), filter_b_rad_s=parse_auto("--b", b),
+                        gain_convention=gain_convention, gamma=parse_gamma(gamma), settle_time_s=settle,
+                        thrust_law=thrust_law, headline=headline,
+                        overrides=load_parameter_file(params) if params else {})
+    settings.validate()
+    return settings
+
+
+def stage_reporter(label: str):
+    """A one-line status on a terminal for long single-log work; silent when stderr is piped."""
+    if not sys.stderr.isatty():
+        return None
+
+    def report(stage: str) -> None:
+        sys.stderr.write(f"\r\033[K{label}: {stage}...")
+        sys.stderr.flush()
+
+    return report
+
+
 @app.command()
 @handled
 def estimate(
@@ -115,40 +161,30 @@ def estimate(
     out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Folder for report.html, traces.csv, "
                                                 "result.json [default: ./<log name>_ident].")] = None,
     json_path: Annotated[Optional[str], typer.Option("--json", help="Also write the result JSON here; '-' = stdout.")] = None,
-    params: Annotated[Optional[Path], typer.Option("--params", help="TOML file overriding known parameters.")] = None,
-    a: Annotated[str, typer.Option("--a", help="Bandwidth of F(s), eq. (3) [rad/s], or 'auto': designed from the "
-                                   "log's noise level and excitation.")] = "auto",
-    b: Annotated[str, typer.Option("--b", help="Bandwidth of H(s), eq. (5) [rad/s], or 'auto' (2 a).")] = "auto",
-    gain_convention: Annotated[str, typer.Option(help=f"Filter gains: 'unit' (a^2/(s+a)^2, DC gain 1) or 'paper' "
-                                                 f"(a/(s+a)^2 exactly as printed). One of {GAIN_CONVENTIONS}.")] = "unit",
-    gamma: Annotated[str, typer.Option(help="Gradient gain of eq. (8): 'auto' (normalized), a number, or "
-                                       "J1=..,B1=..,J2=..,B2=..")] = "auto",
-    settle: Annotated[float, typer.Option("--settle", help="Auto gain: time for the trace error to fall to 1 % [s].")
-                      ] = Settings.settle_time_s,
-    thrust_law: Annotated[str, typer.Option(help=f"One of {tuple(THRUST_LAWS)}.")] = "quadratic",
-    headline: Annotated[str, typer.Option(help=f"Which number is the estimate: {HEADLINES}.")] = "offline",
-    angle_unit: Annotated[str, typer.Option(help="Unit of the logged angles: rad or deg.")] = "rad",
+    params: ParamsOpt = None,
+    a: AOpt = "auto",
+    b: BOpt = "auto",
+    gain_convention: GainOpt = "unit",
+    gamma: GammaOpt = "auto",
+    settle: SettleOpt = Settings.settle_time_s,
+    thrust_law: LawOpt = "quadratic",
+    headline: HeadlineOpt = "offline",
+    angle_unit: AngleOpt = "rad",
     truth: Annotated[Optional[Path], typer.Option(help="Ground-truth JSON [default: <log>.truth.json if present].")] = None,
-    no_report: Annotated[bool, typer.Option("--no-report", help="Skip the HTML report.")] = False,
-    signal: Annotated[Optional[list[str]], typer.Option("--signal", help="MCAP: where a signal comes from, "
-                                                        "NAME=TOPIC:FIELD, e.g. alpha=/arm/joint_states:position[pitch] "
-                                                        "(repeatable; see `inspect`).")] = None,
-    time_source: Annotated[str, typer.Option(help="MCAP message time: auto (header.stamp when present, else log "
-                                             "time), header, log or publish.")] = "auto",
+    no_report: NoReportOpt = False,
+    signal: SignalOpt = None,
+    time_source: TimeSourceOpt = "auto",
 ) -> None:
     """Estimate J1, B1, J2, B2 from a log and write a report."""
     from .commands import estimate_file
 
-    if angle_unit not in ("rad", "deg"):
-        raise SettingsError(f"--angle-unit {angle_unit!r}: expected rad or deg")
-    settings = Settings(filter_a_rad_s=parse_auto("--a", a), filter_b_rad_s=parse_auto("--b", b),
-                        gain_convention=gain_convention,
-                        gamma=parse_gamma(gamma), settle_time_s=settle, thrust_law=thrust_law, headline=headline,
-                        overrides=load_parameter_file(params) if params else {})
-    settings.validate()
+    settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit)
     out_dir = out if out is not None else Path(f"{log.name.split('.')[0]}_ident")
+    progress = stage_reporter(str(log))
     res = estimate_file(log, settings, out_dir, angle_unit=angle_unit, html=not no_report, truth_file=truth,
-                        signals=signal, time_source=time_source)
+                        signals=signal, time_source=time_source, on_stage=progress)
+    if progress:
+        sys.stderr.write("\r\033[K")
     for warning in filter(None, [res.log.meta.get("warnings")]):
         say(f"warning: {warning}")
     s = res.summary
@@ -170,6 +206,71 @@ def estimate(
     say("wrote " + ", ".join(str(p) for p in res.written))
     if json_path:
         emit_json(s, json_path)
+
+
+@app.command()
+@handled
+def batch(
+    inputs: Annotated[list[str], typer.Argument(help="Folders (searched recursively), glob patterns or log files.",
+                                                show_default=False)],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Folder for one output folder per log, summary.csv, "
+                                      "summary.json and index.html.")] = Path("batch_out"),
+    jobs: Annotated[int, typer.Option("--jobs", "-j", help="Worker processes on this machine.")] = 1,
+    scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="Run on a Dask distributed cluster at this "
+                                                     "address, e.g. tcp://10.0.0.5:8786 (needs trms-ident[dask]).")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Redo logs whose outputs are up to date.")] = False,
+    json_path: Annotated[Optional[str], typer.Option("--json", help="Also write summary.json here; '-' = stdout.")] = None,
+    params: ParamsOpt = None,
+    a: AOpt = "auto",
+    b: BOpt = "auto",
+    gain_convention: GainOpt = "unit",
+    gamma: GammaOpt = "auto",
+    settle: SettleOpt = Settings.settle_time_s,
+    thrust_law: LawOpt = "quadratic",
+    headline: HeadlineOpt = "offline",
+    angle_unit: AngleOpt = "rad",
+    no_report: NoReportOpt = False,
+    signal: SignalOpt = None,
+    time_source: TimeSourceOpt = "auto",
+) -> None:
+    """Estimate every CSV and MCAP log under folders or globs; carry on past bad files; write a summary.
+
+    Exit code 0 when every log succeeded, 8 when some failed, 9 when all failed."""
+    from . import batch as batch_mod
+
+    if jobs < 1:
+        raise SettingsError(f"--jobs {jobs}: expected 1 or more")
+    settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit)
+    paths = batch_mod.discover(inputs, out)
+    if not paths:
+        raise SettingsError(f"no .csv or .mcap logs found in {' '.join(inputs)}")
+    options = {"html": not no_report, "signals": signal, "time_source": time_source, "angle_unit": angle_unit}
+    if force:
+        options["force_token"] = os.urandom(8).hex()
+    bar = None
+    if sys.stderr.isatty():
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+        bar = Progress(TextColumn("batch"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(), transient=True)
+        task = bar.add_task("logs", total=len(paths))
+        bar.start()
+    try:
+        rows = batch_mod.run(paths, out, settings, options, jobs=jobs, scheduler=scheduler,
+                             on_done=(lambda row: bar.advance(task)) if bar else None)
+    finally:
+        if bar:
+            bar.stop()
+    written = batch_mod.write_summary(out, rows)
+    ok = sum(r["status"] == "ok" for r in rows)
+    skipped = sum(r["skipped"] for r in rows)
+    for r in rows:
+        if r["status"] != "ok":
+            say(f"failed: {r['error']}")
+    say(f"{ok} ok ({skipped} up to date, skipped), {len(rows) - ok} failed; wrote " + ", ".join(map(str, written)))
+    if json_path:
+        emit_json(json.loads((out / "summary.json").read_text()), json_path)
+    if ok < len(rows):
+        raise typer.Exit(EXIT_ALL_FAILED if ok == 0 else EXIT_SOME_FAILED)
 
 
 def parse_effect(text: str) -> dict:

@@ -5,7 +5,7 @@ import threading
 from dataclasses import dataclass
 from pathlib import Path
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable
 
 from .io.atomic import write_text
 from .io.csv_log import truth_path
@@ -37,13 +37,18 @@ class EstimateOutput:
 
 def estimate_file(log_path: str | Path, settings: Settings, out_dir: str | Path | None,
                   *, angle_unit: str = "rad", html: bool = True, truth_file: str | Path | None = None,
-                  signals: list[str] | None = None, time_source: str = "auto") -> EstimateOutput:
+                  signals: list[str] | None = None, time_source: str = "auto",
+                  on_stage: Callable[[str], None] | None = None) -> EstimateOutput:
     """Identify J1, B1, J2, B2 from one log; write report.html, traces.csv and result.json to out_dir."""
+    stage = on_stage or (lambda _: None)
     warm = threading.Thread(target=_load_numerics, daemon=True)  # overlaps with reading the log
     warm.start()
+    stage("reading")
     log = read_log(log_path, angle_unit=angle_unit, signals=signals, time_source=time_source)
     warm.join()
     from .identify import identify
+
+    stage("identifying")
 
     result = identify(log, settings)
     tpath = Path(truth_file) if truth_file else truth_path(log_path)
@@ -56,6 +61,7 @@ def estimate_file(log_path: str | Path, settings: Settings, out_dir: str | Path 
         write_traces(out / "traces.csv", result)
         written += [out / "result.json", out / "traces.csv"]
         if html:
+            stage("drawing the report")
             write_text(out / "report.html", render(summary, result, log))
             written.append(out / "report.html")
     return EstimateOutput(log, result, summary, written)

@@ -9,6 +9,8 @@ EXIT_BAD_LOG = 4
 EXIT_BAD_PARAMETERS = 5
 EXIT_NOT_IDENTIFIABLE = 6
 EXIT_OUTPUT = 7
+EXIT_SOME_FAILED = 8  # batch: at least one log failed, at least one succeeded
+EXIT_ALL_FAILED = 9  # batch: every log failed
 
 
 class TrmsError(Exception):

@@ -329,8 +329,9 @@ def read_mcap_log(path: str | Path, angle_unit: str = "rad", signals: list[str] 
     topics = {ch.topic for ch in s.channels.values()}
     for topic, srcs in wanted.items():
         if topic not in topics:
+            note = f" ({s.warnings[0]})" if s.warnings else ""
             raise LogFormatError(f"{path}: no topic {topic} (needed for {', '.join(x.signal for x in srcs)}); "
-                                 f"topics: {', '.join(sorted(topics)) or 'none'}; map others with --signal")
+                                 f"topics: {', '.join(sorted(topics)) or 'none'}; map others with --signal{note}")
         if not s.series[topic].time_ns:
             raise LogFormatError(f"{path}: topic {topic} has no messages (needed for "
                                  f"{', '.join(x.signal for x in srcs)})")

@@ -1,0 +1,95 @@
+"""Batch over a folder: nothing lost, failures carried past, exit codes, re-runs, and Dask."""
+import json
+import os
+
+import pytest
+from typer.testing import CliRunner
+
+from trms_ident.cli import app
+from trms_ident.errors import EXIT_ALL_FAILED, EXIT_SOME_FAILED, EXIT_USAGE
+from trms_ident.io.csv_log import write_csv_log
+from trms_ident.io.mcap_log import write_mcap_log
+
+from .conftest import sim_cached
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    """20 logs: 14 CSV and 4 MCAP that are fine, 2 broken (a CSV without beta, a truncated MCAP)."""
+    d = tmp_path_factory.mktemp("lab")
+    (d / "day2").mkdir()
+    for i in range(18):
+        r = sim_cached("steps", 100.0, 12.0, 0.0, 0.0, i)
+        cols = (r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad)
+        if i < 14:
+            write_csv_log(d / f"run{i:02d}.csv", *cols)
+        else:
+            write_mcap_log(d / "day2" / f"run{i:02d}.mcap", *cols)
+    (d / "broken.csv").write_text("t,u1,u2,alpha\n0,1,2,3\n")
+    (d / "day2" / "cut.mcap").write_bytes((d / "day2" / "run14.mcap").read_bytes()[:2000])
+    return d
+
+
+def _batch(inputs, out, *extra):
+    res = runner.invoke(app, ["batch", *map(str, inputs), "-o", str(out), "--no-report", *extra])
+    assert "Traceback" not in res.output
+    return res
+
+
+def test_folder_of_20_with_2_broken(folder, tmp_path):
+    out = tmp_path / "out"
+    res = _batch([folder], out, "--jobs", "2")
+    assert res.exit_code == EXIT_SOME_FAILED, res.output
+    doc = json.loads((out / "summary.json").read_text())
+    assert len(doc["files"]) == 20 and doc["ok"] == 18 and doc["failed"] == 2
+    failed = {os.path.basename(f["path"]): f["error"] for f in doc["files"] if f["status"] == "failed"}
+    assert set(failed) == {"broken.csv", "cut.mcap"}
+    assert "missing column(s) beta" in failed["broken.csv"]
+    assert "truncated" in failed["cut.mcap"]
+    for f in doc["files"]:
+        if f["status"] == "ok":
+            assert f["estimates"]["J1"] == pytest.approx(0.068, rel=0.01)
+            assert (tmp_path / "out" / os.path.basename(f["output"]) / "result.json").exists()
+    assert len((out / "summary.csv").read_text().strip().splitlines()) == 21
+    assert "18 ok, 2 failed" in (out / "index.html").read_text()
+    assert "18 ok (0 up to date, skipped), 2 failed" in res.output
+
+    # same results with one process; re-runs skip what is up to date, and redo a changed log
+    again = _batch([folder], out)
+    assert "18 ok (18 up to date, skipped), 2 failed" in again.output
+    os.utime(folder / "run03.csv")
+    third = _batch([folder], out)
+    assert "18 ok (17 up to date, skipped), 2 failed" in third.output
+    serial = json.loads((out / "summary.json").read_text())
+    assert [f["estimates"] for f in serial["files"]] == [f["estimates"] for f in doc["files"]]
+
+
+def test_all_failed_and_nothing_found(folder, tmp_path):
+    res = _batch([folder / "broken.csv"], tmp_path / "o")
+    assert res.exit_code == EXIT_ALL_FAILED
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    res = _batch([empty], tmp_path / "o2")
+    assert res.exit_code == EXIT_USAGE and "no .csv or .mcap logs found" in res.output
+    res = _batch([tmp_path / "nope*.csv"], tmp_path / "o3")
+    assert res.exit_code == EXIT_USAGE and "no such file, folder or matching pattern" in res.output
+
+
+def test_dask_cluster_gives_the_same_summary(folder, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    local = _batch([folder], tmp_path / "local", "--jobs", "2")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        res = _batch([folder], tmp_path / "dask", "--scheduler", cluster.scheduler_address)
+    assert res.exit_code == local.exit_code == EXIT_SOME_FAILED, res.output
+    a = json.loads((tmp_path / "local" / "summary.json").read_text())["files"]
+    b = json.loads((tmp_path / "dask" / "summary.json").read_text())["files"]
+    assert [(f["path"], f["status"], f["error"], f["estimates"]) for f in a] == \
+           [(f["path"], f["status"], f["error"], f["estimates"]) for f in b]
+
+
+def test_unreachable_scheduler(folder, tmp_path):
+    pytest.importorskip("distributed")
+    res = _batch([folder / "run00.csv"], tmp_path / "o", "--scheduler", "tcp://127.0.0.1:1")
+    assert res.exit_code == EXIT_USAGE and "cannot connect" in res.output
