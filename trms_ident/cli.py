@@ -273,6 +273,60 @@ def batch(
         raise typer.Exit(EXIT_ALL_FAILED if ok == 0 else EXIT_SOME_FAILED)
 
 
+@app.command()
+@handled
+def diagnose(
+    log: Annotated[Path, typer.Argument(help="Log file: CSV or MCAP.", show_default=False)],
+    json_path: Annotated[Optional[str], typer.Option("--json", help="Write the diagnosis JSON here; '-' = stdout.")] = None,
+    report: Annotated[Optional[Path], typer.Option("--report", help="Folder for report.html (figures) and "
+                                                   "diagnosis.json.")] = None,
+    params: ParamsOpt = None,
+    a: AOpt = "auto",
+    thrust_law: LawOpt = "quadratic",
+    angle_unit: AngleOpt = "rad",
+    signal: SignalOpt = None,
+    time_source: TimeSourceOpt = "auto",
+) -> None:
+    """Find where the model and the recording disagree, name the missing physics, fit it, show the gain."""
+    from .diagnose.run import diagnose as run_diagnosis
+    from .io.atomic import write_text
+    from .io.readers import read_log
+    from .report.diagnosis import render, to_doc
+    from .report.summary import to_json
+
+    if angle_unit not in ("rad", "deg"):
+        raise SettingsError(f"--angle-unit {angle_unit!r}: expected rad or deg")
+    if thrust_law not in THRUST_LAWS:
+        raise SettingsError(f"thrust law must be one of {tuple(THRUST_LAWS)}, got {thrust_law!r}")
+    overrides = load_parameter_file(params) if params else {}
+    progress = stage_reporter(str(log))
+    progress and progress("reading")
+    data = read_log(log, angle_unit=angle_unit, signals=signal, time_source=time_source)
+    progress and progress("testing candidate effects")
+    d = run_diagnosis(data, overrides, thrust_law, parse_auto("--a", a))
+    if progress:
+        sys.stderr.write("\r\033[K")
+    doc = to_doc(d, data)
+    fits = ", ".join(f"{k} {v:.2f} %" for k, v in d.fit_before.items())
+    if not d.mismatch:
+        say(f"{log}: no mismatch found: the seed model explains the log (fit {fits}; "
+            f"{d.settings['candidates']} candidate effects tested)")
+    else:
+        say(f"{log}: the seed model misses {len(d.findings)} effect(s) (fit {fits})")
+        for i, f in enumerate(d.findings, 1):
+            say(f"  {i}. {f.effect} on {f.axis}: {f.parameter['name']} = {f.parameter['value']:.4g} "
+                f"{f.parameter['unit']}")
+            say(f"     {f.explanation[0].upper() + f.explanation[1:]}.")
+            say(f"     fit {f.fit_before:.2f} % -> {f.fit_after:.2f} %; {f.evidence}")
+        say("  estimates  " + "  ".join(f"{k} {d.nominal[k]:.5g} -> {d.augmented[k]:.5g}" for k in ESTIMATED))
+    if report is not None:
+        write_text(report / "diagnosis.json", to_json(doc))
+        write_text(report / "report.html", render(doc, d, data))
+        say(f"wrote {report / 'report.html'}, {report / 'diagnosis.json'}")
+    if json_path:
+        emit_json(doc, json_path)
+
+
 def parse_effect(text: str) -> dict:
     """'name=value' or 'name:axis=value' (e.g. coulomb_friction:yaw=0.01)."""
     try:

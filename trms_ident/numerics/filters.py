@@ -8,6 +8,7 @@ the signal is assumed constant before the log begins (a bench at rest).
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,6 +33,12 @@ class DiscreteFilter:
 
 def discretize(num, den, dt_s: float, method: str) -> DiscreteFilter:
     """Discretize num(s)/den(s) (coefficients highest power first) at sample time ``dt_s`` [s]."""
+    return _discretize(tuple(np.atleast_1d(np.asarray(num, dtype=float)).tolist()),
+                       tuple(np.atleast_1d(np.asarray(den, dtype=float)).tolist()), float(dt_s), method)
+
+
+@functools.lru_cache(maxsize=256)
+def _discretize(num: tuple, den: tuple, dt_s: float, method: str) -> DiscreteFilter:
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     num = np.atleast_1d(np.asarray(num, dtype=float))

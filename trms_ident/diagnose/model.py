@@ -1,0 +1,157 @@
+"""Filtered regressions of the seed model extended by candidate effects (reference path, scipy filters).
+
+A model = input modifications (dead zone, saturation, delay, motor time constant) applied to
+the logged voltages before the plant signals are formed, plus extra linear regressors: torques
+per unit parameter phi added to the right-hand side of eq. (1),
+
+    J x'' + B x' = y + sum theta_j phi_j   =>   F[y] = J F[s^2 x] + B F[s x] - sum theta_j F[phi_j]   (eq. 3)
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import signal
+
+from ..log import Log
+from ..numerics.filters import discretize, second_order_lowpass
+from ..numerics.regressors import filtered_regression, plant_signals
+
+AXIS_ANGLE = {"pitch": "alpha_rad", "yaw": "beta_rad"}
+
+
+@dataclass(frozen=True)
+class Model:
+    mods: tuple = ()  # ((candidate key, value), ...) for grid candidates
+    linear: tuple = ()  # candidate keys of extra regressors
+
+    def with_mod(self, key: str, value: float) -> "Model":
+        return Model(tuple((k, v) for k, v in self.mods if k != key) + ((key, value),), self.linear)
+
+    def with_linear(self, key: str) -> "Model":
+        return Model(self.mods, self.linear + (key,))
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        return tuple(k for k, _ in self.mods) + self.linear
+
+
+@dataclass
+class Regression:
+    """Per axis: target g and design columns (J, B, extra thetas), with column names."""
+
+    g: dict[str, np.ndarray]
+    x: dict[str, np.ndarray]
+    names: dict[str, list[str]] = field(default_factory=dict)
+
+
+def smoothed_velocity(x: np.ndarray, dt: float) -> np.ndarray:
+    """Zero-phase low-passed central difference [rad/s] (offline: the diagnosis may look ahead)."""
+    v = np.gradient(x, dt)
+    fc = min(8.0, 0.2 / dt)  # Hz
+    b, a = signal.butter(2, fc * 2 * dt)
+    return signal.filtfilt(b, a, v) if x.size > 12 else v
+
+
+def modified_inputs(log: Log, mods: dict) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Voltages as the plant would see them under the input modifications; parameter changes."""
+    u1, u2 = log.u1_v.copy(), log.u2_v.copy()
+    changes = {}
+    dt = log.sample_time_s
+    for key, v in mods.items():
+        effect, axis = key.split(":")
+        if effect == "input_delay":
+            u1, u2 = _delay(u1, v / dt), _delay(u2, v / dt)
+        elif effect == "dead_zone":
+            u = u1 if axis == "pitch" else u2
+            u[np.abs(u) < v] = 0.0
+        elif effect == "input_saturation":
+            u = u1 if axis == "pitch" else u2
+            np.clip(u, -v, v, out=u)
+        elif effect == "motor_lag":
+            changes["T11" if axis == "pitch" else "T21"] = v
+    return u1, u2, changes
+
+
+def _delay(u: np.ndarray, samples: float) -> np.ndarray:
+    """u(t - d) for a held signal: whole samples shifted, the fraction as the interval's average."""
+    m = int(math.floor(samples))
+    r = samples - m
+    pad = lambda k: np.concatenate([np.full(k, u[0]), u[:u.size - k]]) if k > 0 else u  # noqa: E731
+    return (1 - r) * pad(m) + r * pad(m + 1)
+
+
+#: input modifications that change each axis' right-hand side (pitch sees u1 and T11 only; yaw sees
+#: u2, T21 and, through the reaction moment M_R, u1 and T11 too)
+_PITCH_MODS = ("dead_zone:pitch", "input_saturation:pitch", "input_delay:both", "motor_lag:pitch")
+
+
+def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache: dict | None = None) -> Regression:
+    """g, design columns per axis; the angle regressors and unchanged targets come from ``cache``."""
+    cache = cache if cache is not None else {}
+    mods = dict(model.mods)
+    dt = log.sample_time_s
+    num, den = second_order_lowpass(a_rad_s, a_rad_s * a_rad_s)
+    f = cache.get(("F", a_rad_s))
+    if f is None:
+        f = cache[("F", a_rad_s)] = discretize(num, den, dt, "bilinear")
+    keys = {"pitch": ("g", "pitch", a_rad_s, tuple(sorted((k, v) for k, v in mods.items() if k in _PITCH_MODS))),
+            "yaw": ("g", "yaw", a_rad_s, tuple(sorted(mods.items())))}
+    need_ps = any(keys[ax] not in cache for ax in keys) or "sensor_offset:pitch" in model.linear
+    ps = pp = None
+    if need_ps:
+        u1, u2, changes = modified_inputs(log, mods)
+        pp = {**p, **changes}
+        ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, dt, pp, law)
+    reg = Regression({}, {}, {})
+    for axis in ("pitch", "yaw"):
+        x = getattr(log, AXIS_ANGLE[axis])
+        mkey = ("m", axis, a_rad_s)
+        if mkey not in cache:
+            _, cache[mkey] = filtered_regression(np.zeros_like(x), x, dt, a_rad_s, a_rad_s * a_rad_s)
+        if keys[axis] not in cache:
+            cache[keys[axis]] = f.apply(ps.y_pitch_nm if axis == "pitch" else ps.y_yaw_nm)  # eq. (3)
+            if len(cache) > 400:  # bound the memory of long searches
+                for k in [k for k in cache if k[0] == "g" and k != keys["pitch"] and k != keys["yaw"]][:100]:
+                    del cache[k]
+        m = cache[mkey]
+        cols, names = [m[:, 0], m[:, 1]], ["J", "B"]
+        for key in model.linear:
+            effect, ax = key.split(":")
+            if ax != axis:
+                continue
+            ck = ("phi", key, a_rad_s)
+            if effect == "sensor_offset":
+                col = -f.apply(phi(effect, axis, log, pp, ps, cache))
+            elif ck in cache:
+                col = cache[ck]
+            else:
+                col = cache[ck] = -f.apply(phi(effect, axis, log, p, None, cache))
+            cols.append(col)
+            names.append(key)
+        reg.g[axis], reg.x[axis], reg.names[axis] = cache[keys[axis]], np.column_stack(cols), names
+    return reg
+
+
+def phi(effect: str, axis: str, log: Log, p: dict, ps, cache: dict) -> np.ndarray:
+    """Torque per unit parameter that the effect adds to the right-hand side of eq. (1) [N m / unit]."""
+    dt = log.sample_time_s
+    x = getattr(log, AXIS_ANGLE[axis])
+    vkey = ("velocity", axis)
+    if vkey not in cache:
+        cache[vkey] = smoothed_velocity(x, dt)
+    w = cache[vkey]
+    if effect == "coulomb_friction":
+        scale = max(3.0 * float(np.median(np.abs(np.diff(w)))) / dt * dt, 1e-4)  # below this, sign is noise
+        return -np.tanh(w / scale)
+    if effect == "quadratic_drag":
+        return -w * np.abs(w)
+    if effect == "cable_stiffness":
+        return -x
+    if effect == "com_offset":  # -Mg sin(a + d) = -Mg sin a - d Mg cos a
+        return -p["Mg"] * np.cos(x)
+    if effect == "sensor_offset":  # true angle = logged - d
+        dbeta = ps.dbeta_rad_s
+        return p["Mg"] * np.cos(x) - p["Kg"] * ps.M1_nm * dbeta * np.sin(x)
+    raise ValueError(f"no regressor for {effect}")

@@ -1,0 +1,271 @@
+"""diagnose(log) -> Diagnosis: mismatch yes/no, findings with physics, parameters and fit before/after."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..log import Log
+from ..numerics.design import design_filters
+from ..numerics.stats import block_length
+from ..params import merge
+from .effects import BY_KEY, CANDIDATES, UNOBSERVABLE, Candidate
+from .locate import lag_profile, regimes, segments
+from .model import AXIS_ANGLE, Model, modified_inputs, regression, smoothed_velocity
+from .predict import HORIZON_S, nrmse_fit, predict
+from .select import compare, score
+
+MAX_FINDINGS = 3
+#: two candidates whose fitted contributions correlate this much and whose gains are this close
+#: cannot be told apart with the log's excitation
+ALIAS_CORRELATION = 0.95
+ALIAS_GAIN_RATIO = 0.8
+
+
+@dataclass
+class Finding:
+    effect: str
+    axis: str
+    parameter: dict
+    fit_before: float
+    fit_after: float
+    evidence: str
+    explanation: str
+    gain: float
+    t: float
+    p: float
+    alternatives: list = field(default_factory=list)
+    shift: dict = field(default_factory=dict)
+
+
+@dataclass
+class Diagnosis:
+    mismatch: bool
+    findings: list[Finding]
+    nominal: dict
+    augmented: dict
+    fit_before: dict  # axis -> NRMSE %
+    fit_after: dict
+    segments: dict
+    regimes: dict
+    lag: dict
+    tested: list[dict]
+    settings: dict
+    residual: dict  # axis -> (t, residual before, residual after)
+    overlay: dict  # axis -> (t, measured, predicted before, predicted after)
+    velocity: dict  # axis -> smoothed velocity [rad/s] used for the regressors and the regimes
+
+
+def _axes_of(c: Candidate) -> tuple[str, ...]:
+    if c.effect in ("input_delay",):
+        return ("pitch", "yaw")
+    if c.kind == "grid" and c.axis == "pitch":  # u1 also drives the yaw axis through M_R
+        return ("pitch", "yaw")
+    return (c.axis,) if c.axis != "both" else ("pitch", "yaw")
+
+
+def _grid(c: Candidate, log: Log, p: dict) -> tuple[float, ...]:
+    dt = log.sample_time_s
+    if c.effect == "input_delay":
+        g = [dt * s for s in (0.5, 1, 1.5, 2, 3, 4, 5, 6, 8, 10, 12, 15, 19, 24, 30, 38, 48)]
+        return tuple(d for d in g if d <= 0.25)
+    if c.effect == "motor_lag":
+        nominal = p["T11" if c.axis == "pitch" else "T21"]
+        return tuple(nominal * 0.55 * 1.07 ** i for i in range(18))
+    if c.effect == "input_saturation":
+        umax = float(np.max(np.abs(log.u1_v if c.axis == "pitch" else log.u2_v)))
+        return tuple(v for v in c.grid if v < 0.99 * umax)
+    return c.grid
+
+
+def _refine(grid, gains, best_i):
+    """Parabolic refinement of the best grid point (in log space for positive grids)."""
+    if 0 < best_i < len(grid) - 1:
+        x = np.log(np.array(grid[best_i - 1:best_i + 2]))
+        y = np.array(gains[best_i - 1:best_i + 2])
+        den = (y[0] - 2 * y[1] + y[2])
+        if den < 0:
+            shift = 0.5 * (y[0] - y[2]) / den
+            return float(np.exp(x[1] + shift * (x[2] - x[1])))
+    return float(grid[best_i])
+
+
+def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_rad_s: float | None = None) -> Diagnosis:
+    p = merge(overrides or {}, source="parameter overrides")
+    dt = log.sample_time_s
+    a = a_rad_s or design_filters(log.alpha_rad, log.beta_rad, dt).a_rad_s
+    block = block_length(len(log), dt, 1.0 / a)
+    ids = np.minimum(np.arange(len(log)) // block, max(len(log) // block, 1) - 1)
+    cache: dict = {}
+    axes = ("pitch", "yaw")
+    current = Model()
+    base_reg = regression(log, p, law, a, current, cache)
+    base = score(base_reg, ids, axes)
+    nominal = _estimates(base, base_reg)
+    tested, findings = [], []
+    cands = [c for c in CANDIDATES]
+    n_tests = len(cands)
+    reg_now, score_now = base_reg, base
+    for _ in range(MAX_FINDINGS):
+        results = []
+        for c in cands:
+            if c.key in current.keys:
+                continue
+            res = _try(c, log, p, law, a, current, cache, ids, score_now, n_tests)
+            if res is not None:
+                results.append(res)
+        if not findings:
+            tested = [{"effect": r["c"].effect, "axis": r["c"].axis, "held_out_gain": r["test"].gain,
+                       "t": r["test"].t, "p": r["test"].p, "passed": r["test"].passed,
+                       "parameter": r["value"]} for r in results]
+        ok = [r for r in results if r["test"].passed and _plausible(r["c"], r["value"])]
+        if not ok:
+            break
+        ok.sort(key=lambda r: -r["test"].gain)
+        best = ok[0]
+        alts = [r["c"].key for r in ok[1:] if r["test"].gain >= ALIAS_GAIN_RATIO * best["test"].gain and
+                _alias(best, r) and not _separable(best, r)]
+        current = best["model"]
+        reg_now, score_now = best["reg"], best["score"]
+        findings.append((best, alts))
+    augmented = _estimates(score_now, reg_now)
+    values = _effect_values(current, score_now, reg_now)
+    fit_before, over_before = _fits(log, p, law, Model(), {}, nominal)
+    fit_after, over_after = _fits(log, p, law, current, values, augmented)
+    out = []
+    for best, alts in findings:
+        c = best["c"]
+        v = values[c.key]
+        axes_c = _axes_of(c)
+        shift = {k: 100.0 * (nominal[k] / augmented[k] - 1.0) for k in ("J1", "B1", "J2", "B2")}
+        fb = min(fit_before[x] for x in axes_c if x in fit_before)
+        fa = min(fit_after[x] for x in axes_c if x in fit_after)
+        evidence = (f"held-out equation-error RSS {-100 * best['test'].gain:+.1f} % (t = {best['test'].t:.1f} over "
+                    f"{int(ids.max()) + 1} blocks, p = {best['test'].p:.1e}); leaving it out shifted "
+                    + ", ".join(f"{k} by {shift[k]:+.2g} %" for k in _params_of(axes_c)))
+        if alts:
+            evidence += "; cannot be told apart with this excitation from " + ", ".join(alts)
+        out.append(Finding(c.effect, c.axis, {"name": c.parameter, "value": v, "unit": c.unit}, fb, fa, evidence,
+                           c.sentence.format(value=v, unit=c.unit), best["test"].gain, best["test"].t,
+                           best["test"].p, alts, shift))
+    seg, reg_stats = {}, {}
+    residual = {}
+    for axis in axes:
+        x = getattr(log, AXIS_ANGLE[axis])
+        r0 = base_reg.g[axis] - base_reg.x[axis] @ base.theta[axis]
+        r1 = reg_now.g[axis] - reg_now.x[axis] @ score_now.theta[axis]
+        u = log.u1_v if axis == "pitch" else log.u2_v
+        vel = cache.get(("velocity", axis))
+        if vel is None:
+            vel = cache[("velocity", axis)] = smoothed_velocity(x, dt)
+        ctx = {"velocity": vel, "input": u, "input_limit": float(np.max(np.abs(u))), "angle": x,
+               "angle_max": float(np.max(np.abs(x)))}
+        seg[axis] = segments(log.t_s, r0, max(5.0 / a, 1.0), ctx)
+        reg_stats[axis] = regimes(r0, vel, x, u)
+        residual[axis] = (log.t_s, r0, r1)
+    delay = next((r for r in tested if r["effect"] == "input_delay"), None)
+    lag = lag_profile([delay["parameter"]], [delay["held_out_gain"]]) if delay else {}
+    overlay = {axis: (log.t_s, getattr(log, AXIS_ANGLE[axis]), over_before[axis], over_after[axis]) for axis in axes}
+    return Diagnosis(bool(out), out, nominal, augmented, fit_before, fit_after, seg, reg_stats, lag, tested,
+                     {"a_rad_s": a, "block_s": block * dt, "horizon_s": HORIZON_S, "thrust_law": law,
+                      "alpha_family": 0.01, "candidates": len(cands),
+                      "unobservable": UNOBSERVABLE}, residual, overlay,
+                     {axis: cache[("velocity", axis)] for axis in axes})
+
+
+def _params_of(axes) -> list[str]:
+    return [k for axis in axes for k in (("J1", "B1") if axis == "pitch" else ("J2", "B2"))]
+
+
+def _try(c, log, p, law, a, current, cache, ids, score_now, n_tests):
+    axes_c = _axes_of(c)
+    if c.kind == "linear":
+        model = current.with_linear(c.key)
+        reg = regression(log, p, law, a, model, cache)
+        sc = score(reg, ids, ("pitch", "yaw"))
+        value = float(sc.theta[c.axis][reg.names[c.axis].index(c.key)])
+    else:
+        grid = _grid(c, log, p)
+        if not grid:
+            return None
+        gains, regs, scores = [], [], []
+        for v in grid:
+            model = current.with_mod(c.key, v)
+            reg = regression(log, p, law, a, model, cache)
+            sc = score(reg, ids, ("pitch", "yaw"))
+            gains.append(compare(score_now, sc, reg, axes_c, n_tests).gain)
+            regs.append((model, reg))
+            scores.append(sc)
+        i = int(np.argmax(gains))
+        value = _refine(grid, gains, i)
+        model = current.with_mod(c.key, value)
+        reg = regression(log, p, law, a, model, cache)
+        sc = score(reg, ids, ("pitch", "yaw"))
+    test = compare(score_now, sc, reg, axes_c, n_tests)
+    return {"c": c, "model": model, "reg": reg, "score": sc, "test": test, "value": value}
+
+
+def _plausible(c: Candidate, v: float) -> bool:
+    if c.effect in ("coulomb_friction", "quadratic_drag", "cable_stiffness", "dead_zone", "input_delay"):
+        return v > 0
+    return math.isfinite(v)
+
+
+def _alias(a: dict, b: dict) -> bool:
+    """Do two fitted candidates change the residual in the same way?"""
+    corr = []
+    for axis in ("pitch", "yaw"):
+        ra = a["reg"].g[axis] - a["reg"].x[axis] @ a["score"].theta[axis]
+        rb = b["reg"].g[axis] - b["reg"].x[axis] @ b["score"].theta[axis]
+        if np.std(ra) > 0 and np.std(rb) > 0:
+            corr.append(float(np.corrcoef(ra, rb)[0, 1]))
+    return bool(corr) and min(corr) >= ALIAS_CORRELATION
+
+
+def _separable(best: dict, other: dict) -> bool:
+    """Is ``best`` better than ``other`` block by block, beyond chance (one-sided 5 %)?"""
+    axes = sorted(set(_axes_of(best["c"])) | set(_axes_of(other["c"])))
+    return compare(other["score"], best["score"], best["reg"], axes, 1, alpha=0.05).p < 0.05
+
+
+def _estimates(sc, reg) -> dict:
+    return {"J1": float(sc.theta["pitch"][0]), "B1": float(sc.theta["pitch"][1]),
+            "J2": float(sc.theta["yaw"][0]), "B2": float(sc.theta["yaw"][1])}
+
+
+def _effect_values(model: Model, sc, reg) -> dict:
+    vals = dict(model.mods)
+    for key in model.linear:
+        axis = key.split(":")[1]
+        vals[key] = float(sc.theta[axis][reg.names[axis].index(key)])
+    return vals
+
+
+def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict):
+    from ..numerics.regressors import plant_signals
+
+    dt = log.sample_time_s
+    u1, u2, changes = modified_inputs(log, dict(model.mods))
+    pp = {**p, **changes}
+    ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, dt, pp, law)
+    horizon = max(int(round(HORIZON_S / dt)), 1)
+    fits, preds = {}, {}
+    for axis in ("pitch", "yaw"):
+        x = getattr(log, AXIS_ANGLE[axis])
+        v = smoothed_velocity(x, dt)
+        fx = np.zeros(5)
+        fx[0] = values.get(f"coulomb_friction:{axis}", 0.0)
+        fx[1] = values.get(f"quadratic_drag:{axis}", 0.0)
+        if axis == "yaw":
+            fx[2] = values.get("cable_stiffness:yaw", 0.0)
+            th = np.array([est["J2"], est["B2"], pp["a2"], pp["b2"], 0.0, 0.0, law == "signed"], dtype=float)
+            y = predict(False, x, v, ps.tau2, ps.MR_nm, dt, horizon, th, fx)
+        else:
+            fx[3] = values.get("com_offset:pitch", 0.0)
+            fx[4] = values.get("sensor_offset:pitch", 0.0)
+            th = np.array([est["J1"], est["B1"], pp["a1"], pp["b1"], pp["Mg"], pp["Kg"], law == "signed"], dtype=float)
+            y = predict(True, x, v, ps.tau1, ps.dbeta_rad_s, dt, horizon, th, fx)
+        fits[axis] = nrmse_fit(x, y)
+        preds[axis] = y
+    return fits, preds

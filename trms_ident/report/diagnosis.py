@@ -1,0 +1,100 @@
+"""Diagnosis as the JSON contract and as a self-contained HTML report with figures."""
+from __future__ import annotations
+
+import html
+from dataclasses import asdict
+
+from ..diagnose.run import Diagnosis
+from ..log import Log
+from .summary import versions
+
+
+def to_doc(d: Diagnosis, log: Log) -> dict:
+    return {
+        "mismatch": d.mismatch,
+        "findings": [{"effect": f.effect, "axis": f.axis, "parameter": f.parameter, "fit_before": f.fit_before,
+                      "fit_after": f.fit_after, "evidence": f.evidence, "explanation": f.explanation,
+                      "alternatives": f.alternatives, "estimate_shift_percent": f.shift} for f in d.findings],
+        "estimates": {"nominal": d.nominal, "augmented": d.augmented},
+        "fit": {"measure": f"NRMSE fit [%] of {d.settings['horizon_s']:g} s multi-step predictions restarted from "
+                           "the measurement (a free run drifts on yaw, which has no restoring force)",
+                "before": d.fit_before, "after": d.fit_after},
+        "located": {"segments": d.segments, "regimes": d.regimes, "lag": d.lag},
+        "tested": d.tested,
+        "settings": {k: v for k, v in d.settings.items()},
+        "input": {"path": log.source, "sha256": log.sha256, "samples": len(log), "sample_time_s": log.sample_time_s},
+        "versions": versions(),
+        "meaning": {
+            "estimates.nominal": "J, B by least squares on the filtered regression (3) of the seed model",
+            "estimates.augmented": "the same with the findings' terms added and refitted together",
+            "estimate_shift_percent": "how far leaving the effect out had moved each estimate (nominal vs augmented)",
+        },
+    }
+
+
+def render(doc: dict, d: Diagnosis, log: Log) -> str:
+    from .figures import png_data_uri
+
+    import matplotlib.pyplot as plt
+
+    figs = []
+    stride = max(1, len(log) // 4000)
+    # 1. residual over time, located segments shaded
+    fig, ax = plt.subplots(2, 1, figsize=(10, 5), sharex=True)
+    for a, axis in zip(ax, ("pitch", "yaw")):
+        t, r0, r1 = d.residual[axis]
+        a.plot(t[::stride], r0[::stride], lw=0.7, label="seed model")
+        a.plot(t[::stride], r1[::stride], lw=0.7, label="with findings")
+        for s in d.segments[axis]:
+            a.axvspan(s["start_s"], s["end_s"], color="tab:red", alpha=0.15)
+        a.set_ylabel(f"{axis} equation error [N m]")
+        a.grid(alpha=0.3)
+    ax[0].legend(fontsize=8)
+    ax[1].set_xlabel("t [s]")
+    fig.suptitle("Equation error (filtered, eq. 3) over time; shaded: located segments")
+    figs.append(("Residual over time", png_data_uri(fig)))
+    # 2. residual against the regime variable of each finding's axis, before and after
+    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
+    for a, axis in zip(ax, ("pitch", "yaw")):
+        t, r0, r1 = d.residual[axis]
+        v = d.velocity[axis]
+        a.plot(v[::stride], r0[::stride], ".", ms=1.5, alpha=0.5, label="seed model")
+        a.plot(v[::stride], r1[::stride], ".", ms=1.5, alpha=0.5, label="with findings")
+        a.set_xlabel(f"{axis} velocity [rad/s]")
+        a.set_ylabel("equation error [N m]")
+        a.grid(alpha=0.3)
+    ax[0].legend(fontsize=8, markerscale=6)
+    fig.suptitle("Equation error against velocity (Coulomb friction shows as a step at zero, drag as a curve)")
+    fig.tight_layout()
+    figs.append(("Residual against the regime", png_data_uri(fig)))
+    # 3. fit overlay
+    fig, ax = plt.subplots(2, 1, figsize=(10, 5), sharex=True)
+    for a, axis in zip(ax, ("pitch", "yaw")):
+        t, y, p0, p1 = d.overlay[axis]
+        a.plot(t[::stride], y[::stride], "k", lw=0.8, label="measured")
+        a.plot(t[::stride], p0[::stride], lw=0.8, label=f"seed model ({d.fit_before[axis]:.2f} %)")
+        a.plot(t[::stride], p1[::stride], lw=0.8, ls="--", label=f"with findings ({d.fit_after[axis]:.2f} %)")
+        a.set_ylabel(f"{axis} [rad]")
+        a.legend(fontsize=8)
+        a.grid(alpha=0.3)
+    ax[1].set_xlabel("t [s]")
+    fig.suptitle(f"{d.settings['horizon_s']:g} s multi-step predictions against the measurement")
+    figs.append(("Fit overlay", png_data_uri(fig)))
+    items = "".join(
+        f"<li><b>{html.escape(f['effect'])}</b> on {f['axis']}: {html.escape(f['parameter']['name'])} = "
+        f"{f['parameter']['value']:.4g} {html.escape(f['parameter']['unit'])}. {html.escape(f['explanation'])}.<br>"
+        f"Fit {f['fit_before']:.2f} % &rarr; {f['fit_after']:.2f} %. <span class='note'>{html.escape(f['evidence'])}"
+        "</span></li>" for f in doc["findings"])
+    est = "".join(f"<tr><td>{k}</td><td>{doc['estimates']['nominal'][k]:.6g}</td>"
+                  f"<td>{doc['estimates']['augmented'][k]:.6g}</td></tr>" for k in ("J1", "B1", "J2", "B2"))
+    imgs = "".join(f"<h2>{html.escape(title)}</h2><img alt='{html.escape(title)}' src='{uri}'>" for title, uri in figs)
+    verdict = (f"{len(doc['findings'])} missing effect(s) found" if doc["mismatch"] else
+               "no mismatch: the seed model explains this log")
+    return f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident diagnose</title>
+<style>body{{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto}}img{{max-width:100%}}
+table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px}}.note{{color:#555;font-size:.9em}}</style>
+</head><body><h1>Diagnosis of {html.escape(log.source)}</h1><p><b>{verdict}</b>.
+Fit measure: {html.escape(doc['fit']['measure'])}.</p><ol>{items}</ol>
+<table><tr><th>parameter</th><th>seed model</th><th>with findings</th></tr>{est}</table>{imgs}
+<p class="note">sha256 {log.sha256}; versions {html.escape(str(doc['versions']))}</p></body></html>
+"""
