@@ -102,6 +102,19 @@ def _align(q, base, k):
     return q + (k - r) % k
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _payload(buf, p, length, min_length, status, i):
+    """Start of the CDR body after the encapsulation header, or -1 (status set) if unusable."""
+    status[i] = OK
+    if length < min_length:
+        status[i] = SHORT
+        return -1
+    if buf[p] != 0 or buf[p + 1] != 1:  # only little-endian CDR (0x0001) here
+        status[i] = BIG_ENDIAN
+        return -1
+    return p + 4
+
+
 @njit(cache=True, nogil=True)
 def decode_joint_state(buf, starts, lens, field, want_flat, want_start, want_len, want_index, values, stamp, status):
     """Per message: header stamp [ns] and ``field`` (0 position, 1 velocity, 2 effort) of each wanted joint.
@@ -111,16 +124,10 @@ def decode_joint_state(buf, starts, lens, field, want_flat, want_start, want_len
     k = want_start.size
     idx = np.empty(k, np.int64)
     for i in range(starts.size):
-        p = starts[i]
-        end = p + lens[i]
-        status[i] = OK
-        if lens[i] < 24:
-            status[i] = SHORT
+        end = starts[i] + lens[i]
+        base = _payload(buf, starts[i], lens[i], 24, status, i)
+        if base < 0:
             continue
-        if buf[p] != 0 or buf[p + 1] != 1:
-            status[i] = BIG_ENDIAN
-            continue
-        base = p + 4
         q = base
         sec = np.int64(np.int32(_u32(buf, q)))
         nsec = np.int64(_u32(buf, q + 4))
@@ -180,16 +187,10 @@ def decode_float64_multiarray(buf, starts, lens, want_index, values, status):
     """Per message: data[want_index[j]] of a Float64MultiArray."""
     k = want_index.size
     for i in range(starts.size):
-        p = starts[i]
-        end = p + lens[i]
-        status[i] = OK
-        if lens[i] < 16:
-            status[i] = SHORT
+        end = starts[i] + lens[i]
+        base = _payload(buf, starts[i], lens[i], 16, status, i)
+        if base < 0:
             continue
-        if buf[p] != 0 or buf[p + 1] != 1:
-            status[i] = BIG_ENDIAN
-            continue
-        base = p + 4
         q = base
         ndim = np.int64(_u32(buf, q))
         q += 4
