@@ -45,7 +45,8 @@ DURATION_S = 90.0
 
 def cases():
     out = []
-    combos = itertools.cycle(itertools.product(REFS, RATES, NOISES))
+    # the reference varies fastest, so each effect's three magnitudes meet three excitations
+    combos = itertools.cycle((ref, rate, noise) for noise, rate, ref in itertools.product(NOISES, RATES, REFS))
     for (effect, axis, mags) in EFFECTS:
         for level, mag in zip(("small", "medium", "large"), mags):
             ref, rate, noise = next(combos)

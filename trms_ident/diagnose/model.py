@@ -54,6 +54,15 @@ def smoothed_velocity(x: np.ndarray, dt: float) -> np.ndarray:
     return signal.filtfilt(b, a, v) if x.size > 12 else v
 
 
+def restart_velocity(x: np.ndarray, dt: float, window_s: float = 0.25) -> np.ndarray:
+    """Velocity [rad/s] to restart predictions from: local quadratic fits over window_s
+    (Savitzky-Golay), less noisy than the low-passed difference at a restart instant."""
+    n = int(round(window_s / dt)) | 1
+    if x.size <= n or n < 5:
+        return smoothed_velocity(x, dt)
+    return signal.savgol_filter(x, n, 2, deriv=1, delta=dt)
+
+
 def modified_inputs(log: Log, mods: dict) -> tuple[np.ndarray, np.ndarray, dict]:
     """Voltages as the plant would see them under the input modifications; parameter changes."""
     u1, u2 = log.u1_v.copy(), log.u2_v.copy()

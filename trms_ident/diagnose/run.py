@@ -12,7 +12,7 @@ from ..numerics.stats import block_length
 from ..params import merge
 from .effects import BY_KEY, CANDIDATES, UNOBSERVABLE, Candidate
 from .locate import lag_profile, regimes, segments
-from .model import AXIS_ANGLE, Model, modified_inputs, regression, smoothed_velocity
+from .model import AXIS_ANGLE, Model, modified_inputs, regression, restart_velocity, smoothed_velocity
 from .predict import HORIZON_S, nrmse_fit, predict
 from .select import compare, score
 
@@ -73,9 +73,9 @@ def _grid(c: Candidate, log: Log, p: dict) -> tuple[float, ...]:
     if c.effect == "motor_lag":
         nominal = p["T11" if c.axis == "pitch" else "T21"]
         return tuple(nominal * 0.55 * 1.07 ** i for i in range(18))
-    if c.effect == "input_saturation":
+    if c.effect == "input_saturation":  # below the largest logged command, down to 55 % of it
         umax = float(np.max(np.abs(log.u1_v if c.axis == "pitch" else log.u2_v)))
-        return tuple(v for v in c.grid if v < 0.99 * umax)
+        return tuple(umax * 0.995 * 0.965 ** i for i in range(18))
     return c.grid
 
 
@@ -117,6 +117,7 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
                 results.append(res)
         if not findings:
             tested = [{"effect": r["c"].effect, "axis": r["c"].axis, "held_out_gain": r["test"].gain,
+                       "explained_share": r["test"].share,
                        "t": r["test"].t, "p": r["test"].p, "passed": r["test"].passed,
                        "parameter": r["value"]} for r in results]
         ok = [r for r in results if r["test"].passed and _plausible(r["c"], r["value"])]
@@ -223,10 +224,15 @@ def _alias(a: dict, b: dict) -> bool:
     return bool(corr) and min(corr) >= ALIAS_CORRELATION
 
 
+#: the better of two look-alike candidates must explain this much more of the residual to be told apart
+SEPARATION_MARGIN = 0.05
+
+
 def _separable(best: dict, other: dict) -> bool:
-    """Is ``best`` better than ``other`` block by block, beyond chance (one-sided 5 %)?"""
+    """Is ``best`` better than ``other`` block by block, beyond chance (one-sided 5 %) and by a margin?"""
     axes = sorted(set(_axes_of(best["c"])) | set(_axes_of(other["c"])))
-    return compare(other["score"], best["score"], best["reg"], axes, 1, alpha=0.05).p < 0.05
+    test = compare(other["score"], best["score"], best["reg"], axes, 1, alpha=0.05)
+    return test.p < 0.05 and best["test"].gain - other["test"].gain >= SEPARATION_MARGIN * best["test"].gain
 
 
 def _estimates(sc, reg) -> dict:
@@ -253,7 +259,7 @@ def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict):
     fits, preds = {}, {}
     for axis in ("pitch", "yaw"):
         x = getattr(log, AXIS_ANGLE[axis])
-        v = smoothed_velocity(x, dt)
+        v = restart_velocity(x, dt)
         fx = np.zeros(5)
         fx[0] = values.get(f"coulomb_friction:{axis}", 0.0)
         fx[1] = values.get(f"quadratic_drag:{axis}", 0.0)
