@@ -100,7 +100,8 @@ def main():
         f"{r['peak_mb']:.0f} | {r['ns_per_sample']:.0f} |" for r in rows]
     text = ("## Speed (benchmarks/speed.py, median of %d runs, this 2-core machine)\n\n" % args.repeat) + \
         "\n".join(lines) + "\n\nTargets for 1 h: end to end <= 3 s, estimation <= 1 s, peak <= 1 GB, linear growth.\n" + \
-        "The machine is shared: identical runs varied from 2.8 s to 6.9 s wall for 1 h; CPU time is about 4.5 s.\n"
+        "Measured with nothing else running; the machine is shared, and with other work on it identical 1 h runs " \
+        "took 2.8-6.9 s (CPU time is about 4.5 s over the 2 cores).\n"
     from results import update_section
     update_section(Path(args.out), "Speed", text)
     print(text)
