@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -43,9 +43,6 @@ class Result:
     settings: Settings  # as used: designed bandwidths filled in
     design: FilterDesign | None  # how the bandwidths were chosen (None when given)
     sample_time_s: float
-
-    def settings_dict(self) -> dict:
-        return asdict(self.settings)
 
 
 def resolve_filters(log: Log, settings: Settings) -> tuple[Settings, FilterDesign | None]:

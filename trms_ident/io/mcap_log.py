@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 import math
-import zlib
+import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -67,10 +67,6 @@ class Scan:
     chunk_compression: set
 
 
-def _open_error(path: Path, exc: Exception) -> LogFormatError:
-    return LogFormatError(f"{path}: {exc}")
-
-
 def _records(path: Path, fh, warnings: list[str]):
     """Top-level records (chunks not broken up), CRCs checked; a truncated file stops with a warning."""
     from mcap.exceptions import McapError
@@ -87,7 +83,7 @@ def _records(path: Path, fh, warnings: list[str]):
         except CRCValidationError as exc:
             raise LogFormatError(f"{path}: CRC mismatch in the record near byte {pos} (expected {exc.expected:#010x}, "
                                  f"computed {exc.actual:#010x}); the file is corrupt") from None
-        except (McapError, EOFError, ValueError, struct_error()) as exc:
+        except (McapError, EOFError, ValueError, struct.error) as exc:
             if type(exc).__name__ == "InvalidMagic":
                 raise LogFormatError(f"{path}: not an MCAP file (the magic bytes are missing); expected an .mcap "
                                      "recording") from None
@@ -95,12 +91,6 @@ def _records(path: Path, fh, warnings: list[str]):
                             "using the messages read before that point")
             return
         yield rec
-
-
-def struct_error():
-    import struct
-
-    return struct.error
 
 
 def scan(path: Path, wanted: dict[str, list[SignalSource]] | None, time_source: str = "auto") -> Scan:
@@ -152,11 +142,11 @@ def scan(path: Path, wanted: dict[str, list[SignalSource]] | None, time_source: 
             elif isinstance(rec, Chunk):
                 compression.add(rec.compression or "none")
                 try:
-                    stream, _ = get_chunk_data_stream(rec, validate_crc=True)
+                    stream, size = get_chunk_data_stream(rec, validate_crc=True)
                 except Exception as exc:  # noqa: BLE001 - CRC or decompression failure: the file is corrupt
                     raise LogFormatError(f"{path}: chunk starting at log time {rec.message_start_time} ns cannot "
                                          f"be read ({type(exc).__name__}: {exc}); the file is corrupt") from None
-                data = stream.read(stream_length(stream))
+                data = stream.read(size)
                 buf = np.frombuffer(data, dtype=np.uint8)
                 chan, logt, pubt, start, length, other, complete = scan_chunk(buf)
                 if not complete:
@@ -176,16 +166,12 @@ def scan(path: Path, wanted: dict[str, list[SignalSource]] | None, time_source: 
                 counts[rec.channel_id] = counts.get(rec.channel_id, 0) + 1
                 first[rec.channel_id] = min(first.get(rec.channel_id, rec.log_time), rec.log_time)
                 last[rec.channel_id] = max(last.get(rec.channel_id, rec.log_time), rec.log_time)
-                data = b"\x00" * 0 + rec.data
+                data = rec.data
                 buf = np.frombuffer(data, dtype=np.uint8)
                 _decode(path, buf, data, np.array([rec.channel_id]), np.array([rec.log_time]),
                         np.array([rec.publish_time]), np.array([0]), np.array([len(data)]), channels, wanted, series,
                         decoders, time_source)
     return Scan(channels, counts, first, last, series, warnings, compression)
-
-
-def stream_length(stream) -> int:
-    return len(stream._stream.getbuffer())  # ReadDataStream over a BytesIO
 
 
 def _decode(path, buf, data, chan, logt, pubt, start, length, channels, wanted, series, decoders, time_source):

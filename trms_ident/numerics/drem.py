@@ -101,8 +101,7 @@ def gradient_estimator(eps: np.ndarray, phi: np.ndarray, gamma, dt_s: float, q0=
     return out, final
 
 
-def offline_optimum(eps: np.ndarray, phi: np.ndarray, weights: np.ndarray | None = None) -> float:
+def offline_optimum(eps: np.ndarray, phi: np.ndarray) -> float:
     """Least-squares optimum of eps = phi q over the whole record: sum(eps phi) / sum(phi^2)."""
-    w = np.ones_like(phi) if weights is None else weights
-    den = float(np.sum(w * phi * phi))
-    return float(np.sum(w * eps * phi) / den) if den > 0 else float("nan")
+    den = float(np.dot(phi, phi))
+    return float(np.dot(eps, phi)) / den if den > 0 else float("nan")

@@ -15,6 +15,8 @@ import numpy as np
 from numba import njit
 from scipy.special import stdtrit
 
+from .drem import offline_optimum
+
 #: a parameter whose 95 % half-width exceeds this fraction of its value is not identifiable
 IDENTIFIABLE_REL_HALF_WIDTH = 0.25
 MIN_BLOCKS = 4
@@ -61,7 +63,7 @@ def confidence_interval(eps: np.ndarray, phi: np.ndarray, block: int, level: flo
     energy = float(np.dot(phi, phi))
     if not energy > 0:
         return Interval(math.nan, math.nan, math.nan, 0, False, "not excited: det M is zero throughout")
-    q = float(np.dot(eps, phi)) / energy
+    q = offline_optimum(eps, phi)
     k = phi.size // block
     if k < MIN_BLOCKS:
         return Interval(q, math.nan, math.nan, k, q > 0,
