@@ -41,6 +41,8 @@ REFS = ("multisine", "steps", "square", "sine")
 RATES = (200.0, 1000.0, 100.0)
 NOISES = (("12-bit", 0.0, 2 * math.pi / 4096), ("1 mrad", 1e-3, 0.0), ("none", 0.0, 0.0))
 DURATION_S = 90.0
+#: an injected dead zone or saturation that can act on fewer samples than this cannot be observed
+NOT_EXERCISED = 0.005
 
 
 def cases():
@@ -79,8 +81,15 @@ def run_case(c):
     d = diagnose(log)
     el = time.perf_counter() - t0
     truth = r.truth["estimated"]
+    exercised = 1.0  # fraction of samples where the injected effect can act at all
+    for e in c["effects"]:
+        u = r.u1_v if e["axis"] == "pitch" else r.u2_v
+        if e["effect"] == "dead_zone":
+            exercised = min(exercised, float(np.mean(np.abs(u) < e["value"])))
+        elif e["effect"] == "input_saturation":
+            exercised = min(exercised, float(np.mean(np.abs(u) > e["value"])))
     nominal_err = max(abs(d.nominal[k] / truth[k] - 1) for k in truth)
-    return dict(case=c, seconds=el, mismatch=d.mismatch, nominal_max_err=nominal_err,
+    return dict(case=c, seconds=el, mismatch=d.mismatch, exercised=exercised, nominal_max_err=nominal_err,
                 fit_before=d.fit_before, findings=[dict(effect=f.effect, axis=f.axis, value=f.parameter["value"],
                                                         fit_before=f.fit_before, fit_after=f.fit_after,
                                                         alternatives=f.alternatives) for f in d.findings])
@@ -122,7 +131,9 @@ def main():
                                                                             if f["alternatives"] else "")
                           for f in r["findings"]) or "no mismatch"
         rows.append((c, r, j, eff, found))
-    eff_rows = [x for x in rows if x[0]["kind"] == "effect"]
+    idle = [x for x in rows if x[0]["kind"] == "effect" and x[1]["exercised"] < NOT_EXERCISED]
+    eff_all = [x for x in rows if x[0]["kind"] == "effect"]
+    eff_rows = [x for x in eff_all if x[1]["exercised"] >= NOT_EXERCISED]
     clean_rows = [x for x in rows if x[0]["kind"] == "clean"]
     two_rows = [x for x in rows if x[0]["kind"] == "two"]
     right = [x for x in eff_rows if x[2]["first_right"]]
@@ -138,15 +149,24 @@ def main():
         fits = f"{first['fit_before']:.2f} -> {first['fit_after']:.2f}" if first else "-"
         perr_text = "" if j["param_err"] is None else f"{100 * j['param_err']:.1f}"
         ok = "yes" if j["first_right"] else ("alias" if j["alias_right"] else ("-" if not c["effects"] else "no"))
+        if c["effects"] and r["exercised"] < NOT_EXERCISED:
+            ok += f" (not exercised: {100 * r['exercised']:.1f} % of samples)"
         if c["kind"] == "two":
             ok = "both" if j.get("both_named") else ok
         lines.append(f"| {i} | {eff} | {c['ref']} | {c['rate']:g} | {c['noise'][0]} | "
                      f"{r['fit_before']['pitch']:.2f} / {r['fit_before']['yaw']:.2f} | {100 * r['nominal_max_err']:.1f} | "
                      f"{found} | {ok} | {perr_text} | {fits} |")
     per_level = {lv: [x for x in eff_rows if x[0]["level"] == lv] for lv in ("small", "medium", "large")}
+    right_all = [x for x in eff_all if x[2]["first_right"]]
     summary = [
-        f"- logs with one effect: {len(eff_rows)}; right effect and axis named first: {len(right)} "
-        f"({100 * len(right) / len(eff_rows):.0f} %); named as an indistinguishable alternative: {len(alias)}",
+        f"- logs with one effect: {len(eff_all)}, of which {len(idle)} never exercise it (the excitation keeps the "
+        f"input out of the dead zone / below the saturation level on more than {100 * (1 - NOT_EXERCISED):g} % of "
+        f"samples: {', '.join(x[3] + ' (' + x[0]['ref'] + ')' for x in idle) or 'none'}); "
+        f"diagnose said 'no mismatch' on {sum(not x[1]['mismatch'] for x in idle)} of those",
+        f"- exercised logs with one effect: {len(eff_rows)}; right effect and axis named first: {len(right)} "
+        f"({100 * len(right) / max(len(eff_rows), 1):.0f} %); named first or as an indistinguishable alternative: "
+        f"{len(right) + len(alias)} ({100 * (len(right) + len(alias)) / max(len(eff_rows), 1):.0f} %); over all "
+        f"{len(eff_all)} one-effect logs: {len(right_all)} ({100 * len(right_all) / len(eff_all):.0f} %) named first",
         "- by magnitude: " + ", ".join(f"{lv} {sum(x[2]['first_right'] for x in v)}/{len(v)}"
                                       for lv, v in per_level.items()),
         f"- clean logs: {len(clean_rows)}; false findings: {len(fp)} ({100 * len(fp) / max(len(clean_rows), 1):.0f} %)",

@@ -14,7 +14,7 @@ from .effects import BY_KEY, CANDIDATES, UNOBSERVABLE, Candidate
 from .locate import lag_profile, regimes, segments
 from .model import AXIS_ANGLE, Model, modified_inputs, regression, restart_velocity, smoothed_velocity
 from .predict import HORIZON_S, nrmse_fit, predict
-from .select import compare, score
+from .select import FAMILY_ALPHA, compare, score
 
 MAX_FINDINGS = 3
 #: two candidates whose fitted contributions correlate this much and whose gains are this close
@@ -170,7 +170,7 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
     overlay = {axis: (log.t_s, getattr(log, AXIS_ANGLE[axis]), over_before[axis], over_after[axis]) for axis in axes}
     return Diagnosis(bool(out), out, nominal, augmented, fit_before, fit_after, seg, reg_stats, lag, tested,
                      {"a_rad_s": a, "block_s": block * dt, "horizon_s": HORIZON_S, "thrust_law": law,
-                      "alpha_family": 0.01, "candidates": len(cands),
+                      "alpha_family": FAMILY_ALPHA, "candidates": len(cands),
                       "unobservable": UNOBSERVABLE}, residual, overlay,
                      {axis: cache[("velocity", axis)] for axis in axes})
 
