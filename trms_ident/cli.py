@@ -340,7 +340,7 @@ def parse_effect(text: str) -> dict:
         raise SettingsError(f"--effect {text!r}: expected NAME=VALUE or NAME:AXIS=VALUE") from None
 
 
-@app.command()
+@app.command(short_help="Simulate the bench in closed loop; write a log and its ground truth.")
 @handled
 def simulate(
     ref: Annotated[str, typer.Option(help="Reference: square, sine (the paper's), multisine, steps, chirp.")] = "square",
