@@ -93,7 +93,8 @@ def _delay(u: np.ndarray, samples: float) -> np.ndarray:
 
 #: input modifications that change each axis' right-hand side (pitch sees u1 and T11 only; yaw sees
 #: u2, T21 and, through the reaction moment M_R, u1 and T11 too)
-_PITCH_MODS = ("dead_zone:pitch", "input_saturation:pitch", "input_delay:both", "motor_lag:pitch")
+_PITCH_MODS = ("dead_zone:pitch", "input_saturation:pitch", "input_delay:both", "motor_lag:pitch",
+               "com_offset:pitch", "sensor_offset:pitch")
 
 
 def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache: dict | None = None) -> Regression:
@@ -112,7 +113,10 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
     if need_ps:
         u1, u2, changes = modified_inputs(log, mods)
         pp = {**p, **changes}
-        ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, dt, pp, law)
+        # exact offsets: the encoder's (true angle = logged - delta) and the centre of mass's (gravity only);
+        # the angle regressors F s^2[x], F s[x] are blind to a constant offset and stay as logged
+        ps = plant_signals(u1, u2, log.alpha_rad - mods.get("sensor_offset:pitch", 0.0), log.beta_rad, dt, pp, law,
+                           gravity_offset_rad=mods.get("com_offset:pitch", 0.0))
     reg = Regression({}, {}, {})
     for axis in ("pitch", "yaw"):
         x = getattr(log, AXIS_ANGLE[axis])
@@ -161,6 +165,9 @@ def phi(effect: str, axis: str, log: Log, p: dict, ps, cache: dict) -> np.ndarra
     if effect == "com_offset":  # -Mg sin(a + d) = -Mg sin a - d Mg cos a
         return -p["Mg"] * np.cos(x)
     if effect == "sensor_offset":  # true angle = logged - d
-        dbeta = ps.dbeta_rad_s
-        return p["Mg"] * np.cos(x) - p["Kg"] * ps.M1_nm * dbeta * np.sin(x)
+        # beta' smoothed, not the raw difference inside y: shared noise would pass for explained residual
+        bkey = ("velocity", "yaw")
+        if bkey not in cache:
+            cache[bkey] = smoothed_velocity(log.beta_rad, dt)
+        return p["Mg"] * np.cos(x) - p["Kg"] * ps.M1_nm * cache[bkey] * np.sin(x)
     raise ValueError(f"no regressor for {effect}")

@@ -107,10 +107,12 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
     cands = [c for c in CANDIDATES]
     n_tests = len(cands)
     reg_now, score_now = base_reg, base
+    excluded: set[str] = set()  # look-alikes already named as a finding's alternatives
     for _ in range(MAX_FINDINGS):
         results = []
         for c in cands:
-            if c.key in current.keys:
+            if c.key in current.keys or c.key in excluded or (c.effect in EXACT_OFFSETS and any(
+                    k.split(":")[0] in EXACT_OFFSETS for k in current.keys)):  # one pitch offset explains both
                 continue
             res = _try(c, log, p, law, a, current, cache, ids, score_now, n_tests)
             if res is not None:
@@ -129,6 +131,7 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
                 _alias(best, r) and not _separable(best, r)]
         current = best["model"]
         reg_now, score_now = best["reg"], best["score"]
+        excluded.update(alts)
         findings.append((best, alts))
     augmented = _estimates(score_now, reg_now)
     values = _effect_values(current, score_now, reg_now)
@@ -203,8 +206,35 @@ def _try(c, log, p, law, a, current, cache, ids, score_now, n_tests):
         model = current.with_mod(c.key, value)
         reg = regression(log, p, law, a, model, cache)
         sc = score(reg, ids, ("pitch", "yaw"))
+    if c.effect in EXACT_OFFSETS and value != 0.0:
+        model, reg, sc, value = _exact_offset(c, value, log, p, law, a, current, cache, ids, score_now, n_tests)
     test = compare(score_now, sc, reg, axes_c, n_tests)
     return {"c": c, "model": model, "reg": reg, "score": sc, "test": test, "value": value}
+
+
+#: offsets fitted linearly first, then exactly (sin(alpha + delta), or the whole pitch equation at
+#: alpha - delta): at delta ~ 0.01 rad the second-order terms decide between the two look-alikes
+EXACT_OFFSETS = ("com_offset", "sensor_offset")
+
+
+def _exact_offset(c, delta0, log, p, law, a, current, cache, ids, score_now, n_tests):
+    grid = [delta0 * f for f in (0.85, 0.95, 1.0, 1.05, 1.15)]
+    gains, fits = [], []
+    for d in grid:
+        model = current.with_mod(c.key, d)
+        reg = regression(log, p, law, a, model, cache)
+        sc = score(reg, ids, ("pitch", "yaw"))
+        gains.append(compare(score_now, sc, reg, ("pitch",), n_tests).gain)
+        fits.append((model, reg, sc))
+    i = int(np.argmax(gains))
+    x = np.array(grid[max(i - 1, 0):i + 2])
+    y = np.array(gains[max(i - 1, 0):i + 2])
+    best = grid[i]
+    if x.size == 3 and (y[0] - 2 * y[1] + y[2]) < 0:
+        best = float(x[1] + 0.5 * (x[1] - x[0]) * (y[0] - y[2]) / (y[0] - 2 * y[1] + y[2]))
+    model = current.with_mod(c.key, best)
+    reg = regression(log, p, law, a, model, cache)
+    return model, reg, score(reg, ids, ("pitch", "yaw")), best
 
 
 def _plausible(c: Candidate, v: float) -> bool:

@@ -35,7 +35,8 @@ def thrust(tau: np.ndarray, a: float, b: float, law: str) -> np.ndarray:
     return a * tau * tau + b * tau
 
 
-def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str) -> PlantSignals:
+def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str,
+                  gravity_offset_rad: float = 0.0) -> PlantSignals:
     """Motor states, moments and the right-hand sides y_p, y_y of eq. (1).
 
     The motor voltages are held by the bench's controller between samples, so the
@@ -55,7 +56,8 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
     dbeta = np.gradient(beta_rad, dt_s, edge_order=2) if beta_rad.size > 2 else np.zeros_like(beta_rad)
     m1 = thrust(tau1, p["a1"], p["b1"], law)
     m2 = thrust(tau2, p["a2"], p["b2"], law)
-    y_p = m1 - p["Mg"] * np.sin(alpha_rad) - p["Kg"] * m1 * dbeta * np.cos(alpha_rad)
+    # gravity_offset_rad: a centre-of-mass offset, Mg sin(alpha + delta) (diagnose's extended model)
+    y_p = m1 - p["Mg"] * np.sin(alpha_rad + gravity_offset_rad) - p["Kg"] * m1 * dbeta * np.cos(alpha_rad)
     y_y = m2 - mr
     return PlantSignals(tau1, tau2, m1, m2, mr, dbeta, y_p, y_y)
 
