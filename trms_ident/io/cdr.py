@@ -115,6 +115,21 @@ def _payload(buf, p, length, min_length, status, i):
     return p + 4
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _f64_sequence(buf, q, base, end):
+    """(start of the doubles, count) of a float64 sequence at q, or (-1, 0) if it runs past end."""
+    q = _align(q, base, 4)
+    if q + 4 > end:
+        return -1, 0
+    cnt = np.int64(_u32(buf, q))
+    q += 4
+    if cnt > 0:
+        q = _align(q, base, 8)
+    if q + 8 * cnt > end:
+        return -1, 0
+    return q, cnt
+
+
 @njit(cache=True, nogil=True)
 def decode_joint_state(buf, starts, lens, field, want_flat, want_start, want_len, want_index, values, stamp, status):
     """Per message: header stamp [ns] and ``field`` (0 position, 1 velocity, 2 effort) of each wanted joint.
@@ -160,18 +175,11 @@ def decode_joint_state(buf, starts, lens, field, want_flat, want_start, want_len
                         idx[j] = jn
             q = s0 + ln
         for f in range(field + 1):
-            q = _align(q, base, 4)
-            if q + 4 > end:
+            q, cnt = _f64_sequence(buf, q, base, end)
+            if q < 0:
                 status[i] = SHORT
                 break
-            cnt = np.int64(_u32(buf, q))
-            q += 4
-            if cnt > 0:
-                q = _align(q, base, 8)
             if f == field:
-                if q + 8 * cnt > end:
-                    status[i] = SHORT
-                    break
                 for j in range(k):
                     if idx[j] < 0:
                         status[i] = NO_SUCH_JOINT
@@ -199,15 +207,8 @@ def decode_float64_multiarray(buf, starts, lens, want_index, values, status):
             ln = np.int64(_u32(buf, q))
             q = _align(q + 4 + ln, base, 4) + 8  # label, size, stride
         q = _align(q, base, 4) + 4  # data_offset
-        q = _align(q, base, 4)
-        if q + 4 > end:
-            status[i] = SHORT
-            continue
-        cnt = np.int64(_u32(buf, q))
-        q += 4
-        if cnt > 0:
-            q = _align(q, base, 8)
-        if q + 8 * cnt > end:
+        q, cnt = _f64_sequence(buf, q, base, end)
+        if q < 0:
             status[i] = SHORT
             continue
         for j in range(k):
