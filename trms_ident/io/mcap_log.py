@@ -163,9 +163,7 @@ def scan(path: Path, wanted: dict[str, list[SignalSource]] | None, time_source: 
                     _decode(path, buf, data, chan, logt, pubt, start, length, channels, wanted, series, decoders,
                             time_source)
             elif isinstance(rec, Message):  # unchunked file
-                counts[rec.channel_id] = counts.get(rec.channel_id, 0) + 1
-                first[rec.channel_id] = min(first.get(rec.channel_id, rec.log_time), rec.log_time)
-                last[rec.channel_id] = max(last.get(rec.channel_id, rec.log_time), rec.log_time)
+                count(np.array([rec.channel_id]), np.array([rec.log_time]))
                 data = rec.data
                 buf = np.frombuffer(data, dtype=np.uint8)
                 _decode(path, buf, data, np.array([rec.channel_id]), np.array([rec.log_time]),
