@@ -110,3 +110,16 @@ def test_cli_json_contract_and_report(tmp_path):
 def test_cli_clean_log_says_no_mismatch(square_csv):
     res = runner.invoke(app, ["diagnose", str(square_csv)])
     assert res.exit_code == 0 and "no mismatch found" in res.output
+
+
+@pytest.mark.parametrize("grid, vertex, log_space", [
+    ([2.0, 1.5, 1.2, 0.9], 1.3, False),  # descending and uneven (saturation levels, negative offsets)
+    ([0.85, 0.95, 1.0, 1.05, 1.15], 0.93, False),  # the offset refinement grid
+    ([0.5, 1, 1.5, 2, 3, 4], 1.7, True),  # the delay grid, uneven even in log space
+])
+def test_grid_refinement_finds_the_parabola_vertex(grid, vertex, log_space):
+    from trms_ident.diagnose.run import _refine
+
+    to = np.log if log_space else (lambda v: v)
+    gains = [-(to(g) - to(vertex)) ** 2 for g in grid]
+    assert _refine(grid, gains, int(np.argmax(gains)), log_space) == pytest.approx(vertex, rel=1e-9)

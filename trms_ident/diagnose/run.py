@@ -79,15 +79,17 @@ def _grid(c: Candidate, log: Log, p: dict) -> tuple[float, ...]:
     return c.grid
 
 
-def _refine(grid, gains, best_i):
-    """Parabolic refinement of the best grid point (in log space for positive grids)."""
+def _refine(grid, gains, best_i, log_space: bool = True) -> float:
+    """Vertex of the parabola through the best grid point and its neighbours (grids need not be evenly
+    spaced; ``log_space`` for positive parameters searched on geometric-like grids)."""
     if 0 < best_i < len(grid) - 1:
-        x = np.log(np.array(grid[best_i - 1:best_i + 2]))
-        y = np.array(gains[best_i - 1:best_i + 2])
-        den = (y[0] - 2 * y[1] + y[2])
-        if den < 0:
-            shift = 0.5 * (y[0] - y[2]) / den
-            return float(np.exp(x[1] + shift * (x[2] - x[1])))
+        x = np.array(grid[best_i - 1:best_i + 2], dtype=float)
+        x = np.log(x) if log_space else x
+        y = np.array(gains[best_i - 1:best_i + 2], dtype=float)
+        curv, slope, _ = np.polyfit(x, y, 2)
+        if curv < 0:
+            v = float(np.clip(-slope / (2 * curv), x.min(), x.max()))  # grids may descend
+            return float(np.exp(v)) if log_space else v
     return float(grid[best_i])
 
 
@@ -193,14 +195,12 @@ def _try(c, log, p, law, a, current, cache, ids, score_now, n_tests):
         grid = _grid(c, log, p)
         if not grid:
             return None
-        gains, regs, scores = [], [], []
+        gains = []
         for v in grid:
             model = current.with_mod(c.key, v)
             reg = regression(log, p, law, a, model, cache)
             sc = score(reg, ids, ("pitch", "yaw"))
             gains.append(compare(score_now, sc, reg, axes_c, n_tests).gain)
-            regs.append((model, reg))
-            scores.append(sc)
         i = int(np.argmax(gains))
         value = _refine(grid, gains, i)
         model = current.with_mod(c.key, value)
@@ -219,19 +219,13 @@ EXACT_OFFSETS = ("com_offset", "sensor_offset")
 
 def _exact_offset(c, delta0, log, p, law, a, current, cache, ids, score_now, n_tests):
     grid = [delta0 * f for f in (0.85, 0.95, 1.0, 1.05, 1.15)]
-    gains, fits = [], []
+    gains = []
     for d in grid:
         model = current.with_mod(c.key, d)
         reg = regression(log, p, law, a, model, cache)
         sc = score(reg, ids, ("pitch", "yaw"))
         gains.append(compare(score_now, sc, reg, ("pitch",), n_tests).gain)
-        fits.append((model, reg, sc))
-    i = int(np.argmax(gains))
-    x = np.array(grid[max(i - 1, 0):i + 2])
-    y = np.array(gains[max(i - 1, 0):i + 2])
-    best = grid[i]
-    if x.size == 3 and (y[0] - 2 * y[1] + y[2]) < 0:
-        best = float(x[1] + 0.5 * (x[1] - x[0]) * (y[0] - y[2]) / (y[0] - 2 * y[1] + y[2]))
+    best = _refine(grid, gains, int(np.argmax(gains)), log_space=False)  # offsets take either sign
     model = current.with_mod(c.key, best)
     reg = regression(log, p, law, a, model, cache)
     return model, reg, score(reg, ids, ("pitch", "yaw")), best
