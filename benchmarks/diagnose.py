@@ -146,7 +146,7 @@ def main():
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for i, (c, r, j, eff, found) in enumerate(rows):
         first = r["findings"][0] if r["findings"] else None
-        fits = f"{first['fit_before']:.2f} -> {first['fit_after']:.2f}" if first else "-"
+        fits = f"{first['fit_before']:.3f} -> {first['fit_after']:.3f}" if first else "-"
         perr_text = "" if j["param_err"] is None else f"{100 * j['param_err']:.1f}"
         ok = "yes" if j["first_right"] else ("alias" if j["alias_right"] else ("-" if not c["effects"] else "no"))
         if c["effects"] and r["exercised"] < NOT_EXERCISED:
@@ -154,7 +154,7 @@ def main():
         if c["kind"] == "two":
             ok = "both" if j.get("both_named") else ok
         lines.append(f"| {i} | {eff} | {c['ref']} | {c['rate']:g} | {c['noise'][0]} | "
-                     f"{r['fit_before']['pitch']:.2f} / {r['fit_before']['yaw']:.2f} | {100 * r['nominal_max_err']:.1f} | "
+                     f"{r['fit_before']['pitch']:.3f} / {r['fit_before']['yaw']:.3f} | {100 * r['nominal_max_err']:.1f} | "
                      f"{found} | {ok} | {perr_text} | {fits} |")
     per_level = {lv: [x for x in eff_rows if x[0]["level"] == lv] for lv in ("small", "medium", "large")}
     right_all = [x for x in eff_all if x[2]["first_right"]]
@@ -173,7 +173,7 @@ def main():
         f"- logs with two effects: {len(two_rows)}; both named: {sum(x[2].get('both_named', False) for x in two_rows)}",
         f"- parameter error of right findings: median {100 * np.median(perr):.1f} %, worst {100 * max(perr):.1f} %, "
         f"within 30 %: {sum(e <= 0.3 for e in perr)}/{len(perr)}",
-        f"- fit improved on {sum(g > 0 for g in gains)}/{len(gains)} right findings (median gain {np.median(gains):.2f} "
+        f"- fit improved on {sum(g > 0 for g in gains)}/{len(gains)} right findings (median gain {np.median(gains):.3f} "
         "NRMSE points)",
         f"- median diagnose time per log: {np.median([x[1]['seconds'] for x in rows]):.1f} s "
         f"(total benchmark {time.perf_counter() - t0:.0f} s on 2 processes)",

@@ -8,6 +8,7 @@ from typer.testing import CliRunner
 
 from trms_ident.cli import app
 from trms_ident.diagnose.model import _delay
+from trms_ident.diagnose.predict import predict, predict_fitted_start
 from trms_ident.diagnose.run import diagnose
 from trms_ident.diagnose.select import Score, compare
 from trms_ident.io.csv_log import write_csv_log
@@ -78,6 +79,24 @@ def test_block_test_keeps_false_positives_rare():
         passes += compare(Score({"pitch": base}, {}, {}), Score({"pitch": new}, {}, {}),
                           type("R", (), {"g": g})(), ("pitch",), 14).passed
     assert passes <= 2  # family level 1 %, divided over 14 candidates
+
+
+def test_prediction_windows_start_from_the_state_that_fits_them():
+    # yaw: J beta'' + B beta' = tau-driven torque - M_R; a trajectory from known window starts, then
+    # starts guessed 0.3 rad/s off: the fitted starts recover the trajectory, the guessed ones do not
+    dt, n, horizon = 0.01, 2000, 200
+    t = np.arange(n) * dt
+    tau, other = 0.5 + 0.3 * np.sin(t), 0.02 * np.cos(0.5 * t)
+    th = np.array([0.02, 0.1, 0.02, 0.09, 0.0, 0.0, 0.0])
+    fx = np.zeros(5)
+    rng = np.random.default_rng(1)
+    x_true_start = np.repeat(rng.normal(0, 1, n // horizon), horizon)
+    v_true_start = np.repeat(rng.normal(0, 1, n // horizon), horizon)
+    y = predict(False, x_true_start, v_true_start, tau, other, dt, horizon, th, fx)
+    guess = v_true_start + 0.3
+    fitted = predict_fitted_start(False, y, guess, tau, other, dt, horizon, th, fx)
+    np.testing.assert_allclose(fitted, y, atol=1e-8)
+    assert np.max(np.abs(predict(False, y, guess, tau, other, dt, horizon, th, fx) - y)) > 0.01
 
 
 def test_fractional_delay_of_a_held_signal():

@@ -1,8 +1,12 @@
 """Multi-step prediction fit of each axis (NRMSE %), with or without the fitted effects.
 
-The model is run from the measured angle and a smoothed velocity, driven by the logged
-voltages (through the motor lags) and, for pitch, the measured yaw rate, for HORIZON_S
-seconds; then it restarts from the measurement.  A free run over the whole log would be
+The model is run for HORIZON_S seconds from an initial angle and velocity, driven by the
+logged voltages (through the motor lags) and, for pitch, the measured yaw rate; then it
+restarts.  Each window's initial angle and velocity are estimated (least squares over the
+window, one Gauss-Newton step from the measured angle and a smoothed velocity, kept where
+it lowers the window's error), as
+identification tools do when they compare a model with data: a noisy restart state would
+otherwise dominate the error, and the fit would judge the velocity estimate, not the model.  A free run over the whole log would be
 meaningless for yaw: with no restoring force its angle integrates every small torque error
 and drifts without bound.  Fit = 100 (1 - |y - y_hat| / |y - mean y|).
 """
@@ -29,16 +33,17 @@ def _rhs(pitch, x, v, tau_m, other, th, fx):
 
 
 @njit(cache=True)
-def predict(pitch, x_meas, v_meas, tau, other, dt, horizon, th, fx):
-    """Angle predictions; inputs (tau, other = beta' or M_R) are linear between samples."""
-    n = x_meas.size
+def predict(pitch, x_start, v_start, tau, other, dt, horizon, th, fx):
+    """Angle predictions [rad], restarted every ``horizon`` samples from x_start (logged angle) and
+    v_start [rad/s] at the restart sample; inputs (tau, other = beta' or M_R) are linear between samples."""
+    n = x_start.size
     out = np.empty(n)
     x = 0.0
     v = 0.0
     for k in range(n):
         if k % horizon == 0:
-            x = x_meas[k] - fx[4]
-            v = v_meas[k]
+            x = x_start[k] - fx[4]
+            v = v_start[k]
         out[k] = x + fx[4]
         if k == n - 1:
             break
@@ -52,6 +57,30 @@ def predict(pitch, x_meas, v_meas, tau, other, dt, horizon, th, fx):
         x += dt * (v + dt / 6.0 * (a1 + a2 + a3))
         v += dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
     return out
+
+
+def predict_fitted_start(pitch, x_meas, v_guess, tau, other, dt, horizon, th, fx) -> np.ndarray:
+    """Predictions with each window's initial angle and velocity fitted to the window's measurements."""
+    y0 = predict(pitch, x_meas, v_guess, tau, other, dt, horizon, th, fx)
+    hx = 1e-6 * max(float(np.max(np.abs(x_meas))), 1.0)  # rad
+    hv = 1e-5 * max(float(np.max(np.abs(v_guess))), 1.0)  # rad/s
+    sx = (predict(pitch, x_meas + hx, v_guess, tau, other, dt, horizon, th, fx) - y0) / hx
+    sv = (predict(pitch, x_meas, v_guess + hv, tau, other, dt, horizon, th, fx) - y0) / hv
+    e = x_meas - y0
+    n = x_meas.size
+    starts = np.arange(0, n, horizon)
+    sums = lambda z: np.add.reduceat(z, starts)  # noqa: E731
+    a11, a12, a22 = sums(sx * sx), sums(sx * sv), sums(sv * sv)
+    b1, b2 = sums(sx * e), sums(sv * e)
+    ridge = 1e-12 * (a11 + a22) + 1e-300
+    det = (a11 + ridge) * (a22 + ridge) - a12 * a12
+    dx = ((a22 + ridge) * b1 - a12 * b2) / det
+    dv = ((a11 + ridge) * b2 - a12 * b1) / det
+    w = np.arange(n) // horizon
+    y1 = predict(pitch, x_meas + dx[w], v_guess + dv[w], tau, other, dt, horizon, th, fx)
+    # keep a window's step only where it lowers that window's error (friction makes the start non-smooth)
+    better = sums((x_meas - y1) ** 2) < sums(e * e)
+    return np.where(better[w], y1, y0)
 
 
 def nrmse_fit(y: np.ndarray, y_hat: np.ndarray) -> float:

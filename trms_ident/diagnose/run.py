@@ -13,7 +13,7 @@ from ..params import merge
 from .effects import BY_KEY, CANDIDATES, UNOBSERVABLE, Candidate
 from .locate import lag_profile, regimes, segments
 from .model import AXIS_ANGLE, Model, modified_inputs, regression, restart_velocity, smoothed_velocity
-from .predict import HORIZON_S, nrmse_fit, predict
+from .predict import HORIZON_S, nrmse_fit, predict_fitted_start
 from .select import FAMILY_ALPHA, compare, score
 
 MAX_FINDINGS = 3
@@ -290,12 +290,12 @@ def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict):
         if axis == "yaw":
             fx[2] = values.get("cable_stiffness:yaw", 0.0)
             th = np.array([est["J2"], est["B2"], pp["a2"], pp["b2"], 0.0, 0.0, law == "signed"], dtype=float)
-            y = predict(False, x, v, ps.tau2, ps.MR_nm, dt, horizon, th, fx)
+            y = predict_fitted_start(False, x, v, ps.tau2, ps.MR_nm, dt, horizon, th, fx)
         else:
             fx[3] = values.get("com_offset:pitch", 0.0)
             fx[4] = values.get("sensor_offset:pitch", 0.0)
             th = np.array([est["J1"], est["B1"], pp["a1"], pp["b1"], pp["Mg"], pp["Kg"], law == "signed"], dtype=float)
-            y = predict(True, x, v, ps.tau1, ps.dbeta_rad_s, dt, horizon, th, fx)
+            y = predict_fitted_start(True, x, v, ps.tau1, ps.dbeta_rad_s, dt, horizon, th, fx)
         fits[axis] = nrmse_fit(x, y)
         preds[axis] = y
     return fits, preds

@@ -16,8 +16,9 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                       "fit_after": f.fit_after, "evidence": f.evidence, "explanation": f.explanation,
                       "alternatives": f.alternatives, "estimate_shift_percent": f.shift} for f in d.findings],
         "estimates": {"nominal": d.nominal, "augmented": d.augmented},
-        "fit": {"measure": f"NRMSE fit [%] of {d.settings['horizon_s']:g} s multi-step predictions restarted from "
-                           "the measurement (a free run drifts on yaw, which has no restoring force)",
+        "fit": {"measure": f"NRMSE fit [%] of {d.settings['horizon_s']:g} s multi-step predictions, each window "
+                           "started from the angle and velocity fitted to it (a free run drifts on yaw, which has "
+                           "no restoring force)",
                 "before": d.fit_before, "after": d.fit_after},
         "located": {"segments": d.segments, "regimes": d.regimes, "lag": d.lag},
         "tested": d.tested,
