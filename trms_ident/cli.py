@@ -120,7 +120,10 @@ GammaOpt = Annotated[str, typer.Option("--gamma", help="Gradient gain of eq. (8)
                                        "or J1=..,B1=..,J2=..,B2=..")]
 SettleOpt = Annotated[float, typer.Option("--settle", help="Auto gain: time for the trace error to fall to 1 % [s].")]
 LawOpt = Annotated[str, typer.Option("--thrust-law", help=f"One of {tuple(THRUST_LAWS)}.")]
-HeadlineOpt = Annotated[str, typer.Option("--headline", help=f"Which number is the estimate: {HEADLINES}.")]
+HeadlineOpt = Annotated[str, typer.Option("--headline", help=f"Which number is the estimate: {HEADLINES} ('refined' "
+                                          "falls back to 'offline' when the refinement is skipped or not used).")]
+RefineOpt = Annotated[str, typer.Option("--refine", help="Prediction-error refinement after DREM: 'auto' (logs up to "
+                                        "~17 min at 1 kHz), 'on' or 'off'.")]
 AngleOpt = Annotated[str, typer.Option("--angle-unit", help="Unit of the logged angles: rad or deg.")]
 NoReportOpt = Annotated[bool, typer.Option("--no-report", help="Skip the HTML report.")]
 SignalOpt = Annotated[Optional[list[str]], typer.Option("--signal", help="MCAP: where a signal comes from, "
@@ -131,12 +134,12 @@ TimeSourceOpt = Annotated[str, typer.Option("--time-source", help="MCAP message 
 
 
 def build_settings(a: str, b: str, gain_convention: str, gamma: str, settle: float, thrust_law: str, headline: str,
-                   params: Path | None, angle_unit: str) -> Settings:
+                   params: Path | None, angle_unit: str, refine: str = "auto") -> Settings:
     if angle_unit not in ("rad", "deg"):
         raise SettingsError(f"--angle-unit {angle_unit!r}: expected rad or deg")
     settings = Settings(filter_a_rad_s=parse_auto("--a", a), filter_b_rad_s=parse_auto("--b", b),
                         gain_convention=gain_convention, gamma=parse_gamma(gamma), settle_time_s=settle,
-                        thrust_law=thrust_law, headline=headline,
+                        thrust_law=thrust_law, headline=headline, refine=refine,
                         overrides=load_parameter_file(params) if params else {})
     settings.validate()
     return settings
@@ -168,7 +171,8 @@ def estimate(
     gamma: GammaOpt = "auto",
     settle: SettleOpt = Settings.settle_time_s,
     thrust_law: LawOpt = "quadratic",
-    headline: HeadlineOpt = "offline",
+    headline: HeadlineOpt = "refined",
+    refine: RefineOpt = "auto",
     angle_unit: AngleOpt = "rad",
     truth: Annotated[Optional[Path], typer.Option(help="Ground-truth JSON [default: <log>.truth.json if present].")] = None,
     no_report: NoReportOpt = False,
@@ -178,7 +182,7 @@ def estimate(
     """Estimate J1, B1, J2, B2 from a log and write a report."""
     from .commands import estimate_file
 
-    settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit)
+    settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit, refine)
     out_dir = out if out is not None else Path(f"{log.name.split('.')[0]}_ident")
     progress = stage_reporter(str(log))
     res = estimate_file(log, settings, out_dir, angle_unit=angle_unit, html=not no_report, truth_file=truth,
@@ -192,6 +196,7 @@ def estimate(
         f"{1.0 / s['input']['sample_time_s']:.6g} Hz")
     say(f"  filters: a = {res.result.settings.filter_a_rad_s:g} rad/s, b = {res.result.settings.filter_b_rad_s:g} rad/s"
         f" ({'designed from the log' if res.result.design else 'given'})")
+    say(f"  estimate: {res.result.headline}; {res.result.refine_note}")
     tv = s.get("truth", {})
     for k in ESTIMATED:
         est, (lo, hi) = s["estimates"][k], s["ci95"][k]
@@ -227,7 +232,8 @@ def batch(
     gamma: GammaOpt = "auto",
     settle: SettleOpt = Settings.settle_time_s,
     thrust_law: LawOpt = "quadratic",
-    headline: HeadlineOpt = "offline",
+    headline: HeadlineOpt = "refined",
+    refine: RefineOpt = "auto",
     angle_unit: AngleOpt = "rad",
     no_report: NoReportOpt = False,
     signal: SignalOpt = None,
@@ -240,7 +246,7 @@ def batch(
 
     if jobs < 1:
         raise SettingsError(f"--jobs {jobs}: expected 1 or more")
-    settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit)
+    settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit, refine)
     paths = batch_mod.discover(inputs, out)
     if not paths:
         raise SettingsError(f"no .csv or .mcap logs found in {' '.join(inputs)}")

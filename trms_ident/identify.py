@@ -1,4 +1,4 @@
-"""The identification pipeline: Log -> plant regressors -> filters -> DREM -> Result.
+"""The identification pipeline: Log -> plant regressors -> filters -> DREM -> refinement -> Result.
 
 Pure: arrays and settings in, a Result out.  No files, no printing.
 """
@@ -12,12 +12,13 @@ import numpy as np
 
 from .errors import IdentificationError, SettingsError
 from .log import Log
-from .numerics.design import FilterDesign, design_filters
+from .numerics.design import FilterDesign, design_filters, noise_std
 from .numerics.drem import gradient_estimator
 from .numerics.fused import mixed_regressions
-from .numerics.stats import Interval, block_length, confidence_interval
+from .numerics.refine import MAX_SUBSTEP_S, Refined, refine
+from .numerics.stats import IDENTIFIABLE_REL_HALF_WIDTH, MIN_BLOCKS, Interval, block_length, confidence_interval
 from .params import ESTIMATED, merge
-from .settings import AXES, GAIN_CONVENTIONS, HEADLINES, MAX_TRACE_POINTS, Settings
+from .settings import AXES, GAIN_CONVENTIONS, HEADLINES, MAX_TRACE_POINTS, REFINE_AUTO_MAX_STEPS, Settings
 
 __all__ = ["AXES", "GAIN_CONVENTIONS", "HEADLINES", "AxisResult", "Result", "Settings", "identify"]
 
@@ -36,7 +37,11 @@ class Result:
     trace_step: int
     drem_final: dict[str, float]
     offline: dict[str, float]  # sum(eps phi) / sum(phi^2) per parameter
-    intervals: dict[str, Interval]  # 95 % intervals of the offline optimum; identifiability
+    offline_intervals: dict[str, Interval]  # 95 % intervals of the offline optimum; identifiability
+    refined: Refined | None  # prediction-error refinement (None when not run)
+    refine_note: str  # whether the refinement ran or was used, and why
+    headline: str  # which estimate the headline numbers are: "refined", "offline" or "drem"
+    intervals: dict[str, Interval]  # 95 % intervals of the headline numbers; identifiability
     estimates: dict[str, float | None]  # headline numbers; None where not identifiable
     axes: dict[str, AxisResult]
     parameters: dict[str, float]  # every model value used (table + overrides)
@@ -95,6 +100,65 @@ def identify(log: Log, settings: Settings | None = None) -> Result:
 
     with ThreadPoolExecutor(max_workers=2) as pool:  # the compiled loops release the GIL
         list(pool.map(estimate_axis, AXES))
-    chosen = offline if settings.headline == "offline" else drem_final
-    estimates = {k: (chosen[k] if intervals[k].identifiable else None) for k in ESTIMATED}
-    return Result(log.t_s[::step], traces, step, drem_final, offline, intervals, estimates, axes, params, settings, design, dt)
+    refined, note, usable = _refine(log, settings, params, offline, design)
+    headline = settings.headline
+    if headline == "refined" and not usable:
+        headline = "offline"
+    if headline == "refined":
+        head_intervals = {k: _refined_interval(refined, k) for k in ESTIMATED}
+        chosen = refined.estimate
+    else:
+        head_intervals = intervals
+        chosen = offline if headline == "offline" else drem_final
+    estimates = {k: (chosen[k] if head_intervals[k].identifiable else None) for k in ESTIMATED}
+    return Result(log.t_s[::step], traces, step, drem_final, offline, intervals, refined, note, headline,
+                  head_intervals, estimates, axes, params, settings, design, dt)
+
+
+#: the refined fit must leave angle errors within this factor of the noise level, or the model misses
+#: something and its (precise-looking) refined numbers are not used
+ADEQUATE_RMS_OVER_NOISE = 1.5
+
+
+def _refine(log: Log, settings: Settings, params: dict, offline: dict,
+            design: FilterDesign | None) -> tuple[Refined | None, str, bool]:
+    """Prediction-error refinement from DREM's offline optimum, when the settings and the log allow it."""
+    dt = log.sample_time_s
+    steps = len(log) * max(1, math.ceil(dt / MAX_SUBSTEP_S - 1e-9))
+    if settings.refine == "off":
+        return None, "refinement off (--refine off)", False
+    if settings.refine == "auto" and steps > REFINE_AUTO_MAX_STEPS:
+        return None, (f"refinement skipped: the log needs {steps:,} integration steps, more than the automatic "
+                      f"limit of {REFINE_AUTO_MAX_STEPS:,} (use --refine on to force it); DREM's offline "
+                      "optimum is the estimate"), False
+    if not all(math.isfinite(offline[k]) and offline[k] > 0 for k in ESTIMATED):
+        return None, "refinement skipped: DREM's offline optimum is not a usable start (a value is not positive)", False
+    noise = design.noise_rad if design else {"alpha": noise_std(log.alpha_rad), "beta": noise_std(log.beta_rad)}
+    try:
+        r = refine(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, dt, params, settings.thrust_law, offline, noise)
+    except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as e:
+        return None, f"refinement failed ({e}); DREM's offline optimum is the estimate", False
+    ratio = {ax: r.rms_rad[ax] / noise[ax] if noise[ax] > 0 else math.inf for ax in ("alpha", "beta")}
+    base = (f"prediction-error refinement from DREM's offline optimum: {r.iterations} Gauss-Newton iteration(s), "
+            f"{r.windows} window(s) of {r.window_s:g} s after the first {r.skipped_s:g} s, angle error RMS "
+            f"alpha {r.rms_rad['alpha']:.3g} rad, beta {r.rms_rad['beta']:.3g} rad (noise {noise['alpha']:.3g}, "
+            f"{noise['beta']:.3g} rad)")
+    if not r.converged:
+        return r, base + "; NOT used: Gauss-Newton did not converge", False
+    if r.blocks < MIN_BLOCKS:
+        return r, base + f"; NOT used: {r.blocks} block(s) after the start are too few for an interval", False
+    if max(ratio.values()) > ADEQUATE_RMS_OVER_NOISE:
+        worst = max(ratio, key=ratio.get)
+        return r, (base + f"; NOT used: the {worst} error is {ratio[worst]:.3g}x its noise level, so the model "
+                   "misses something in this log (try `trms-ident diagnose`) and DREM's offline optimum is the "
+                   "estimate"), False
+    return r, base, True
+
+
+def _refined_interval(r: Refined, name: str) -> Interval:
+    est = r.estimate[name]
+    lo, hi = r.ci95[name]
+    rel = (hi - lo) / 2 / est
+    ok = est > 0 and rel <= IDENTIFIABLE_REL_HALF_WIDTH
+    reason = f"95 % interval ±{100 * rel:.2g} %" if ok else f"weakly excited: 95 % interval is ±{100 * rel:.3g} % of the value"
+    return Interval(est, lo, hi, r.blocks, ok, reason)

@@ -24,9 +24,11 @@ def zoh_first_order(k: float, t1: float, t0: float, dt: float) -> tuple[np.ndarr
     return np.array([0.0, gain_step, 0.0]), np.array([1.0, -e, 0.0])
 
 
-def zoh_reaction(kc: float, k1: float, t0: float, tp: float, t11: float, t10: float, dt: float
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """ZOH of kc k1 (t0 s + 1)/((tp s + 1)(t11 s + t10)), the u1 -> M_R path of eq. (1).
+def zoh_motor_lag_states(k1: float, tp: float, t11: float, t10: float, dt: float
+                         ) -> tuple[float, float, float, float, float]:
+    """Exact one-sample transition of tau = k1/(t11 s + t10) u and zeta = tau/(tp s + 1), u held:
+    tau[n+1] = e1 tau[n] + g1 u[n],  zeta[n+1] = phi21 tau[n] + e2 zeta[n] + g2 u[n].
+    Returns (e1, e2, phi21, g1, g2).
 
     States tau (motor, pole p1 = t10/t11) and zeta (lag, pole p2 = 1/tp); the transition
     matrix of this lower-triangular system has a closed form with divided differences.
@@ -42,6 +44,13 @@ def zoh_reaction(kc: float, k1: float, t0: float, tp: float, t11: float, t10: fl
     i1 = dt * _phi1(-p1 * dt)
     i2 = dt * _phi1(-p2 * dt)
     g2 = k1 / t11 / tp * ((i1 - i2) / (p2 - p1) if abs(p2 - p1) * dt > 1e-6 else _dd_int(p1, dt))
+    return e1, e2, phi21, g1, g2
+
+
+def zoh_reaction(kc: float, k1: float, t0: float, tp: float, t11: float, t10: float, dt: float
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """ZOH of kc k1 (t0 s + 1)/((tp s + 1)(t11 s + t10)), the u1 -> M_R path of eq. (1)."""
+    e1, e2, phi21, g1, g2 = zoh_motor_lag_states(k1, tp, t11, t10, dt)
     # output M_R = kc (t0/tp tau + (1 - t0/tp) zeta) = c . x
     c1, c2 = kc * t0 / tp, kc * (1.0 - t0 / tp)
     # transfer function of x[n+1] = Phi x[n] + Gamma u[n], y = c x  (strictly proper)

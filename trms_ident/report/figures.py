@@ -54,9 +54,12 @@ def traces_figure(result: Result, truth: dict | None) -> str:
     for a, name in zip(ax.ravel(), ("J1", "B1", "J2", "B2")):
         a.plot(t, result.traces[name][s], lw=1.0, label="DREM trace (eq. 8)")
         a.axhline(result.offline[name], color="tab:green", ls=":", lw=1.2, label="offline optimum")
-        ci = result.intervals[name]
+        ci = result.offline_intervals[name]
         if np.isfinite(ci.low):
-            a.axhspan(ci.low, ci.high, color="tab:green", alpha=0.15, lw=0, label="95 % interval")
+            a.axhspan(ci.low, ci.high, color="tab:green", alpha=0.15, lw=0, label="95 % interval (offline)")
+        if result.refined is not None:
+            a.axhline(result.refined.estimate[name], color="tab:red", ls="-.", lw=1.2,
+                      label="refined" + ("" if result.headline == "refined" else " (not used)"))
         if truth:
             a.axhline(truth[name], color="k", ls="--", lw=1.0, label="ground truth")
             lo, hi = sorted((0.0, 1.3 * truth[name]))

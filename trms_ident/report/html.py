@@ -30,7 +30,8 @@ def render(doc: dict, result: Result, log: Log) -> str:
 
     settings = doc["settings"]
     truth = doc.get("truth", {}).get("values")
-    head = ["parameter", "unit", f"estimate ({doc['headline']})", "95 % interval", "DREM final", "offline optimum"]
+    head = ["parameter", "unit", f"estimate ({doc['headline']})", "95 % interval", "DREM final", "offline optimum",
+            "refined"]
     if truth:
         head += ["ground truth", "error [%]"]
     rows = []
@@ -38,7 +39,8 @@ def render(doc: dict, result: Result, log: Log) -> str:
         est = doc["estimates"][k]
         lo, hi = doc["ci95"][k]
         r = [k, UNITS[k], _g(est) if est is not None else "not identifiable",
-             f"[{_g(lo)}, {_g(hi)}]" if lo is not None else "-", _g(doc["drem_final"][k]), _g(doc["offline_optimum"][k])]
+             f"[{_g(lo)}, {_g(hi)}]" if lo is not None else "-", _g(doc["drem_final"][k]), _g(doc["offline_optimum"][k]),
+             _g(doc["refined"]["estimates"][k]) if doc["refined"] else "-"]
         if truth:
             err = doc["truth"]["error_percent"][k]
             r += [_g(truth[k]), f"{err:+.3f}" if err is not None else "-"]
@@ -58,8 +60,9 @@ def render(doc: dict, result: Result, log: Log) -> str:
 sample time {inp['sample_time_s']:.6g} s.<br><span class="note">sha256 {inp['sha256']}</span></p>
 <h2>Estimates</h2>
 <table>{_row(head, 'th')}{''.join(rows)}</table>
-<p class="note">Headline: {html.escape(doc['headline_meaning'])}. Intervals: batch means over blocks longer
-than the filters' memory (valid for correlated residuals), widened by the predicted errors-in-variables bias.</p>
+<p class="note">Headline: {html.escape(doc['headline_meaning'])}. Intervals: batch means over blocks
+(valid for correlated residuals); for DREM widened by the predicted errors-in-variables bias.</p>
+<p class="note">{html.escape(doc['refinement'])}.</p>
 <p>Excitation: {html.escape(excitation)}.</p><ul class="note">{notes}</ul>
 <p class="note">Filters: {html.escape(settings['filter_F'])}; {html.escape(settings['filter_H'])}.
 {html.escape(settings['filter_design'])}.</p>

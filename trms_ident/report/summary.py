@@ -38,6 +38,14 @@ def load_truth(path: Path) -> dict | None:
         return None
 
 
+HEADLINE_MEANING = {
+    "refined": "prediction-error (output-error) refinement of the angles, started from DREM's offline optimum: "
+               "Gauss-Newton over windows with fitted starts (maximum likelihood for white angle noise)",
+    "offline": "offline optimum sum(eps*phi)/sum(phi^2) of each DREM scalar regression (eq. 7) over the whole log",
+    "drem": "final value of the causal DREM gradient trace (eq. 8)",
+}
+
+
 def summarize(result: Result, log: Log, truth: dict | None = None, truth_source: str | None = None) -> dict:
     s = result.settings
     table = defaults()
@@ -48,15 +56,24 @@ def summarize(result: Result, log: Log, truth: dict | None = None, truth_source:
         "identifiable": {k: result.intervals[k].identifiable for k in ESTIMATED},
         "identifiability": {k: result.intervals[k].reason for k in ESTIMATED},
         "units": {k: UNITS[k] for k in ESTIMATED},
-        "headline": s.headline,
-        "headline_meaning": (
-            "offline optimum sum(eps*phi)/sum(phi^2) of each DREM scalar regression (eq. 7) over the whole log"
-            if s.headline == "offline" else "final value of the causal DREM gradient trace (eq. 8)"),
+        "headline": result.headline,
+        "headline_meaning": HEADLINE_MEANING[result.headline],
+        "refinement": result.refine_note,
         "drem_final": result.drem_final,
         "traces_every_nth_sample": result.trace_step,
         "offline_optimum": result.offline,
+        "offline_ci95": {k: _pair(result.offline_intervals[k]) for k in ESTIMATED},
+        "refined": None if result.refined is None else {
+            "estimates": result.refined.estimate, "ci95": {k: list(v) for k, v in result.refined.ci95.items()},
+            "used": result.headline == "refined", "converged": result.refined.converged,
+            "iterations": result.refined.iterations, "window_s": result.refined.window_s,
+            "windows": result.refined.windows, "skipped_at_start_s": result.refined.skipped_s,
+            "rk4_substeps_per_sample": result.refined.substeps,
+            "angle_error_rms_rad": {"drem_start": result.refined.rms_start_rad, "refined": result.refined.rms_rad},
+            "integration_error": result.refined.integration_error},
         "excitation": {axis: {"phi_energy": result.axes[axis].phi_energy,
-                              "verdict": _verdict([result.intervals[k] for k in AXES[axis]])} for axis in AXES},
+                              "verdict": _verdict([result.offline_intervals[k] for k in AXES[axis]])}
+                       for axis in AXES},
         "input": {
             "path": log.source,
             "sha256": log.sha256,
