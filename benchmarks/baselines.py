@@ -27,7 +27,7 @@ NAMES = ("J1", "B1", "J2", "B2")
 def paper_literal(log, ref: str) -> dict:
     gamma = 100.0 if ref == "square" else 1000.0
     res = identify(log, Settings(filter_a_rad_s=10.0, filter_b_rad_s=100.0, gain_convention="paper",
-                                 gamma={k: gamma for k in NAMES}, headline="drem"))
+                                 gamma={k: gamma for k in NAMES}, headline="drem", refine="off"))
     return dict(res.drem_final)
 
 

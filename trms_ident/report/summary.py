@@ -69,7 +69,7 @@ def summarize(result: Result, log: Log, truth: dict | None = None, truth_source:
             "iterations": result.refined.iterations, "window_s": result.refined.window_s,
             "windows": result.refined.windows, "skipped_at_start_s": result.refined.skipped_s,
             "rk4_substeps_per_sample": result.refined.substeps,
-            "angle_error_rms_rad": {"drem_start": result.refined.rms_start_rad, "refined": result.refined.rms_rad},
+            "angle_error_rms_rad": result.refined.rms_rad,
             "integration_error": result.refined.integration_error},
         "excitation": {axis: {"phi_energy": result.axes[axis].phi_energy,
                               "verdict": _verdict([result.offline_intervals[k] for k in AXES[axis]])}
