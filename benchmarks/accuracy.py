@@ -38,7 +38,8 @@ def cell(ref, rate, noise_name, with_oe):
     truth = r.truth["estimated"]
     log = validated(r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad)
     identify(log)  # warm the compiled kernels so that wall time is the estimate's own
-    res, t_tool = timed(identify, log)
+    runs = [timed(identify, log) for _ in range(3)]  # median of 3: the machine is shared
+    res, t_tool = runs[0][0], float(np.median([t for _, t in runs]))
     row = {"ref": ref, "rate": rate, "noise": noise_name, "t_tool": t_tool, "a": res.settings.filter_a_rad_s,
            "headline": res.headline}
     for k in NAMES:
