@@ -41,7 +41,7 @@ def cell(ref, rate, noise_name, with_oe):
     runs = [timed(identify, log) for _ in range(3)]  # median of 3: the machine is shared
     res, t_tool = runs[0][0], float(np.median([t for _, t in runs]))
     row = {"ref": ref, "rate": rate, "noise": noise_name, "t_tool": t_tool, "a": res.settings.filter_a_rad_s,
-           "headline": res.headline}
+           "headline": res.headline, "fit_over_noise": _fit_over_noise(res, log)}
     for k in NAMES:
         row[f"drem_{k}"] = 100 * (res.offline[k] / truth[k] - 1)
     for k in NAMES:
@@ -56,6 +56,14 @@ def cell(ref, rate, noise_name, with_oe):
         for k in NAMES:
             row[f"{name}_{k}"] = 100 * (est[k] / truth[k] - 1)
     return row
+
+
+def _fit_over_noise(res, log) -> str:
+    from trms_ident.numerics.design import angle_noise_rad
+
+    if res.refined is None:
+        return "-"
+    return "/".join(f"{res.refined.rms_rad[a] / angle_noise_rad(getattr(log, a + '_rad')):.3f}" for a in ("alpha", "beta"))
 
 
 def fmt(v):
@@ -127,8 +135,8 @@ def main():
         for rate in rates:
             for noise in NOISES:
                 rows.append(cell(ref, rate, noise, with_oe))
-                print(f"{ref:9s} {rate:6g} Hz {noise:10s} " + " ".join(f"{k} {fmt(rows[-1]['tool_' + k])}" for k in NAMES),
-                      file=sys.stderr)
+                print(f"{ref:9s} {rate:6g} Hz {noise:10s} " + " ".join(f"{k} {fmt(rows[-1]['tool_' + k])}" for k in NAMES)
+                      + f" ({rows[-1]['headline']}, fit/noise {rows[-1]['fit_over_noise']})", file=sys.stderr)
     text = (f"## Accuracy (benchmarks/accuracy.py{' --quick' if args.quick else ''}, "
             f"{time.perf_counter() - t0:.0f} s)\n\n{table(rows, with_oe)}\n\n{verdict(rows, with_oe)}\n")
     from results import update_section

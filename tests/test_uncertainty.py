@@ -7,7 +7,7 @@ import pytest
 from trms_ident.errors import IdentificationError
 from trms_ident.identify import Settings, identify
 from trms_ident.log import validated
-from trms_ident.numerics.design import design_filters, noise_std
+from trms_ident.numerics.design import angle_noise_rad, design_filters, noise_std, quantization_step
 from trms_ident.numerics.stats import confidence_interval
 
 from .conftest import as_log, sim_cached
@@ -19,6 +19,17 @@ def test_noise_estimate_recovers_known_sigma():
     for sigma in (1e-4, 1e-3):
         x = 0.4 * np.sin(0.7 * t) + sigma * rng.standard_normal(t.size)
         assert noise_std(x) == pytest.approx(sigma, rel=0.02)
+
+
+def test_encoder_quantum_is_found_and_sets_the_noise_floor():
+    q = 2 * math.pi / 4096
+    t = np.arange(200000) * 1e-3  # 1 kHz: the angle moves less than a quantum per sample
+    x = q * np.round((0.4 * np.sin(0.7 * t) + 0.01) / q)
+    assert quantization_step(x) == pytest.approx(q, rel=1e-9)
+    assert noise_std(x) < 0.7 * q / math.sqrt(12)  # third differences miss correlated rounding
+    assert angle_noise_rad(x) == pytest.approx(q / math.sqrt(12), rel=1e-9)
+    noisy = 0.4 * np.sin(0.7 * t) + 1e-3 * np.random.default_rng(2).standard_normal(t.size)
+    assert quantization_step(noisy) == 0.0 and angle_noise_rad(noisy) == pytest.approx(1e-3, rel=0.02)
 
 
 def test_design_slows_the_filters_for_noisy_logs():

@@ -42,6 +42,27 @@ def noise_std(x: np.ndarray) -> float:
     return math.sqrt(float(np.dot(d3, d3)) / d3.size / 20.0)
 
 
+def quantization_step(x: np.ndarray, max_samples: int = 200_000) -> float:
+    """The encoder's quantum [rad] when every step of x is a whole multiple of one (0 when not).
+
+    An encoder reading moves in whole quanta; the smallest nonzero step is then the quantum, and
+    every step divides by it.  Third differences underestimate such noise at high sample rates,
+    where the angle moves less than a quantum per sample and the rounding error is correlated."""
+    d = np.abs(np.diff(x[:max_samples]))
+    d = d[d > 0]
+    if d.size < 10:
+        return 0.0
+    q = float(d.min())
+    k = d / q
+    return q if float(np.max(np.abs(k - np.round(k)))) < 1e-3 else 0.0
+
+
+def angle_noise_rad(x: np.ndarray) -> float:
+    """Noise level of an angle [rad]: white noise from third differences, or an encoder's rounding
+    error q/sqrt(12), whichever is larger."""
+    return max(noise_std(x), quantization_step(x) / math.sqrt(12.0))
+
+
 def predicted_bias(windows: np.ndarray, sigma: float, a: float, dt: float) -> float:
     """SAFETY * noise power / signal power of F s^2[x] over the windows (rows of ``windows``)."""
     num, den = bilinear_second_order(a, a * a, 2, dt)

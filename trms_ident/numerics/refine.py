@@ -44,7 +44,7 @@ from .coefficients import zoh_first_order, zoh_motor_lag_states
 WINDOW_S = 40.0
 #: RK4 sub-step: the integrator's error on noise-free logs is ~1e-10 relative at 2.5 ms (measured)
 MAX_SUBSTEP_S = 2.5e-3
-MAX_ITERATIONS = 12
+MAX_ITERATIONS = 8
 #: Gauss-Newton stops when every parameter moves less than this fraction of its value, or less than
 #: STEP_OVER_SE of its standard error
 TOLERANCE = 1e-11
