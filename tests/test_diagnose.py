@@ -68,6 +68,18 @@ def test_indistinguishable_candidates_are_said_so():
         assert "cannot be told apart" in f.evidence
 
 
+@pytest.mark.parametrize("effect, value, ref, seed", [("sensor_offset", 0.01, "sine", 119), ("com_offset", 0.03, "steps", 117)])
+def test_output_error_fit_tells_the_two_offsets_apart(effect, value, ref, seed):
+    # the equation error alone named the other offset first on these logs (benchmark logs 17 and 19)
+    d, _ = _diag(ref, 1000.0, DURATION_OFFSETS_S, [dict(effect=effect, axis="pitch", value=value)], 1e-3, 0.0, seed)
+    f = d.findings[0]
+    assert f.effect == effect and not f.alternatives, (f.effect, f.evidence)
+    assert "told apart" in f.evidence and f.parameter["value"] == pytest.approx(value, rel=0.05)
+
+
+DURATION_OFFSETS_S = 90.0
+
+
 def test_block_test_keeps_false_positives_rare():
     # a candidate that explains nothing: per-block log-ratios centred on zero -> rarely "passes"
     rng = np.random.default_rng(0)

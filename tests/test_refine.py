@@ -37,7 +37,7 @@ def test_forward_sensitivities_match_finite_differences():
     dt, n = 1e-3, r.t_s.size
     motor = R.motor_states(r.u1_v, r.u2_v, dt, p)
     y = np.column_stack([r.alpha_rad, r.beta_rad])
-    base = np.array([p[k] for k in R._P])
+    base = R.model_vector(p)
     starts = np.array([[0.01, 0.2, 0.02, 0.3]])
 
     def pred(pv, st):

@@ -10,6 +10,7 @@ from ..log import Log
 from ..numerics.design import design_filters
 from ..numerics.stats import block_length
 from ..params import merge
+from .discriminate import PAIR, tell_offsets_apart
 from .effects import BY_KEY, CANDIDATES, UNOBSERVABLE, Candidate
 from .locate import lag_profile, regimes, segments
 from .model import AXIS_ANGLE, Model, modified_inputs, regression, restart_velocity, smoothed_velocity
@@ -131,6 +132,10 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
         best = ok[0]
         alts = [r["c"].key for r in ok[1:] if r["test"].gain >= ALIAS_GAIN_RATIO * best["test"].gain and
                 _alias(best, r) and not _separable(best, r)]
+        told = None
+        if best["c"].key in PAIR and any(k in PAIR for k in alts):
+            best, alts, told = _offsets_by_output_error(best, alts, ok, log, p, law, current)
+        best["told_apart"] = told
         current = best["model"]
         reg_now, score_now = best["reg"], best["score"]
         excluded.update(alts)
@@ -150,6 +155,8 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
         evidence = (f"held-out equation-error RSS {-100 * best['test'].gain:+.1f} % (t = {best['test'].t:.1f} over "
                     f"{int(ids.max()) + 1} blocks, p = {best['test'].p:.1e}); leaving it out shifted "
                     + ", ".join(f"{k} by {shift[k]:+.2g} %" for k in _params_of(axes_c)))
+        if best.get("told_apart"):
+            evidence += "; " + best["told_apart"]
         if alts:
             evidence += "; cannot be told apart with this excitation from " + ", ".join(alts)
         out.append(Finding(c.effect, c.axis, {"name": c.parameter, "value": v, "unit": c.unit}, fb, fa, evidence,
@@ -229,6 +236,22 @@ def _exact_offset(c, delta0, log, p, law, a, current, cache, ids, score_now, n_t
     model = current.with_mod(c.key, best)
     reg = regression(log, p, law, a, model, cache)
     return model, reg, score(reg, ids, ("pitch", "yaw")), best
+
+
+def _offsets_by_output_error(best, alts, ok, log, p, law, current):
+    """The two offsets look alike in the equation error; the output-error fit may still tell them apart
+    (diagnose/discriminate.py).  Only for models the fit can carry: input modifications, no extra torques."""
+    other = next(r for r in ok if r["c"].key in PAIR and r["c"].key != best["c"].key)
+    theta0 = _estimates(best["score"], best["reg"])
+    if current.linear or not all(v > 0 for v in theta0.values()) or best["value"] == 0 or other["value"] == 0:
+        return best, alts, None
+    u1, u2, changes = modified_inputs(log, dict(current.mods))
+    verdict = tell_offsets_apart(log, u1, u2, {**p, **changes}, law, theta0,
+                                 {best["c"].key: best["value"], other["c"].key: other["value"]})
+    if verdict.winner is None:
+        return best, alts, None
+    winner = best if verdict.winner == best["c"].key else other
+    return winner, [k for k in alts if k not in PAIR], verdict.reason
 
 
 def _plausible(c: Candidate, v: float) -> bool:

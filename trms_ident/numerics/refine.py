@@ -67,6 +67,7 @@ class Refined:
     converged: bool
     iterations: int
     rms_rad: dict  # angle error RMS after refinement, per angle [rad]
+    cost: float  # sum of squared noise-weighted angle errors at the estimate (2 angles x samples used)
     window_s: float
     skipped_s: float  # left out at the log's start (unknown motor states)
     windows: int
@@ -91,7 +92,9 @@ def _rhs(x, u1, u2, p, signed, d):
     m2 = _thrust(x[5], p[6], p[7], signed)
     mr = p[16] * (p[17] / p[18] * x[4] + (1.0 - p[17] / p[18]) * x[6])
     sa, ca = math.sin(x[0]), math.cos(x[0])
-    f1 = (m1 - b1 * x[1] - p[8] * sa - p[9] * m1 * x[3] * ca) / j1
+    # gravity Mg sin(alpha + delta): p[19] = delta, a centre-of-mass offset (0 in the seed model)
+    sg, cg = (sa, ca) if p[19] == 0.0 else (math.sin(x[0] + p[19]), math.cos(x[0] + p[19]))
+    f1 = (m1 - b1 * x[1] - p[8] * sg - p[9] * m1 * x[3] * ca) / j1
     f3 = (m2 - b2 * x[3] - mr) / j2
     d[0] = x[1]
     d[1] = f1
@@ -107,7 +110,7 @@ def _rhs(x, u1, u2, p, signed, d):
     d[24] -= f3 / j2
     d[25] -= x[3] / j2
     # pitch: d/dt S_alpha' = A10 S_alpha + A11 S_alpha' + A13 S_beta' + d f1 / d theta
-    a10 = (-p[8] * ca + p[9] * m1 * x[3] * sa) / j1
+    a10 = (-p[8] * cg + p[9] * m1 * x[3] * sa) / j1
     a11 = -b1 / j1
     a13 = -p[9] * m1 * ca / j1
     for c in range(7):
@@ -200,6 +203,11 @@ def _motor_kernel(u1, u2, c, out):
         out[k + 1, 2] = phi21 * out[k, 0] + e2 * out[k, 2] + g2 * u1[k]
 
 
+def model_vector(params: dict, gravity_offset_rad: float = 0.0) -> np.ndarray:
+    """The compiled kernel's parameter vector: the table's values in _P order, then the gravity offset."""
+    return np.array([params[k] for k in _P] + [gravity_offset_rad], dtype=float)
+
+
 def motor_states(u1, u2, dt, p) -> np.ndarray:
     """tau1, tau2 and zeta at the samples (n, 3), exact for held voltages (zero-order hold), paper eq. (1)."""
     e1, e2, phi21, g1, g2 = zoh_motor_lag_states(p["k1"], p["Tp"], p["T11"], p["T10"], dt)
@@ -244,8 +252,11 @@ def _covariance(s_mat, per_window, scores, win, block):
 
 
 def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict, noise_rad: dict,
-           window_s: float = WINDOW_S) -> Refined:
-    """Gauss-Newton on the noise-weighted angle errors, from theta0 (DREM's estimate)."""
+           window_s: float = WINDOW_S, gravity_offset_rad: float = 0.0) -> Refined:
+    """Gauss-Newton on the noise-weighted angle errors, from theta0 (DREM's estimate).
+
+    ``gravity_offset_rad``: a centre-of-mass offset, gravity Mg sin(alpha + delta) (diagnose's
+    extended model; an encoder offset is handled by the caller, shifting the logged angle)."""
     # the motors' states when the log begins are unknown (their reconstruction assumes steady state):
     # start after BURN_IN_TIME_CONSTANTS of the slowest motor or reaction lag, when that no longer matters
     slowest_s = max(params["T11"] / params["T10"], params["T21"] / params["T20"], abs(params["Tp"]))
@@ -264,7 +275,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     starts = np.array([[alpha[s], _start_velocity(alpha, s, dt), beta[s], _start_velocity(beta, s, dt)]
                        for s in range(0, nw * win, win)])
     theta = np.array([theta0[k] for k in NAMES], dtype=float)
-    base = np.array([params[k] for k in _P], dtype=float)
+    base = model_vector(params, gravity_offset_rad)
     out = np.empty((n, 2))
 
     def evaluate(th, st):
@@ -317,7 +328,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     half = np.maximum(half, 10.0 * TOLERANCE * theta)  # no claim finer than the convergence test
     return Refined(dict(zip(NAMES, map(float, theta))),
                    {k: (float(theta[i] - half[i]), float(theta[i] + half[i])) for i, k in enumerate(NAMES)},
-                   converged, it, rms, win * dt, k0 * dt, nw, nsub, nb,
+                   converged, it, rms, float(cost), win * dt, k0 * dt, nw, nsub, nb,
                    {k: float(integration[i]) for i, k in enumerate(NAMES)})
 
 
