@@ -5,8 +5,8 @@ by their design, not by the noise, and angle noise reaches the regressor F s^2[x
 variables).  The prediction-error estimate minimises the angle errors themselves, which for
 white angle noise is the maximum-likelihood estimate.  It is a nonlinear least-squares
 problem; from DREM's estimate Gauss-Newton converges in a few steps, so DREM supplies what an
-output-error fit lacks on its own: a start inside the basin, and a cross-check (a model that
-does not fit the log makes the two estimates disagree).
+output-error fit lacks on its own: a start inside the basin.  A model that does not fit the log
+leaves angle errors above the noise level; the caller (identify) then keeps DREM's estimate.
 
 Model: paper eq. (1), both axes together (the pitch equation takes beta' from the model, not
 differentiated from the log), state [alpha, alpha', beta, beta', tau1, tau2, zeta] with zeta
@@ -24,8 +24,8 @@ noise level.  Interval: batch means over BLOCK_S blocks of the scores of the par
 the windows' starts projected out (valid for correlated errors, e.g. quantization).
 The first BURN_IN_TIME_CONSTANTS x the slowest motor or M_R lag (10 s with the table's values,
 at most a quarter of the log) are left out: the motors' states when the log begins are not
-known, and a wrong guess (off by only the first command's steady state) biased B2 by 5x its
-standard error in a 60 s log.
+known, and a wrong guess (off by only the first command's steady state) made B2's errors about
+2.5 times wider than its interval over noise seeds of a 60 s log.
 """
 from __future__ import annotations
 
@@ -45,8 +45,8 @@ WINDOW_S = 40.0
 #: RK4 sub-step: the integrator's error on noise-free logs is ~1e-10 relative at 2.5 ms (measured)
 MAX_SUBSTEP_S = 2.5e-3
 MAX_ITERATIONS = 8
-#: Gauss-Newton stops when every parameter moves less than this fraction of its value, or less than
-#: STEP_OVER_SE of its standard error
+#: Gauss-Newton stops when the next step would move every parameter by less than this fraction of its
+#: value, or by less than STEP_OVER_SE of its standard error
 TOLERANCE = 1e-11
 STEP_OVER_SE = 1e-2
 BLOCK_S = 1.0
