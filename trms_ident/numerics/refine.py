@@ -203,6 +203,17 @@ def _motor_kernel(u1, u2, c, out):
         out[k + 1, 2] = phi21 * out[k, 0] + e2 * out[k, 2] + g2 * u1[k]
 
 
+def warm_up() -> None:
+    """Load the compiled kernels from numba's cache on a tiny input (commands call this in a thread)."""
+    from ..params import defaults
+
+    n = 8
+    u, out = np.zeros(n), np.empty((n, 2))
+    gauss_newton_pass(u, u, np.zeros((n, 3)), np.zeros((n, 2)), np.ones(2), np.zeros((1, 4)),
+                      model_vector(defaults()), False, 1e-3, 1, n, n, out)
+    motor_states(u, u, 1e-3, defaults())
+
+
 def model_vector(params: dict, gravity_offset_rad: float = 0.0) -> np.ndarray:
     """The compiled kernel's parameter vector: the table's values in _P order, then the gravity offset."""
     return np.array([params[k] for k in _P] + [gravity_offset_rad], dtype=float)
