@@ -15,7 +15,7 @@ from .log import Log
 from .numerics.design import FilterDesign, angle_noise_rad, design_filters
 from .numerics.drem import gradient_estimator
 from .numerics.fused import mixed_regressions
-from .numerics.refine import MAX_SUBSTEP_S, Refined, refine
+from .numerics.refine import Refined, refine, substeps
 from .numerics.stats import IDENTIFIABLE_REL_HALF_WIDTH, MIN_BLOCKS, Interval, block_length, confidence_interval
 from .params import ESTIMATED, merge
 from .settings import AXES, GAIN_CONVENTIONS, HEADLINES, MAX_TRACE_POINTS, REFINE_AUTO_MAX_STEPS, Settings
@@ -124,7 +124,7 @@ ADEQUATE_RMS_OVER_NOISE = 1.2
 def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[Refined | None, str, bool]:
     """Prediction-error refinement from DREM's offline optimum, when the settings and the log allow it."""
     dt = log.sample_time_s
-    steps = len(log) * max(1, math.ceil(dt / MAX_SUBSTEP_S - 1e-9))
+    steps = len(log) * substeps(dt)
     if settings.refine == "off":
         return None, "refinement off (--refine off)", False
     if settings.refine == "auto" and steps > REFINE_AUTO_MAX_STEPS:

@@ -44,17 +44,16 @@ def tell_offsets_apart(log: Log, u1: np.ndarray, u2: np.ndarray, p: dict, law: s
     fits = {}
     for key in PAIR:
         sensor = key.startswith("sensor")
+        tried = {}  # offset -> refinement, so the search's best point is not fitted again
 
-        def cost(d, sensor=sensor):
-            r = refine(u1, u2, log.alpha_rad - (d if sensor else 0.0), log.beta_rad, dt, p, law, theta0, noise,
-                       gravity_offset_rad=0.0 if sensor else d)
+        def cost(d, sensor=sensor, tried=tried):
+            r = tried[d] = refine(u1, u2, log.alpha_rad - (d if sensor else 0.0), log.beta_rad, dt, p, law, theta0,
+                                  noise, gravity_offset_rad=0.0 if sensor else d)
             return r.cost if r.converged else np.inf
 
         d0 = delta0[key]
         best = minimize_scalar(cost, bracket=(0.9 * d0, d0), tol=1e-4)
-        r = refine(u1, u2, log.alpha_rad - (best.x if sensor else 0.0), log.beta_rad, dt, p, law, theta0, noise,
-                   gravity_offset_rad=0.0 if sensor else best.x)
-        fits[key] = (float(best.x), r)
+        fits[key] = (float(best.x), tried[best.x])
     (k_win, (d_win, r_win)), (k_lose, (_, r_lose)) = sorted(fits.items(), key=lambda kv: kv[1][1].cost)
     gap = r_lose.cost - r_win.cost
     offsets = {k: v[0] for k, v in fits.items()}

@@ -237,6 +237,11 @@ def _start_velocity(x: np.ndarray, s: int, dt: float) -> float:
     return float(np.polyfit(np.arange(m) * dt, x[s:s + m], 2)[1])
 
 
+def substeps(dt: float) -> int:
+    """RK4 sub-steps per sample interval of dt [s], each at most MAX_SUBSTEP_S."""
+    return max(1, int(math.ceil(dt / MAX_SUBSTEP_S - 1e-9)))
+
+
 def _schur(a, b):
     """Eliminate each window's start: the parameters' normal matrix and right-hand side, and per window
     (L'L)^-1 [L'G, L'r], from which the starts' step and the projected scores follow."""
@@ -278,7 +283,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     block = max(int(round(BLOCK_S / dt)), 1)
     win = max(int(round(window_s / dt)) // block, 1) * block  # windows hold whole blocks
     nw = max(n // win, 1)
-    nsub = max(1, int(math.ceil(dt / MAX_SUBSTEP_S - 1e-9)))
+    nsub = substeps(dt)
     signed = law == "signed"
     y = np.ascontiguousarray(np.column_stack([alpha, beta]))
     sig = np.array([max(noise_rad.get("alpha", 0.0), 1e-12), max(noise_rad.get("beta", 0.0), 1e-12)])
@@ -319,7 +324,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
             evaluate(theta, starts)  # leave the predictions of the accepted parameters in ``out``
             break
         theta, starts, (cost, a, b, scores) = accepted[0], accepted[1], accepted[2]
-    s_mat, _, per_window = _schur(a, b)
+    s_mat, s_rhs, per_window = _schur(a, b)
     cov = _covariance(s_mat, per_window, scores, win, block)
     nb = scores.shape[0]
     half = float(stdtrit(max(nb - 1, 1), 0.975)) * np.sqrt(np.maximum(np.diag(cov), 0.0))
@@ -333,8 +338,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
         fine = gauss_newton_pass(u1, u2, motor, y, inv_sig, starts, pv, signed, dt, 2 * nsub, win, block,
                                  np.empty((n, 2)))
         _, rhs_fine, _ = _schur(fine[1], fine[2])
-        _, rhs_now, _ = _schur(a, b)
-        integration = np.abs(np.linalg.solve(s_mat, rhs_fine - rhs_now)) * 16.0 / 15.0
+        integration = np.abs(np.linalg.solve(s_mat, rhs_fine - s_rhs)) * 16.0 / 15.0
         half = half + 2.0 * integration
     half = np.maximum(half, 10.0 * TOLERANCE * theta)  # no claim finer than the convergence test
     return Refined(dict(zip(NAMES, map(float, theta))),
