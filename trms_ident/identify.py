@@ -140,7 +140,8 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
         return None, f"refinement failed ({e}); DREM's offline optimum is the estimate", False
     ratio = {ax: r.rms_rad[ax] / noise[ax] if noise[ax] > 0 else math.inf for ax in ("alpha", "beta")}
     base = (f"prediction-error refinement from DREM's offline optimum: {r.iterations} Gauss-Newton iteration(s), "
-            f"{r.windows} window(s) of {r.window_s:g} s after the first {r.skipped_s:g} s, angle error RMS "
+            f"{r.windows} window(s) of {(len(log) * dt - r.skipped_s) / r.windows:.3g} s after the first "
+            f"{r.skipped_s:g} s, angle error RMS "
             f"alpha {r.rms_rad['alpha']:.3g} rad, beta {r.rms_rad['beta']:.3g} rad (noise {noise['alpha']:.3g}, "
             f"{noise['beta']:.3g} rad)")
     if max(ratio.values()) > ADEQUATE_RMS_OVER_NOISE:
