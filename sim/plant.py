@@ -87,8 +87,11 @@ def _quantize(v, q):
 
 
 @njit(cache=True)
-def closed_loop(dt, aref, bref, p, law, gains, u_lim, fx, noise_a, noise_b, q, h_max, x0):
+def closed_loop(dts, aref, bref, p, law, gains, u_lim, fx, noise_a, noise_b, q, h_max, x0):
     """Run the loop for ``aref.size`` samples; returns (u1, u2, alpha_log, beta_log, state_true).
+
+    dts[k] [s] is the actual interval from sample k to k + 1 (the voltage set at sample k is held
+    over it; jittered stamps have unequal intervals); the controller itself assumes the nominal step.
 
     gains = [Kp1, Ki1, Kd1, Kp2, Ki2, Kd2, Tf] (PID per axis, derivative on the
     measurement filtered with time constant Tf [s]).  u_lim [V] is the controller's
@@ -108,6 +111,7 @@ def closed_loop(dt, aref, bref, p, law, gains, u_lim, fx, noise_a, noise_b, q, h
     prev_a = 0.0
     prev_b = 0.0
     tf = gains[6]
+    dt = np.median(dts)
     delay = fx[12]
     m_del = int(math.floor(delay / dt + 1e-12))
     r_del = delay - m_del * dt
@@ -150,7 +154,7 @@ def closed_loop(dt, aref, bref, p, law, gains, u_lim, fx, noise_a, noise_b, q, h
         ua2 = u2_log[i_old] if i_old >= 0 else 0.0
         ub1 = u1_log[i_new] if i_new >= 0 else 0.0
         ub2 = u2_log[i_new] if i_new >= 0 else 0.0
-        pieces_len = (r_del, dt - r_del)
+        pieces_len = (min(r_del, dts[k]), dts[k] - min(r_del, dts[k]))
         pieces_u1 = (ua1, ub1)
         pieces_u2 = (ua2, ub2)
         for j in range(2):

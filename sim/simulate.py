@@ -33,6 +33,8 @@ class SimSettings:
     thrust_law: str = "quadratic"
     u_limit_v: float = 2.5
     max_step_s: float = 5e-4
+    jitter: float = 0.0  # sample intervals drawn uniformly in nominal x [1 - jitter, 1 + jitter] (seeded)
+    start_s: float = 0.0  # the log begins this long after the run started from rest (0: from rest)
     overrides: dict = field(default_factory=dict)
     effects: list = field(default_factory=list)
     pid: dict = field(default_factory=lambda: dict(DEFAULT_PID))
@@ -47,7 +49,9 @@ class SimSettings:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         if self.duration_s is not None and not self.duration_s > 0:
             raise ValueError(f"duration_s must be > 0, got {self.duration_s}")
-        for name in ("noise_std_rad", "quantization_rad"):
+        if not 0.0 <= self.jitter <= 0.5:
+            raise ValueError(f"jitter must be in [0, 0.5] of the sample step, got {self.jitter}")
+        for name in ("noise_std_rad", "quantization_rad", "start_s"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
 
@@ -67,8 +71,11 @@ def simulate(settings: SimSettings) -> SimResult:
     settings.validate()
     duration = settings.duration_s or DEFAULT_DURATION_S[settings.ref]
     fs = settings.sample_rate_hz
-    n = int(round(duration * fs)) + 1
-    t = np.arange(n) / fs
+    skip = int(round(settings.start_s * fs))
+    n = int(round(duration * fs)) + 1 + skip
+    rng_t = np.random.default_rng([settings.seed, 1])
+    dts = (1.0 + settings.jitter * rng_t.uniform(-1.0, 1.0, n)) / fs if settings.jitter else np.full(n, 1.0 / fs)
+    t = np.concatenate([[0.0], np.cumsum(dts[:-1])]) if settings.jitter else np.arange(n) / fs
     params = merge(settings.overrides, source="simulator overrides")
     for spec in settings.effects:  # motor_lag replaces the true time constant
         if spec["effect"] == "motor_lag":
@@ -83,7 +90,7 @@ def simulate(settings: SimSettings) -> SimResult:
     x0 = np.zeros(7)
     x0[0] = -effect_vec[fx.I_COM]  # at rest in the gravity equilibrium
     u1, u2, a_log, b_log, state = closed_loop(
-        1.0 / fs, aref, bref, p, 1 if settings.thrust_law == "signed" else 0, gains,
+        dts, aref, bref, p, 1 if settings.thrust_law == "signed" else 0, gains,
         settings.u_limit_v, effect_vec, noise[0], noise[1], settings.quantization_rad,
         settings.max_step_s, x0,
     )
@@ -92,6 +99,7 @@ def simulate(settings: SimSettings) -> SimResult:
         "parameters": params,
         "estimated": {k: params[k] for k in ("J1", "B1", "J2", "B2")},
         "settings": {**asdict(settings), "duration_s": duration, "pid": pid},
-        "samples": n,
+        "samples": n - skip,
     }
-    return SimResult(t, u1, u2, a_log, b_log, state, truth)
+    cut = slice(skip, None)  # a log cut from the middle of a run keeps the run's own clock
+    return SimResult(t[cut], u1[cut], u2[cut], a_log[cut], b_log[cut], state[cut], truth)

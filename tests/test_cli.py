@@ -72,7 +72,7 @@ def test_json_to_file_and_params_file(square_csv, tmp_path):
     (["--gamma", "fast"], EXIT_USAGE, "--gamma 'fast': expected 'auto'"),
     (["--gamma", "J9=3"], EXIT_USAGE, "gamma given for 'J9'"),
     (["--thrust-law", "cubic"], EXIT_USAGE, "thrust law must be one of"),
-    (["--angle-unit", "grad"], EXIT_USAGE, "--angle-unit 'grad': expected rad or deg"),
+    (["--angle-unit", "grad"], EXIT_USAGE, "--angle-unit 'grad': expected one of auto, rad, deg"),
 ])
 def test_bad_options(square_csv, tmp_path, args, code, message):
     res = runner.invoke(app, ["estimate", str(square_csv), "-o", str(tmp_path / "o"), *args])

@@ -11,57 +11,83 @@ from trms_ident.identify import Settings, identify
 from trms_ident.io.csv_log import write_csv_log
 from trms_ident.numerics import refine as R
 from trms_ident.numerics.filters import discretize
+from trms_ident.numerics.hold import motor_states_on_grid
 from trms_ident.params import defaults
+
+from sim import SimSettings, simulate
 
 from .conftest import as_log, sim_cached
 
 NAMES = ("J1", "B1", "J2", "B2")
 
 
-def test_motor_states_match_scipy_zero_order_hold():
+def test_held_motor_states_match_scipy_zero_order_hold_and_a_fine_integration():
     p = defaults()
     rng = np.random.default_rng(0)
     for dt in (1e-3, 1e-2):
         u1, u2 = rng.uniform(-2, 2, 3000), rng.uniform(-2, 2, 3000)
-        m = R.motor_states(u1, u2, dt, p)
+        t = np.arange(3000) * dt
+        m = motor_states_on_grid(t, u1, u2, t, p)
         ref = np.column_stack([
             discretize([p["k1"]], [p["T11"], p["T10"]], dt, "zoh").apply(u1),
             discretize([p["k2"]], [p["T21"], p["T20"]], dt, "zoh").apply(u2),
             discretize([p["k1"]], np.polymul([p["Tp"], 1.0], [p["T11"], p["T10"]]), dt, "zoh").apply(u1)])
         np.testing.assert_allclose(m, ref, atol=1e-10)
+    # jittered stamps, grid times between them: against Euler steps of 1 us with every switch at its stamp
+    t = np.concatenate([[0.0], np.cumsum(1e-2 * rng.uniform(0.75, 1.25, 299))])
+    u1, u2 = rng.uniform(-2, 2, 300), rng.uniform(-2, 2, 300)
+    grid = np.linspace(0.0, t[-1], 217)
+    m = motor_states_on_grid(t, u1, u2, grid, p)
+    fine = np.arange(0.0, t[-1] + 5e-7, 1e-6)
+    held = np.searchsorted(t, fine, side="right") - 1
+    x = np.array([p["k1"] / p["T10"] * u1[0], p["k2"] / p["T20"] * u2[0], p["k1"] / p["T10"] * u1[0]])
+    out = np.empty((fine.size, 3))
+    for i, k in enumerate(held):
+        out[i] = x
+        x = x + 1e-6 * np.array([(p["k1"] * u1[k] - p["T10"] * x[0]) / p["T11"],
+                                 (p["k2"] * u2[k] - p["T20"] * x[1]) / p["T21"], (x[0] - x[2]) / p["Tp"]])
+    ref = np.column_stack([np.interp(grid, fine, out[:, j]) for j in range(3)])
+    np.testing.assert_allclose(m, ref, atol=2e-5)  # Euler's own error; a switch 25 % off moves tau by ~1e-3
 
 
-def test_forward_sensitivities_match_finite_differences():
-    r = sim_cached("square", 1000.0, 10.0)
-    p = defaults()
-    dt, n = 1e-3, r.t_s.size
-    motor = R.motor_states(r.u1_v, r.u2_v, dt, p)
+def _pass(r, pv, starts, m0, h, out):
     y = np.column_stack([r.alpha_rad, r.beta_rad])
-    base = R.model_vector(p)
-    starts = np.array([[0.01, 0.2, 0.02, 0.3]])
+    n = r.t_s.size
+    return R.gauss_newton_pass(r.u1_v, r.u2_v, y, np.ones(2), starts, m0, pv, False, h, R.MAX_SUBSTEP_S, n,
+                               1000, out)
 
-    def pred(pv, st):
-        out = np.empty((n, 2))
-        R.gauss_newton_pass(r.u1_v, r.u2_v, motor, y, np.ones(2), st, pv, False, dt, 1, n, 1000, out)
-        return out
 
+@pytest.mark.parametrize("jitter", [0.0, 0.2])
+def test_forward_sensitivities_match_finite_differences(jitter):
+    # every unknown: J1, B1, J2, B2, the start states tau1(0), tau2(0), zeta(0), the window's start angles/rates
+    r = simulate(SimSettings(ref="square", duration_s=10.0, jitter=jitter, seed=2))
+    n = r.t_s.size
+    h = np.diff(r.t_s)
+    base = R.model_vector(defaults())
+    starts, m0 = np.array([[0.01, 0.2, 0.02, 0.3]]), np.array([0.3, -0.2, 0.1])
     out = np.empty((n, 2))
-    _, a, b, _ = R.gauss_newton_pass(r.u1_v, r.u2_v, motor, y, np.ones(2), starts, base, False, dt, 1, n, 1000, out)
-    jac = np.empty((n, 2, 8))
-    for i in range(8):
-        pv, st = base.copy(), starts.copy()
-        h = 1e-6 * pv[i] if i < 4 else 1e-6
+    _, a, b, _ = _pass(r, base, starts, m0, h, out)
+    y = np.column_stack([r.alpha_rad, r.beta_rad])
+    jac = np.empty((n, 2, R.NU))
+    for i in range(R.NU):
+        pv, st, m = base.copy(), starts.copy(), m0.copy()
+        step = 1e-6 * pv[i] if i < 4 else 1e-6
         if i < 4:
-            pv[i] += h
+            pv[i] += step
+        elif i < R.NG:
+            m[i - 4] += step
         else:
-            st[0, i - 4] += h
-        jac[:, :, i] = (pred(pv, st) - out) / h
+            st[0, i - R.NG] += step
+        pert = np.empty((n, 2))
+        _pass(r, pv, st, m, h, pert)
+        jac[:, :, i] = (pert - out) / step
     np.testing.assert_allclose(np.diag(a[0]), np.einsum("kci,kci->i", jac, jac), rtol=1e-4)
-    np.testing.assert_allclose(b[0], np.einsum("kci,kc->i", jac, y - out), rtol=1e-3)
+    np.testing.assert_allclose(b[0], np.einsum("kci,kc->i", jac, y - out), rtol=1e-3, atol=1e-9 * np.abs(b[0]).max())
 
 
-def test_refinement_converges_to_the_truth_from_a_poor_start():
-    r = sim_cached("multisine", 200.0, 60.0)
+def test_refinement_converges_to_the_truth_from_a_poor_start_and_finds_the_start_states():
+    # a log cut from the middle of a run: the motors and M_R's lag are far from the first voltage's steady state
+    r = simulate(SimSettings(ref="multisine", sample_rate_hz=200.0, duration_s=60.0, start_s=33.0, seed=4))
     truth = r.truth["estimated"]
     start = {k: v * f for (k, v), f in zip(truth.items(), (1.05, 0.7, 0.95, 1.1))}
     res = R.refine(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, 1 / 200.0, defaults(), "quadratic", start,
@@ -71,7 +97,8 @@ def test_refinement_converges_to_the_truth_from_a_poor_start():
         assert res.estimate[k] == pytest.approx(truth[k], rel=1e-8)
         lo, hi = res.ci95[k]
         assert lo <= truth[k] <= hi  # the integrator's own error is inside the interval
-    assert res.skipped_s == pytest.approx(10.0)  # five motor / M_R lags: the motors' start is unknown
+    assert res.start_states["beta_dot_0_rad_s"] == pytest.approx(r.true_state[0, 3], abs=1e-8)
+    assert res.prediction.shape == (r.t_s.size, 2)
 
 
 def test_refined_estimate_is_the_headline_and_its_intervals_cover_on_noisy_logs():

@@ -81,7 +81,8 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
                     return row
             except (ValueError, KeyError):
                 pass
-        res = estimate_file(path_p, settings, out, html=options.get("html", True), angle_unit=options.get("angle_unit", "rad"),
+        res = estimate_file(path_p, settings, out, html=options.get("html", True), angle_unit=options.get("angle_unit", "auto"),
+                            time_unit=options.get("time_unit", "auto"),
                             signals=options.get("signals"), time_source=options.get("time_source", "auto"))
         write_text(stamp, json.dumps(key, indent=1))
         row.update(status="ok", estimates=res.summary["estimates"],

@@ -124,7 +124,11 @@ HeadlineOpt = Annotated[str, typer.Option("--headline", help=f"Which number is t
                                           "falls back to 'offline' when the refinement is skipped or not used).")]
 RefineOpt = Annotated[str, typer.Option("--refine", help="Prediction-error refinement after DREM: 'auto' (logs up to "
                                         "~17 min at 1 kHz), 'on' or 'off'.")]
-AngleOpt = Annotated[str, typer.Option("--angle-unit", help="Unit of the logged angles: rad or deg.")]
+AngleOpt = Annotated[str, typer.Option("--angle-unit", help="Unit of the logged angles: auto (radians; angles "
+                                       "beyond +-pi/2 pitch or +-8 pi yaw are refused as likely degrees), rad (no "
+                                       "guess) or deg.")]
+TimeUnitOpt = Annotated[str, typer.Option("--time-unit", help="Unit of CSV time stamps: auto (told from the median "
+                                          "step: <= 0.15 s, ms up to 150, else us; said on stderr), s, ms or us.")]
 NoReportOpt = Annotated[bool, typer.Option("--no-report", help="Skip the HTML report.")]
 SignalOpt = Annotated[Optional[list[str]], typer.Option("--signal", help="MCAP: where a signal comes from, "
                                                         "NAME=TOPIC:FIELD, e.g. alpha=/arm/joint_states:position[pitch] "
@@ -133,10 +137,18 @@ TimeSourceOpt = Annotated[str, typer.Option("--time-source", help="MCAP message 
                                             "present, else log time), header, log or publish.")]
 
 
+def check_units(angle_unit: str, time_unit: str) -> None:
+    from .log import ANGLE_UNITS, TIME_UNITS
+
+    if angle_unit not in ANGLE_UNITS:
+        raise SettingsError(f"--angle-unit {angle_unit!r}: expected one of {', '.join(ANGLE_UNITS)}")
+    if time_unit not in ("auto", *TIME_UNITS):
+        raise SettingsError(f"--time-unit {time_unit!r}: expected one of auto, {', '.join(TIME_UNITS)}")
+
+
 def build_settings(a: str, b: str, gain_convention: str, gamma: str, settle: float, thrust_law: str, headline: str,
                    params: Path | None, angle_unit: str, refine: str = "auto") -> Settings:
-    if angle_unit not in ("rad", "deg"):
-        raise SettingsError(f"--angle-unit {angle_unit!r}: expected rad or deg")
+    check_units(angle_unit, "auto")
     settings = Settings(filter_a_rad_s=parse_auto("--a", a), filter_b_rad_s=parse_auto("--b", b),
                         gain_convention=gain_convention, gamma=parse_gamma(gamma), settle_time_s=settle,
                         thrust_law=thrust_law, headline=headline, refine=refine,
@@ -173,7 +185,8 @@ def estimate(
     thrust_law: LawOpt = "quadratic",
     headline: HeadlineOpt = "refined",
     refine: RefineOpt = "auto",
-    angle_unit: AngleOpt = "rad",
+    angle_unit: AngleOpt = "auto",
+    time_unit: TimeUnitOpt = "auto",
     truth: Annotated[Optional[Path], typer.Option(help="Ground-truth JSON [default: <log>.truth.json if present].")] = None,
     no_report: NoReportOpt = False,
     signal: SignalOpt = None,
@@ -183,9 +196,10 @@ def estimate(
     from .commands import estimate_file
 
     settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit, refine)
+    check_units(angle_unit, time_unit)
     out_dir = out if out is not None else Path(f"{log.name.split('.')[0]}_ident")
     progress = stage_reporter(str(log))
-    res = estimate_file(log, settings, out_dir, angle_unit=angle_unit, html=not no_report, truth_file=truth,
+    res = estimate_file(log, settings, out_dir, angle_unit=angle_unit, time_unit=time_unit, html=not no_report, truth_file=truth,
                         signals=signal, time_source=time_source, on_stage=progress)
     if progress:
         sys.stderr.write("\r\033[K")
@@ -234,7 +248,8 @@ def batch(
     thrust_law: LawOpt = "quadratic",
     headline: HeadlineOpt = "refined",
     refine: RefineOpt = "auto",
-    angle_unit: AngleOpt = "rad",
+    angle_unit: AngleOpt = "auto",
+    time_unit: TimeUnitOpt = "auto",
     no_report: NoReportOpt = False,
     signal: SignalOpt = None,
     time_source: TimeSourceOpt = "auto",
@@ -250,7 +265,9 @@ def batch(
     paths = batch_mod.discover(inputs, out)
     if not paths:
         raise SettingsError(f"no .csv or .mcap logs found in {' '.join(inputs)}")
-    options = {"html": not no_report, "signals": signal, "time_source": time_source, "angle_unit": angle_unit}
+    check_units(angle_unit, time_unit)
+    options = {"html": not no_report, "signals": signal, "time_source": time_source, "angle_unit": angle_unit,
+               "time_unit": time_unit}
     if force:
         options["force_token"] = os.urandom(8).hex()
     bar = None
@@ -289,7 +306,8 @@ def diagnose(
     params: ParamsOpt = None,
     a: AOpt = "auto",
     thrust_law: LawOpt = "quadratic",
-    angle_unit: AngleOpt = "rad",
+    angle_unit: AngleOpt = "auto",
+    time_unit: TimeUnitOpt = "auto",
     signal: SignalOpt = None,
     time_source: TimeSourceOpt = "auto",
 ) -> None:
@@ -300,14 +318,15 @@ def diagnose(
     from .report.diagnosis import render, to_doc
     from .report.summary import to_json
 
-    if angle_unit not in ("rad", "deg"):
-        raise SettingsError(f"--angle-unit {angle_unit!r}: expected rad or deg")
+    check_units(angle_unit, time_unit)
     if thrust_law not in THRUST_LAWS:
         raise SettingsError(f"thrust law must be one of {tuple(THRUST_LAWS)}, got {thrust_law!r}")
     overrides = load_parameter_file(params) if params else {}
     progress = stage_reporter(str(log))
     progress and progress("reading")
-    data = read_log(log, angle_unit=angle_unit, signals=signal, time_source=time_source)
+    data = read_log(log, angle_unit=angle_unit, signals=signal, time_source=time_source, time_unit=time_unit)
+    for note in data.meta.get("assumed", {}).values():
+        say(f"note: {note}")
     progress and progress("testing candidate effects")
     d = run_diagnosis(data, overrides, thrust_law, parse_auto("--a", a))
     if progress:
@@ -364,6 +383,10 @@ def simulate(
     u_limit: Annotated[float, typer.Option(help="Controller output limit [V].")] = 2.5,
     effect: Annotated[Optional[list[str]], typer.Option(help="Inject unmodelled physics, NAME[:AXIS]=VALUE "
                                                         "(repeatable); recorded only in the truth file.")] = None,
+    jitter: Annotated[float, typer.Option(help="Stamp jitter: each sample interval is the nominal step times a "
+                                          "uniform draw in [1 - jitter, 1 + jitter] (0..0.5).")] = 0.0,
+    start: Annotated[float, typer.Option("--start", help="The log begins this many seconds into the run (0: from "
+                                         "rest; > 0: a log cut from the middle of a run) [s].")] = 0.0,
 ) -> None:
     """Simulate the closed-loop bench (paper eq. 1 with PID eq. 9) and write a log with its ground truth."""
     from sim import SimSettings
@@ -382,7 +405,7 @@ def simulate(
     settings = SimSettings(ref=ref, duration_s=duration, sample_rate_hz=rate, seed=seed, noise_std_rad=noise,
                            quantization_rad=quantization, thrust_law=thrust_law, u_limit_v=u_limit,
                            overrides=load_parameter_file(params) if params else {},
-                           effects=[parse_effect(e) for e in effect or []])
+                           effects=[parse_effect(e) for e in effect or []], jitter=jitter, start_s=start)
     try:
         result = run_sim(settings)
     except ValueError as exc:

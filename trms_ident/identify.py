@@ -62,17 +62,39 @@ def resolve_filters(log: Log, settings: Settings) -> tuple[Settings, FilterDesig
     return replace(settings, filter_a_rad_s=design.a_rad_s, filter_b_rad_s=b), design
 
 
+def on_uniform_grid(log: Log, params: dict) -> tuple[Log, tuple | None]:
+    """DREM's filters run on a uniform grid.  A jittered log is evaluated on the grid of its mean step:
+    angles by cubic-spline interpolation (continuous signals), the motor and M_R states exactly, with every
+    voltage held over its real interval (numerics/hold.py).  Uniform logs pass unchanged (motor None)."""
+    if log.uniform:
+        return log, None
+    from scipy.interpolate import CubicSpline
+
+    from .numerics.hold import motor_states_on_grid, reaction_moment
+
+    grid = log.t_s[0] + np.arange(len(log)) * log.sample_time_s
+    grid[-1] = min(grid[-1], log.t_s[-1])
+    m = motor_states_on_grid(log.t_s, log.u1_v, log.u2_v, grid, params)
+    motor = (m[:, 0], m[:, 1], reaction_moment(m[:, 0], m[:, 2], params))
+    ang = CubicSpline(log.t_s, np.column_stack([log.alpha_rad, log.beta_rad]))(grid)
+    held = np.searchsorted(log.t_s, grid, side="right") - 1  # for plots only: the voltage in force
+    return replace(log, t_s=grid, u1_v=log.u1_v[held], u2_v=log.u2_v[held], alpha_rad=ang[:, 0],
+                   beta_rad=ang[:, 1]), motor
+
+
 def identify(log: Log, settings: Settings | None = None) -> Result:
     """Estimate J1, B1, J2, B2 from a validated log with the DREM procedure (eqs. 3-8)."""
     settings = settings or Settings()
     settings.validate()
     params = merge(settings.overrides, source="parameter overrides")
-    settings, design = resolve_filters(log, settings)
+    grid_log, motor = on_uniform_grid(log, params)
+    settings, design = resolve_filters(grid_log, settings)
     dt = log.sample_time_s
     f_gain, h_gain = settings.filter_gains()
     # eqs. (1), (3), (5)-(7) in one compiled pass per axis
-    mixed = mixed_regressions(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, dt, params, settings.thrust_law,
-                              settings.filter_a_rad_s, settings.filter_b_rad_s, f_gain, h_gain)
+    mixed = mixed_regressions(grid_log.u1_v, grid_log.u2_v, grid_log.alpha_rad, grid_log.beta_rad, dt, params,
+                              settings.thrust_law, settings.filter_a_rad_s, settings.filter_b_rad_s, f_gain, h_gain,
+                              motor)
     block = block_length(len(log), dt, 1.0 / min(settings.filter_a_rad_s, settings.filter_b_rad_s))
     step = max(1, math.ceil(len(log) / MAX_TRACE_POINTS))
     rate = math.log(100.0) / settings.settle_time_s
@@ -111,7 +133,7 @@ def identify(log: Log, settings: Settings | None = None) -> Result:
         head_intervals = intervals
         chosen = offline if headline == "offline" else drem_final
     estimates = {k: (chosen[k] if head_intervals[k].identifiable else None) for k in ESTIMATED}
-    return Result(log.t_s[::step], traces, step, drem_final, offline, intervals, refined, note, headline,
+    return Result(grid_log.t_s[::step], traces, step, drem_final, offline, intervals, refined, note, headline,
                   head_intervals, estimates, axes, params, settings, design, dt)
 
 
@@ -135,13 +157,13 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
         return None, "refinement skipped: DREM's offline optimum is not a usable start (a value is not positive)", False
     noise = {"alpha": angle_noise_rad(log.alpha_rad), "beta": angle_noise_rad(log.beta_rad)}
     try:
-        r = refine(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, dt, params, settings.thrust_law, offline, noise)
+        r = refine(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, dt, params, settings.thrust_law, offline, noise,
+                   t_s=None if log.uniform else log.t_s)
     except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as e:
         return None, f"refinement failed ({e}); DREM's offline optimum is the estimate", False
     ratio = {ax: r.rms_rad[ax] / noise[ax] if noise[ax] > 0 else math.inf for ax in ("alpha", "beta")}
     base = (f"prediction-error refinement from DREM's offline optimum: {r.iterations} Gauss-Newton iteration(s), "
-            f"{r.windows} window(s) of {(len(log) * dt - r.skipped_s) / r.windows:.3g} s after the first "
-            f"{r.skipped_s:g} s, angle error RMS "
+            f"{r.windows} window(s) of {len(log) * dt / r.windows:.3g} s, start states estimated, angle error RMS "
             f"alpha {r.rms_rad['alpha']:.3g} rad, beta {r.rms_rad['beta']:.3g} rad (noise {noise['alpha']:.3g}, "
             f"{noise['beta']:.3g} rad)")
     if max(ratio.values()) > ADEQUATE_RMS_OVER_NOISE:

@@ -1,4 +1,9 @@
-"""A validated TRMS recording: uniformly sampled t [s], u1, u2 [V], alpha, beta [rad].
+"""A validated TRMS recording: t [s], u1, u2 [V], alpha, beta [rad].
+
+Stamps may jitter (up to JITTER_TOLERANCE of the median step) and a few samples may be missing
+(steps up to MAX_GAP_STEPS median steps): the voltages are held over each actual interval
+downstream.  The measured jitter is in ``Log.meta["sampling"]``; units that were assumed rather
+than given are in ``Log.meta["assumed"]``.
 
 Validation is pure (arrays in, LogFormatError out); readers of each file format pass a
 ``locate`` function so that messages name the file's own line numbers.
@@ -16,8 +21,16 @@ from .errors import LogFormatError
 COLUMNS = ("t", "u1", "u2", "alpha", "beta")
 COLUMN_UNITS = {"t": "s", "u1": "V", "u2": "V", "alpha": "rad", "beta": "rad"}
 MIN_SAMPLES = 10
-#: relative deviation of a sample step from the median step that counts as irregular
-SAMPLING_TOLERANCE = 0.01
+#: steps within this relative deviation of the median step are jitter, accepted and measured
+JITTER_TOLERANCE = 0.25
+#: longer steps up to this many median steps are dropped samples (counted); longer ones are a gap: refused
+MAX_GAP_STEPS = 3.0
+#: steps all within this relative deviation of their mean are uniform to the stamps' own rounding
+UNIFORM_TOLERANCE = 2e-3
+#: median steps that tell the unit of the stamps: a TRMS log is sampled at 10 Hz to 5 kHz
+TIME_UNIT_BY_STEP = ((0.15, "s", 1.0), (150.0, "ms", 1e-3), (math.inf, "us", 1e-6))
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
+ANGLE_UNITS = ("auto", "rad", "deg")
 #: |alpha| beyond this is not a pitch angle in rad (the beam stops well before vertical)
 PITCH_LIMIT_RAD = math.pi / 2
 #: |beta| beyond this (four turns) is not a yaw angle in rad on a cabled bench
@@ -37,7 +50,13 @@ class Log:
 
     @property
     def sample_time_s(self) -> float:
+        """Mean sample interval [s] (the nominal step of a jittered log)."""
         return float((self.t_s[-1] - self.t_s[0]) / (self.t_s.size - 1))
+
+    @property
+    def uniform(self) -> bool:
+        """True when every step equals the mean step to the stamps' rounding (UNIFORM_TOLERANCE)."""
+        return bool(self.meta.get("sampling", {}).get("uniform", True))
 
     @property
     def duration_s(self) -> float:
@@ -52,15 +71,21 @@ def _default_locate(i: int, t: np.ndarray) -> str:
 
 
 def validated(t, u1, u2, alpha, beta, *, source: str = "<memory>", sha256: str | None = None,
-              locate: Callable[[int], str] | None = None, meta: dict | None = None) -> Log:
+              locate: Callable[[int], str] | None = None, meta: dict | None = None,
+              angle_unit: str = "auto", time_unit: str = "auto") -> Log:
     """Check a recording and return it as a Log; the first problem raises LogFormatError.
 
     ``locate(i)`` renders sample i's position for messages (e.g. "line 57 (t = 0.055 s)").
+    ``angle_unit``: "auto" refuses angles that look like degrees; "rad" or "deg" (the reader has converted
+    them) says the unit was given, and no guess is made.  ``time_unit``: "s", "ms" or "us" scales the stamps;
+    "auto" tells the unit from the median step (TIME_UNIT_BY_STEP) and records the assumption.
     """
     arrays = {name: np.ascontiguousarray(v, dtype=float) for name, v in zip(COLUMNS, (t, u1, u2, alpha, beta))}
+    meta = dict(meta or {})
+    assumed = dict(meta.pop("assumed", {}))
+    n = arrays["t"].size
     t = arrays["t"]
     where = locate or (lambda i: _default_locate(i, t))
-    n = t.size
     if any(a.shape != (n,) for a in arrays.values()):
         raise LogFormatError(f"{source}: columns have different lengths; expected one value per column per row")
     if n < MIN_SAMPLES:
@@ -71,6 +96,20 @@ def validated(t, u1, u2, alpha, beta, *, source: str = "<memory>", sha256: str |
             raise LogFormatError(f"{source}: {where(int(bad[0]))}: {name} is {a[bad[0]]}; "
                                  f"expected a finite number in {COLUMN_UNITS[name]}")
     dt = np.diff(t)
+    if time_unit == "auto":
+        med = float(np.median(dt))
+        unit, factor = next((u, f) for limit, u, f in TIME_UNIT_BY_STEP if med <= limit)
+        if unit != "s":
+            assumed["time_unit"] = (f"stamps read as {unit} (median step {med:.6g}); pass --time-unit s if they "
+                                    "are seconds")
+    elif time_unit in TIME_UNITS:
+        unit, factor = time_unit, TIME_UNITS[time_unit]
+    else:
+        raise LogFormatError(f"{source}: time unit {time_unit!r}; expected auto, {', '.join(TIME_UNITS)}")
+    if factor != 1.0:
+        t = arrays["t"] = t * factor
+        dt = np.diff(t)
+        where = locate or (lambda i: _default_locate(i, t))
     back = np.flatnonzero(dt <= 0)
     if back.size:
         i = int(back[0]) + 1
@@ -78,18 +117,35 @@ def validated(t, u1, u2, alpha, beta, *, source: str = "<memory>", sha256: str |
         raise LogFormatError(f"{source}: {where(i)}: t = {t[i]:.9g} s {what} (t = {t[i - 1]:.9g} s); "
                              "expected strictly increasing time")
     step = float(np.median(dt))
-    off = np.flatnonzero(np.abs(dt - step) > SAMPLING_TOLERANCE * step)
-    if off.size:
-        i = int(off[0]) + 1
-        kind = "a gap" if dt[i - 1] > step else "an irregular step"
+    rel = dt / step
+    short = np.flatnonzero(rel < 1.0 - JITTER_TOLERANCE)
+    gap = np.flatnonzero(rel > MAX_GAP_STEPS)
+    if short.size or gap.size:
+        i = int(min(short[0] if short.size else n, gap[0] if gap.size else n)) + 1
+        kind = "a gap" if dt[i - 1] > step else "a step"
         raise LogFormatError(
-            f"{source}: {where(i)}: {kind} of {dt[i - 1]:.6g} s after t = {t[i - 1]:.9g} s; expected uniform "
-            f"sampling every {step:.6g} s (within {SAMPLING_TOLERANCE:.0%}); resample or split the log")
+            f"{source}: {where(i)}: {kind} of {dt[i - 1]:.6g} s after t = {t[i - 1]:.9g} s; expected steps of "
+            f"{step:.6g} s with at most ±{JITTER_TOLERANCE:.0%} jitter (or up to {MAX_GAP_STEPS:g} steps where "
+            "samples were dropped); split the log there")
+    dropped = rel > 1.0 + JITTER_TOLERANCE
+    mean = float((t[-1] - t[0]) / (n - 1))
+    meta["sampling"] = {
+        "uniform": bool(np.all(np.abs(dt - mean) <= UNIFORM_TOLERANCE * mean)),
+        "median_step_s": step, "min_step_over_median": float(rel.min()), "max_step_over_median": float(rel.max()),
+        "jitter_rms_percent": float(100.0 * np.std(rel[~dropped])) if np.any(~dropped) else 0.0,
+        "dropped_samples": int(np.sum(np.round(rel[dropped]) - 1)), "time_unit": unit}
+    if angle_unit not in ANGLE_UNITS:
+        raise LogFormatError(f"{source}: angle unit {angle_unit!r}; expected one of {', '.join(ANGLE_UNITS)}")
     for name, limit in (("alpha", PITCH_LIMIT_RAD), ("beta", YAW_LIMIT_RAD)):
+        if angle_unit != "auto":
+            break
         a = arrays[name]
         i = int(np.argmax(np.abs(a)))
         if abs(a[i]) > limit:
             raise LogFormatError(
                 f"{source}: {where(i)}: {name} = {a[i]:.6g} exceeds {limit:.3g} rad; the angles look like "
-                "degrees, expected radians (convert them, or pass --angle-unit deg)")
-    return Log(*arrays.values(), source=source, sha256=sha256, meta=dict(meta or {}))
+                "degrees, expected radians (pass --angle-unit deg to convert, or --angle-unit rad if they are "
+                "radians)")
+    if assumed:
+        meta["assumed"] = assumed
+    return Log(*arrays.values(), source=source, sha256=sha256, meta=meta)

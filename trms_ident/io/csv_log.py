@@ -71,8 +71,9 @@ def _is_number(token: str) -> bool:
         return False
 
 
-def read_csv_log(path: str | Path, angle_unit: str = "rad") -> Log:
-    """Read and validate a CSV log; ``angle_unit="deg"`` converts angle columns from degrees."""
+def read_csv_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "auto") -> Log:
+    """Read and validate a CSV log; ``angle_unit="deg"`` converts angle columns from degrees, "rad" says they
+    are radians (no guess); ``time_unit`` s, ms, us or auto (see log.validated).  A unit row overrides both."""
     path = Path(path)
     check_readable(path)
     hasher = Sha256Thread(path)
@@ -111,6 +112,7 @@ def read_csv_log(path: str | Path, angle_unit: str = "rad") -> Log:
                                          f"{', '.join(UNIT_SCALE[c])}")
                 scale[c] = UNIT_SCALE[c][unit]
             first_data_line = 3
+            angle_unit, time_unit = "rad", "s"  # the file says its units: converted above, nothing guessed
     cols = _parse_fast(path, names, delim, first_data_line)
     if cols is None:  # something is off: the slow parser names the line and cell
         cols = _parse_located(path, delim, first_data_line)
@@ -118,7 +120,7 @@ def read_csv_log(path: str | Path, angle_unit: str = "rad") -> Log:
     t = cols[0]
     return validated(*cols, source=str(path), sha256=hasher.result(),
                      locate=lambda i: f"line {i + first_data_line} (t = {t[i]:.6g} s)",
-                     meta={"format": "csv", "delimiter": delim})
+                     meta={"format": "csv", "delimiter": delim}, angle_unit=angle_unit, time_unit=time_unit)
 
 
 def _parse_fast(path: Path, names: list[str], delim: str, first_data_line: int) -> dict | None:

@@ -297,7 +297,7 @@ def _defaults_for(path: Path) -> dict[str, SignalSource]:
     return DEFAULT_JSON if encodings.get(DEFAULT_ROS2["alpha"].topic) == "json" else DEFAULT_ROS2
 
 
-def read_mcap_log(path: str | Path, angle_unit: str = "rad", signals: list[str] | None = None,
+def read_mcap_log(path: str | Path, angle_unit: str = "auto", signals: list[str] | None = None,
                   time_source: str = "auto") -> Log:
     path = Path(path)
     if time_source not in TIME_SOURCES:
@@ -385,7 +385,7 @@ def align(path: Path, per_signal: dict, angle_unit: str, sha: str, warnings: lis
     if warnings:
         meta["warnings"] = "; ".join(warnings)
     return validated(t_s, cols["u1"], cols["u2"], cols["alpha"], cols["beta"], source=str(path), sha256=sha,
-                     locate=lambda i: where(i + first_valid), meta=meta)
+                     locate=lambda i: where(i + first_valid), meta=meta, angle_unit=angle_unit, time_unit="s")
 
 
 # ---- writing ---------------------------------------------------------------------------------

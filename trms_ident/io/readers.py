@@ -10,9 +10,10 @@ from .csv_log import check_readable, read_csv_log
 LOG_SUFFIXES = (".csv", ".mcap")
 
 
-def read_log(path: str | Path, angle_unit: str = "rad", signals: list[str] | None = None,
-             time_source: str = "auto") -> Log:
-    """Read a CSV or MCAP log; ``signals``/``time_source`` apply to MCAP (see mcap_log)."""
+def read_log(path: str | Path, angle_unit: str = "auto", signals: list[str] | None = None,
+             time_source: str = "auto", time_unit: str = "auto") -> Log:
+    """Read a CSV or MCAP log; ``signals``/``time_source`` apply to MCAP (see mcap_log), ``time_unit`` to CSV
+    (MCAP stamps are nanoseconds by the format)."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".mcap":
@@ -24,7 +25,7 @@ def read_log(path: str | Path, angle_unit: str = "rad", signals: list[str] | Non
 
         raise SettingsError(f"--signal applies to MCAP logs; {path} is a CSV file with fixed column names")
     if suffix in (".csv", ".txt", ".tsv"):
-        return read_csv_log(path, angle_unit=angle_unit)
+        return read_csv_log(path, angle_unit=angle_unit, time_unit=time_unit)
     check_readable(path)  # a missing file is reported as missing, not as a format problem
     raise LogFormatError(f"{path}: unknown log type {suffix or '(no suffix)'!r}; expected .csv or .mcap")
 

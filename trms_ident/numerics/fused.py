@@ -91,17 +91,26 @@ def _coefficients(pitch: bool, p: dict, dt: float, a_rad_s: float, b_rad_s: floa
 
 
 def mixed_regressions(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str,
-                      a_rad_s: float, b_rad_s: float, f_gain: float, h_gain: float) -> dict:
-    """{axis: (phi, eps (n, 2))} for "pitch" and "yaw", both axes computed in parallel."""
+                      a_rad_s: float, b_rad_s: float, f_gain: float, h_gain: float,
+                      motor: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> dict:
+    """{axis: (phi, eps (n, 2))} for "pitch" and "yaw", both axes computed in parallel.
+
+    ``motor``: tau1, tau2 and M_R [N m] already on the samples (jittered logs: numerics/hold.py); the
+    voltages are then not used and the motor and M_R filters pass these through."""
     n = alpha_rad.size
     out = {}
 
     def run(axis: str):
         pitch = axis == "pitch"
         b, a = _coefficients(pitch, p, dt_s, a_rad_s, b_rad_s, f_gain, h_gain)
+        drive, reaction = (u1_v if pitch else u2_v), u1_v
+        if motor is not None:
+            for slot in (TAU, MR):
+                b[slot], a[slot] = (1.0, 0.0, 0.0), (1.0, 0.0, 0.0)
+            drive, reaction = motor[0 if pitch else 1], motor[2]
         phi, eps = np.empty(n), np.empty((n, 2))
         th_a, th_b = (p["a1"], p["b1"]) if pitch else (p["a2"], p["b2"])
-        _axis(pitch, u1_v if pitch else u2_v, u1_v, alpha_rad if pitch else beta_rad, beta_rad, dt_s, b, a,
+        _axis(pitch, drive, reaction, alpha_rad if pitch else beta_rad, beta_rad, dt_s, b, a,
               th_a, th_b, law == "signed", p["Mg"], p["Kg"], phi, eps)
         out[axis] = (phi, eps)
 

@@ -11,21 +11,20 @@ leaves angle errors above the noise level; the caller (identify) then keeps DREM
 Model: paper eq. (1), both axes together (the pitch equation takes beta' from the model, not
 differentiated from the log), state [alpha, alpha', beta, beta', tau1, tau2, zeta] with zeta
 the lag state of M_R = kc (T0 s + 1)/(Tp s + 1) tau1.  The logged voltages are held over each
-sample interval (the bench's controller holds them); classical RK4 in sub-steps of at most
-MAX_SUBSTEP_S advances the state together with its sensitivities to the parameters and to
-the window's start (forward sensitivity equations: one pass gives the Gauss-Newton system).
+actual sample interval t[k]..t[k+1] (the bench's controller holds them; jittered stamps are
+integrated over their real length), classical RK4 in sub-steps of at most MAX_SUBSTEP_S
+advances the state together with its sensitivities (forward sensitivity equations: one pass
+gives the Gauss-Newton system).
 
-The log is cut into windows of WINDOW_S seconds.  Each window starts from its own angles and
-velocities (four nuisance parameters per window, fitted with J and B and eliminated by a Schur
-complement; motor states from the exact zero-order-hold reconstruction at the window's first
-sample), so a model error cannot accumulate over the whole log (yaw has no restoring force)
-and no differentiated start enters the fit.  The angle errors are weighted by each angle's
-noise level.  Interval: batch means over BLOCK_S blocks of the scores of the parameters with
-the windows' starts projected out (valid for correlated errors, e.g. quantization).
-The first BURN_IN_TIME_CONSTANTS x the slowest motor or M_R lag (10 s with the table's values,
-at most a quarter of the log) are left out: the motors' states when the log begins are not
-known, and a wrong guess (off by only the first command's steady state) made B2's errors about
-2.5 times wider than its interval over noise seeds of a 60 s log.
+Unknowns.  Global: J1, B1, J2, B2 and the motors' and the reaction lag's states when the log
+begins, tau1(0), tau2(0), zeta(0) (a log starts from rest with the controller driving, or
+mid-run: these are never assumed, as greyest does with InitialState='estimate').  The motor
+states run on continuously through the whole log.  Per window of WINDOW_S seconds: the angles
+and angular rates at the window's first sample (so a model error cannot accumulate over the
+whole log, yaw has no restoring force), eliminated by a Schur complement.  No sample is left
+out.  The angle errors are weighted by each angle's noise level.  Interval: batch means over
+BLOCK_S blocks of the scores of J/B with every nuisance unknown projected out (valid for
+correlated errors, e.g. quantization).
 """
 from __future__ import annotations
 
@@ -36,28 +35,34 @@ import numpy as np
 from numba import njit
 from scipy.special import stdtrit
 
-from .coefficients import zoh_first_order, zoh_motor_lag_states
-
 #: window length [s]: long against the pitch damping time J1/B1 (~11 s) is best for B1 and J1 (over 10
 #: noise seeds of a 120 s multisine at 200 Hz, 1 mrad: J1 rms error 0.023 % with 10 s windows, 0.018 % with
 #: 20 s, 0.012 % with 40 s or one window), and windows stop model errors piling up over a whole log
 WINDOW_S = 40.0
 #: RK4 sub-step: the integrator's error on noise-free logs is ~1e-10 relative at 2.5 ms (measured)
 MAX_SUBSTEP_S = 2.5e-3
-MAX_ITERATIONS = 8
+MAX_ITERATIONS = 10
 #: Gauss-Newton stops when the next step would move every parameter by less than this fraction of its
 #: value, or by less than STEP_OVER_SE of its standard error
 TOLERANCE = 1e-11
 STEP_OVER_SE = 1e-2
 BLOCK_S = 1.0
-BURN_IN_TIME_CONSTANTS = 5.0
 #: intervals narrower than this fraction of the estimate get the integrator's error added
 RICHARDSON_BELOW = 1e-6
 NAMES = ("J1", "B1", "J2", "B2")
+#: the start states estimated with J/B (global unknowns 4..6)
+START_NAMES = ("tau1_0", "tau2_0", "zeta_0")
+NG = 7  # global unknowns: J1, B1, J2, B2, tau1(0), tau2(0), zeta(0)
+NL = 4  # per-window unknowns: alpha, alpha', beta, beta' at the window's first sample
+NU = NG + NL
 # the model vector handed to the compiled kernel
 _P = ("J1", "B1", "J2", "B2", "a1", "b1", "a2", "b2", "Mg", "Kg", "k1", "k2", "T11", "T10", "T21", "T20", "kc",
       "T0", "Tp")
-_NS = 27  # 7 states, 14 pitch sensitivities, 6 yaw sensitivities
+# state layout: 7 states; pitch sensitivities to (J1, B1, J2, B2, alpha0, alpha'0, beta'0) of alpha [7:14] and
+# alpha' [14:21]; yaw sensitivities to (J2, B2, beta'0) of beta [21:24] and beta' [24:27]; sensitivities to the
+# start states (tau1(0), tau2(0), zeta(0)) of alpha [27:30], alpha' [30:33], beta [33:36], beta' [36:39];
+# motor-state sensitivities d tau1/d tau1(0) [39], d tau2/d tau2(0) [40], d zeta/d tau1(0) [41], d zeta/d zeta(0) [42]
+_NS = 43
 
 
 @dataclass(frozen=True)
@@ -69,11 +74,13 @@ class Refined:
     rms_rad: dict  # angle error RMS after refinement, per angle [rad]
     cost: float  # sum of squared noise-weighted angle errors at the estimate (2 angles x samples used)
     window_s: float
-    skipped_s: float  # left out at the log's start (unknown motor states)
     windows: int
-    substeps: int
+    substeps: int  # RK4 sub-steps in a median sample interval
     blocks: int
     integration_error: dict  # estimated parameter error of the RK4 integration (0 when not needed)
+    start_states: dict  # tau1_0, tau2_0, zeta_0 (model units of tau), alpha_dot_0_rad_s, beta_dot_0_rad_s
+    start_states_se: dict  # their standard errors (same keys)
+    prediction: np.ndarray  # (n, 2) simulated alpha, beta [rad] at the estimate (per-window restarts)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -81,12 +88,14 @@ def _thrust(tau, a, b, signed):
     return a * tau * (abs(tau) if signed else tau) + b * tau
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _thrust_slope(tau, a, b, signed):
+    return 2.0 * a * (abs(tau) if signed else tau) + b
+
+
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
 def _rhs(x, u1, u2, p, signed, d):
-    """Paper eq. (1) with the motor lags and M_R's lag state, and the forward sensitivities.
-
-    Pitch sensitivities (x[7:14] of alpha, x[14:21] of alpha') to J1, B1, J2, B2, alpha0, alpha'0,
-    beta'0; yaw sensitivities (x[21:24] of beta, x[24:27] of beta') to J2, B2, beta'0."""
+    """Paper eq. (1) with the motor lags and M_R's lag state, and the forward sensitivities (layout above)."""
     j1, b1, j2, b2 = p[0], p[1], p[2], p[3]
     m1 = _thrust(x[4], p[4], p[5], signed)
     m2 = _thrust(x[5], p[6], p[7], signed)
@@ -94,8 +103,9 @@ def _rhs(x, u1, u2, p, signed, d):
     sa, ca = math.sin(x[0]), math.cos(x[0])
     # gravity Mg sin(alpha + delta): p[19] = delta, a centre-of-mass offset (0 in the seed model)
     sg, cg = (sa, ca) if p[19] == 0.0 else (math.sin(x[0] + p[19]), math.cos(x[0] + p[19]))
-    f1 = (m1 - b1 * x[1] - p[8] * sg - p[9] * m1 * x[3] * ca) / j1
-    f3 = (m2 - b2 * x[3] - mr) / j2
+    f1 = (m1 - b1 * x[1] - p[8] * sg - p[9] * m1 * x[3] * ca) / j1  # eq. (1), pitch
+    f3 = (m2 - b2 * x[3] - mr) / j2  # eq. (1), yaw
+    p1, p2 = p[13] / p[12], p[15] / p[14]
     d[0] = x[1]
     d[1] = f1
     d[2] = x[3]
@@ -121,34 +131,54 @@ def _rhs(x, u1, u2, p, signed, d):
     d[14 + 6] += a13 * x[26]  # beta'0
     d[14] -= f1 / j1
     d[15] -= x[1] / j1
+    # start states: the motors' sensitivities decay with the motors' own poles ...
+    d[39] = -p1 * x[39]
+    d[40] = -p2 * x[40]
+    d[41] = (x[39] - x[41]) / p[18]
+    d[42] = -x[42] / p[18]
+    # ... and drive the angles through the thrusts and M_R
+    df1_t1 = _thrust_slope(x[4], p[4], p[5], signed) * (1.0 - p[9] * x[3] * ca) / j1
+    df3_t1 = -p[16] * p[17] / p[18] / j2
+    df3_z = -p[16] * (1.0 - p[17] / p[18]) / j2
+    df3_t2 = _thrust_slope(x[5], p[6], p[7], signed) / j2
+    for c in range(3):
+        st1 = x[39] if c == 0 else 0.0
+        st2 = x[40] if c == 1 else 0.0
+        sz = x[41] if c == 0 else (x[42] if c == 2 else 0.0)
+        d[33 + c] = x[36 + c]
+        d[36 + c] = -b2 / j2 * x[36 + c] + df3_t1 * st1 + df3_t2 * st2 + df3_z * sz
+        d[27 + c] = x[30 + c]
+        d[30 + c] = a10 * x[27 + c] + a11 * x[30 + c] + a13 * x[36 + c] + df1_t1 * st1
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
-def gauss_newton_pass(u1, u2, motor, y, inv_sig, starts, p, signed, dt, nsub, win, block, out):
+def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, max_sub, win, block, out):
     """One pass over the log: predictions (out), weighted cost, per-window normal equations in the
-    8 unknowns (J1, B1, J2, B2, alpha0, alpha'0, beta0, beta'0) and per-block scores."""
+    NU unknowns (J1, B1, J2, B2, tau1(0), tau2(0), zeta(0), alpha0, alpha'0, beta0, beta'0) and per-block
+    scores.  ``h``: the n - 1 sample intervals [s]; each is integrated in RK4 sub-steps <= max_sub."""
     n = u1.size
     nw = starts.shape[0]
     nb = max(n // block, 1)
-    h = dt / nsub
-    a_mat = np.zeros((nw, 8, 8))
-    b_vec = np.zeros((nw, 8))
-    scores = np.zeros((nb, 8))
-    x = np.empty(_NS)
+    a_mat = np.zeros((nw, NU, NU))
+    b_vec = np.zeros((nw, NU))
+    scores = np.zeros((nb, NU))
+    x = np.zeros(_NS)
     xt = np.empty(_NS)
     k1 = np.empty(_NS)
     k2 = np.empty(_NS)
     k3 = np.empty(_NS)
     k4 = np.empty(_NS)
-    ja = np.empty(8)
-    jb = np.empty(8)
+    ja = np.empty(NU)
+    jb = np.empty(NU)
+    x[4], x[5], x[6] = m0[0], m0[1], m0[2]
+    x[39], x[40], x[42] = 1.0, 1.0, 1.0
     cost = 0.0
     for w in range(nw):
         s = w * win
         e = n if w == nw - 1 else s + win
-        x[:] = 0.0
+        for i in range(7, 39):  # the angles restart: their sensitivities are relative to this window's start
+            x[i] = 0.0
         x[0], x[1], x[2], x[3] = starts[w, 0], starts[w, 1], starts[w, 2], starts[w, 3]
-        x[4], x[5], x[6] = motor[s, 0], motor[s, 1], motor[s, 2]
         x[7 + 4] = 1.0  # d alpha / d alpha0
         x[14 + 5] = 1.0  # d alpha' / d alpha'0
         x[24 + 2] = 1.0  # d beta' / d beta'0
@@ -160,58 +190,51 @@ def gauss_newton_pass(u1, u2, motor, y, inv_sig, starts, p, signed, dt, nsub, wi
             cost += ra * ra + rb * rb
             for i in range(4):
                 ja[i] = x[7 + i] * inv_sig[0]
-            ja[4], ja[5], ja[6], ja[7] = x[11] * inv_sig[0], x[12] * inv_sig[0], 0.0, x[13] * inv_sig[0]
+            for c in range(3):
+                ja[4 + c] = x[27 + c] * inv_sig[0]
+                jb[4 + c] = x[33 + c] * inv_sig[1]
+            ja[7], ja[8], ja[9], ja[10] = x[11] * inv_sig[0], x[12] * inv_sig[0], 0.0, x[13] * inv_sig[0]
             jb[0], jb[1], jb[2], jb[3] = 0.0, 0.0, x[21] * inv_sig[1], x[22] * inv_sig[1]
-            jb[4], jb[5], jb[6], jb[7] = 0.0, 0.0, inv_sig[1], x[23] * inv_sig[1]
+            jb[7], jb[8], jb[9], jb[10] = 0.0, 0.0, inv_sig[1], x[23] * inv_sig[1]
             q = min(k // block, nb - 1)
-            for i in range(8):
+            for i in range(NU):
                 g = ja[i] * ra + jb[i] * rb
                 b_vec[w, i] += g
                 scores[q, i] += g
-                for j in range(i, 8):
+                for j in range(i, NU):
                     a_mat[w, i, j] += ja[i] * ja[j] + jb[i] * jb[j]
-            if k == e - 1:
+            if k == n - 1:
                 break
+            # hold u[k] over the actual interval (the motor states run on into the next window)
+            nsub = max(1, int(math.ceil(h[k] / max_sub - 1e-9)))
+            hs = h[k] / nsub
             for _ in range(nsub):
                 _rhs(x, u1[k], u2[k], p, signed, k1)
                 for i in range(_NS):
-                    xt[i] = x[i] + 0.5 * h * k1[i]
+                    xt[i] = x[i] + 0.5 * hs * k1[i]
                 _rhs(xt, u1[k], u2[k], p, signed, k2)
                 for i in range(_NS):
-                    xt[i] = x[i] + 0.5 * h * k2[i]
+                    xt[i] = x[i] + 0.5 * hs * k2[i]
                 _rhs(xt, u1[k], u2[k], p, signed, k3)
                 for i in range(_NS):
-                    xt[i] = x[i] + h * k3[i]
+                    xt[i] = x[i] + hs * k3[i]
                 _rhs(xt, u1[k], u2[k], p, signed, k4)
                 for i in range(_NS):
-                    x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-        for i in range(8):
+                    x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        for i in range(NU):
             for j in range(i):
                 a_mat[w, i, j] = a_mat[w, j, i]
     return cost, a_mat, b_vec, scores
 
 
-@njit(cache=True, nogil=True)
-def _motor_kernel(u1, u2, c, out):
-    e1, e2, phi21, g1, g2, e3, g3 = c[0], c[1], c[2], c[3], c[4], c[5], c[6]
-    # steady state of the first held voltages, as the filters of the DREM path start
-    t1 = g1 / (1.0 - e1) * u1[0]
-    out[0, 0], out[0, 1], out[0, 2] = t1, g3 / (1.0 - e3) * u2[0], t1
-    for k in range(u1.size - 1):
-        out[k + 1, 0] = e1 * out[k, 0] + g1 * u1[k]
-        out[k + 1, 1] = e3 * out[k, 1] + g3 * u2[k]
-        out[k + 1, 2] = phi21 * out[k, 0] + e2 * out[k, 2] + g2 * u1[k]
-
-
 def warm_up() -> None:
-    """Load the compiled kernels from numba's cache on a tiny input (commands call this in a thread)."""
+    """Load the compiled kernel from numba's cache on a tiny input (commands call this in a thread)."""
     from ..params import defaults
 
     n = 8
-    u, out = np.zeros(n), np.empty((n, 2))
-    gauss_newton_pass(u, u, np.zeros((n, 3)), np.zeros((n, 2)), np.ones(2), np.zeros((1, 4)),
-                      model_vector(defaults()), False, 1e-3, 1, n, n, out)
-    motor_states(u, u, 1e-3, defaults())
+    u = np.zeros(n)
+    gauss_newton_pass(u, u, np.zeros((n, 2)), np.ones(2), np.zeros((1, 4)), np.zeros(3), model_vector(defaults()),
+                      False, np.full(n - 1, 1e-3), MAX_SUBSTEP_S, n, n, np.empty((n, 2)))
 
 
 def model_vector(params: dict, gravity_offset_rad: float = 0.0) -> np.ndarray:
@@ -219,22 +242,19 @@ def model_vector(params: dict, gravity_offset_rad: float = 0.0) -> np.ndarray:
     return np.array([params[k] for k in _P] + [gravity_offset_rad], dtype=float)
 
 
-def motor_states(u1, u2, dt, p) -> np.ndarray:
-    """tau1, tau2 and zeta at the samples (n, 3), exact for held voltages (zero-order hold), paper eq. (1)."""
-    e1, e2, phi21, g1, g2 = zoh_motor_lag_states(p["k1"], p["Tp"], p["T11"], p["T10"], dt)
-    b3, a3 = zoh_first_order(p["k2"], p["T21"], p["T20"], dt)
-    out = np.empty((u1.size, 3))
-    _motor_kernel(np.ascontiguousarray(u1, dtype=float), np.ascontiguousarray(u2, dtype=float),
-                  np.array([e1, e2, phi21, g1, g2, -a3[1], b3[1]]), out)
-    return out
+def steady_motor_states(u1_0: float, u2_0: float, params: dict) -> np.ndarray:
+    """tau1, tau2, zeta at the steady state of held voltages u1_0, u2_0 [V] (eq. 1): the first guess only."""
+    t1 = params["k1"] / params["T10"] * u1_0
+    return np.array([t1, params["k2"] / params["T20"] * u2_0, t1])
 
 
-def _start_velocity(x: np.ndarray, s: int, dt: float) -> float:
+def _start_velocity(x: np.ndarray, t: np.ndarray, s: int) -> float:
     """Slope [rad/s] of a quadratic fitted to the first 50 ms (at least 5 samples) of a window."""
+    dt = float(np.median(np.diff(t[s:s + 8]))) if t.size - s > 2 else 1.0
     m = min(max(5, int(round(0.05 / dt))), x.size - s)
     if m < 3:
         return 0.0
-    return float(np.polyfit(np.arange(m) * dt, x[s:s + m], 2)[1])
+    return float(np.polyfit(t[s:s + m] - t[s], x[s:s + m], 2)[1])
 
 
 def substeps(dt: float) -> int:
@@ -243,108 +263,117 @@ def substeps(dt: float) -> int:
 
 
 def _schur(a, b):
-    """Eliminate each window's start: the parameters' normal matrix and right-hand side, and per window
+    """Eliminate each window's start: the global unknowns' normal matrix and right-hand side, and per window
     (L'L)^-1 [L'G, L'r], from which the starts' step and the projected scores follow."""
-    s_mat, s_rhs, per_window = np.zeros((4, 4)), np.zeros(4), []
+    s_mat, s_rhs, per_window = np.zeros((NG, NG)), np.zeros(NG), []
     for w in range(a.shape[0]):
-        lg = a[w, 4:, :4]
-        k_mat = np.linalg.lstsq(a[w, 4:, 4:], np.column_stack([lg, b[w, 4:]]), rcond=1e-13)[0]
-        s_mat += a[w, :4, :4] - lg.T @ k_mat[:, :4]
-        s_rhs += b[w, :4] - lg.T @ k_mat[:, 4]
+        lg = a[w, NG:, :NG]
+        k_mat = np.linalg.lstsq(a[w, NG:, NG:], np.column_stack([lg, b[w, NG:]]), rcond=1e-13)[0]
+        s_mat += a[w, :NG, :NG] - lg.T @ k_mat[:, :NG]
+        s_rhs += b[w, :NG] - lg.T @ k_mat[:, NG]
         per_window.append(k_mat)
     return s_mat, s_rhs, per_window
 
 
 def _covariance(s_mat, per_window, scores, win, block):
-    """Batch-means covariance of the parameters: per-block scores with the windows' starts projected out."""
+    """Batch-means covariance of the global unknowns: per-block scores with the windows' starts projected out."""
     nb = scores.shape[0]
     w_of_block = np.minimum(np.arange(nb) * block // win, len(per_window) - 1)
-    proj = np.stack([k[:, :4] for k in per_window])[w_of_block]  # (nb, 4, 4)
-    sc = scores[:, :4] - np.einsum("bij,bi->bj", proj, scores[:, 4:])
+    proj = np.stack([k[:, :NG] for k in per_window])[w_of_block]  # (nb, NL, NG)
+    sc = scores[:, :NG] - np.einsum("bij,bi->bj", proj, scores[:, NG:])
     sc = sc - sc.mean(axis=0)
     meat = nb / max(nb - 1, 1) * sc.T @ sc
-    inv = np.linalg.inv(s_mat)
+    inv = _scaled_inverse(s_mat)
     return inv @ meat @ inv
 
 
+def _scaled_inverse(s_mat):
+    d = np.sqrt(np.maximum(np.diag(s_mat), 1e-300))
+    return np.linalg.pinv(s_mat / np.outer(d, d), rcond=1e-13) / np.outer(d, d)
+
+
 def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict, noise_rad: dict,
-           window_s: float = WINDOW_S, gravity_offset_rad: float = 0.0) -> Refined:
+           window_s: float = WINDOW_S, gravity_offset_rad: float = 0.0, t_s: np.ndarray | None = None) -> Refined:
     """Gauss-Newton on the noise-weighted angle errors, from theta0 (DREM's estimate).
 
-    ``gravity_offset_rad``: a centre-of-mass offset, gravity Mg sin(alpha + delta) (diagnose's
-    extended model; an encoder offset is handled by the caller, shifting the logged angle)."""
-    # the motors' states when the log begins are unknown (their reconstruction assumes steady state):
-    # start after BURN_IN_TIME_CONSTANTS of the slowest motor or reaction lag, when that no longer matters
-    slowest_s = max(params["T11"] / params["T10"], params["T21"] / params["T20"], abs(params["Tp"]))
-    k0 = min(int(round(BURN_IN_TIME_CONSTANTS * slowest_s / dt)), alpha.size // 4)
-    motor = motor_states(u1, u2, dt, params)[k0:]
-    u1, u2, alpha, beta = u1[k0:], u2[k0:], alpha[k0:], beta[k0:]
+    ``t_s``: the sample stamps [s] when they are not uniform (default: uniform steps of ``dt`` [s]); the
+    voltages are held over each actual interval.  ``gravity_offset_rad``: a centre-of-mass offset, gravity
+    Mg sin(alpha + delta) (diagnose's extended model; an encoder offset is handled by the caller, shifting
+    the logged angle)."""
     n = alpha.size
-    block = max(int(round(BLOCK_S / dt)), 1)
-    win = max(int(round(window_s / dt)) // block, 1) * block  # windows hold whole blocks
+    t = np.arange(n) * dt if t_s is None else np.asarray(t_s, dtype=float)
+    h = np.diff(t)
+    step_s = float(np.median(h))
+    block = max(int(round(BLOCK_S / step_s)), 1)
+    win = max(int(round(window_s / step_s)) // block, 1) * block  # windows hold whole blocks
     nw = max(n // win, 1)
-    nsub = substeps(dt)
     signed = law == "signed"
     y = np.ascontiguousarray(np.column_stack([alpha, beta]))
     sig = np.array([max(noise_rad.get("alpha", 0.0), 1e-12), max(noise_rad.get("beta", 0.0), 1e-12)])
     inv_sig = 1.0 / sig
-    starts = np.array([[alpha[s], _start_velocity(alpha, s, dt), beta[s], _start_velocity(beta, s, dt)]
+    starts = np.array([[alpha[s], _start_velocity(alpha, t, s), beta[s], _start_velocity(beta, t, s)]
                        for s in range(0, nw * win, win)])
-    theta = np.array([theta0[k] for k in NAMES], dtype=float)
+    theta = np.concatenate([[theta0[k] for k in NAMES], steady_motor_states(u1[0], u2[0], params)])
+    # what "negligible" means per unknown: J/B relative to themselves, start states to the motors' range
+    motor_range = np.abs(steady_motor_states(float(np.max(np.abs(u1))), float(np.max(np.abs(u2))), params))
+    scale = np.concatenate([np.abs(theta[:4]), np.maximum(motor_range, 1e-6) * 1e3])
     base = model_vector(params, gravity_offset_rad)
     out = np.empty((n, 2))
+    u1 = np.ascontiguousarray(u1, dtype=float)
+    u2 = np.ascontiguousarray(u2, dtype=float)
 
-    def evaluate(th, st):
+    def evaluate(th, st, max_sub=MAX_SUBSTEP_S, target=out):
         pv = base.copy()
-        pv[:4] = th
-        return gauss_newton_pass(u1, u2, motor, y, inv_sig, st, pv, signed, dt, nsub, win, block, out)
+        pv[:4] = th[:4]
+        return gauss_newton_pass(u1, u2, y, inv_sig, st, th[4:], pv, signed, h, max_sub, win, block, target)
 
     cost, a, b, scores = evaluate(theta, starts)
     converged, it = False, 0
     for it in range(1, MAX_ITERATIONS + 1):
         s_mat, s_rhs, per_window = _schur(a, b)
-        d = np.sqrt(np.diag(s_mat))
-        step = np.linalg.solve(s_mat / np.outer(d, d), s_rhs / d) / d
-        step_starts = np.array([k[:, 4] - k[:, :4] @ step for k in per_window])
+        step = _scaled_inverse(s_mat) @ s_rhs
+        step_starts = np.array([k[:, NG] - k[:, :NG] @ step for k in per_window])
         se = np.sqrt(np.maximum(np.diag(_covariance(s_mat, per_window, scores, win, block)), 0.0))
-        if it > 1 and np.all((np.abs(step) <= TOLERANCE * theta) | (np.abs(step) <= STEP_OVER_SE * se)):
+        small = (np.abs(step) <= STEP_OVER_SE * se) | (np.abs(step) <= TOLERANCE * scale)
+        if it > 1 and np.all(small):
             converged = True  # the next step would not move anything that matters: stop here, where the
             break  # normal equations (and so the interval) were evaluated
         lam, accepted = 1.0, None
         while lam >= 1e-4:  # step halving keeps every iteration downhill
             th_new = theta + lam * step
-            if np.all(th_new > 0):
+            if np.all(th_new[:4] > 0):
                 res = evaluate(th_new, starts + lam * step_starts)
                 if res[0] <= cost:
                     accepted = th_new, starts + lam * step_starts, res
                     break
             lam *= 0.5
         if accepted is None:  # no downhill step: at the minimum to working precision
-            converged = bool(np.all(np.abs(step) <= np.maximum(1e-6 * theta, 0.1 * se)))
-            evaluate(theta, starts)  # leave the predictions of the accepted parameters in ``out``
+            converged = bool(np.all(np.abs(step[:4]) <= np.maximum(1e-6 * theta[:4], 0.1 * se[:4])))
+            cost, a, b, scores = evaluate(theta, starts)  # predictions of the accepted parameters in ``out``
             break
         theta, starts, (cost, a, b, scores) = accepted[0], accepted[1], accepted[2]
     s_mat, s_rhs, per_window = _schur(a, b)
     cov = _covariance(s_mat, per_window, scores, win, block)
     nb = scores.shape[0]
-    half = float(stdtrit(max(nb - 1, 1), 0.975)) * np.sqrt(np.maximum(np.diag(cov), 0.0))
+    se = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    half = float(stdtrit(max(nb - 1, 1), 0.975)) * se[:4]
     rms = _rms(y, out)
     integration = np.zeros(4)
-    if np.any(half < RICHARDSON_BELOW * theta):
+    if np.any(half < RICHARDSON_BELOW * theta[:4]):
         # intervals this narrow (noise-free logs) meet the integrator's own error: estimate it from the
         # parameter shift that halving the sub-step causes (RK4: the error falls 16-fold) and add twice that
-        pv = base.copy()
-        pv[:4] = theta
-        fine = gauss_newton_pass(u1, u2, motor, y, inv_sig, starts, pv, signed, dt, 2 * nsub, win, block,
-                                 np.empty((n, 2)))
+        fine = evaluate(theta, starts, MAX_SUBSTEP_S / 2.0, np.empty((n, 2)))
         _, rhs_fine, _ = _schur(fine[1], fine[2])
-        integration = np.abs(np.linalg.solve(s_mat, rhs_fine - s_rhs)) * 16.0 / 15.0
+        integration = np.abs(_scaled_inverse(s_mat) @ (rhs_fine - s_rhs))[:4] * 16.0 / 15.0
         half = half + 2.0 * integration
-    half = np.maximum(half, 10.0 * TOLERANCE * theta)  # no claim finer than the convergence test
-    return Refined(dict(zip(NAMES, map(float, theta))),
+    half = np.maximum(half, 10.0 * TOLERANCE * theta[:4])  # no claim finer than the convergence test
+    start_states = {**dict(zip(START_NAMES, map(float, theta[4:]))),
+                    "alpha_dot_0_rad_s": float(starts[0, 1]), "beta_dot_0_rad_s": float(starts[0, 3])}
+    start_se = dict(zip(START_NAMES, map(float, se[4:])))
+    return Refined(dict(zip(NAMES, map(float, theta[:4]))),
                    {k: (float(theta[i] - half[i]), float(theta[i] + half[i])) for i, k in enumerate(NAMES)},
-                   converged, it, rms, float(cost), win * dt, k0 * dt, nw, nsub, nb,
-                   {k: float(integration[i]) for i, k in enumerate(NAMES)})
+                   converged, it, rms, float(cost), win * step_s, nw, substeps(step_s), nb,
+                   {k: float(integration[i]) for i, k in enumerate(NAMES)}, start_states, start_se, out)
 
 
 def _rms(y, pred) -> dict:
