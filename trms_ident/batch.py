@@ -68,7 +68,7 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
 
     path_p, out = Path(path), Path(out_dir)
     row = {"path": path, "output": out_dir, "status": "failed", "error": None, "skipped": False,
-           "estimates": None, "report": None}
+           "estimates": None, "adequate": None, "report": None}
     try:
         key = job_key(path_p, settings, options)
         stamp = out / BATCH_KEY
@@ -77,6 +77,7 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
                 if json.loads(stamp.read_text()) == key:
                     doc = json.loads((out / "result.json").read_text())
                     row.update(status="ok", skipped=True, estimates=doc["estimates"],
+                               adequate=doc.get("model_check", {}).get("adequate"),
                                report=str(out / "report.html") if (out / "report.html").exists() else None)
                     return row
             except (ValueError, KeyError):
@@ -85,7 +86,7 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
                             time_unit=options.get("time_unit", "auto"),
                             signals=options.get("signals"), time_source=options.get("time_source", "auto"))
         write_text(stamp, json.dumps(key, indent=1))
-        row.update(status="ok", estimates=res.summary["estimates"],
+        row.update(status="ok", estimates=res.summary["estimates"], adequate=res.summary["model_check"]["adequate"],
                    report=str(out / "report.html") if options.get("html", True) else None)
         if res.log.meta.get("warnings"):
             row["error"] = "warning: " + res.log.meta["warnings"]
@@ -135,15 +136,17 @@ def run(paths: list[Path], out_dir: Path, settings: Settings, options: dict, job
 
 def write_summary(out_dir: Path, rows: list[dict]) -> list[Path]:
     names = ("J1", "B1", "J2", "B2")
-    doc = {"files": [{k: r[k] for k in ("path", "status", "error", "estimates", "skipped", "output")} for r in rows],
-           "ok": sum(r["status"] == "ok" for r in rows), "failed": sum(r["status"] != "ok" for r in rows)}
+    doc = {"files": [{k: r[k] for k in ("path", "status", "adequate", "error", "estimates", "skipped", "output")}
+                     for r in rows],
+           "ok": sum(r["status"] == "ok" for r in rows), "failed": sum(r["status"] != "ok" for r in rows),
+           "inadequate": sum(r["adequate"] is False for r in rows)}
     write_text(out_dir / "summary.json", json.dumps(doc, indent=2) + "\n")
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(["path", "status", *names, "error"])
+    writer.writerow(["path", "status", "adequate", *names, "error"])
     for r in rows:
         est = r["estimates"] or {}
-        writer.writerow([r["path"], r["status"], *("" if est.get(k) is None else repr(est[k]) for k in names),
+        writer.writerow([r["path"], r["status"], "" if r["adequate"] is None else str(r["adequate"]).lower(), *("" if est.get(k) is None else repr(est[k]) for k in names),
                          r["error"] or ""])
     write_text(out_dir / "summary.csv", buf.getvalue())
     items = []
@@ -152,13 +155,15 @@ def write_summary(out_dir: Path, rows: list[dict]) -> list[Path]:
         link = f'<a href="{html.escape(rel)}">{html.escape(r["path"])}</a>' if rel else html.escape(r["path"])
         est = r["estimates"] or {}
         cells = "".join(f"<td>{'' if est.get(k) is None else f'{est[k]:.6g}'}</td>" for k in names)
-        items.append(f'<tr><td>{link}</td><td class="{r["status"]}">{r["status"]}</td>{cells}'
+        fits = {None: "", True: '<td class="ok">yes</td>', False: '<td class="failed">NO: model does not fit</td>'}
+        items.append(f'<tr><td>{link}</td><td class="{r["status"]}">{r["status"]}</td>'
+                     f'{fits[r["adequate"]] or "<td></td>"}{cells}'
                      f'<td>{html.escape(r["error"] or "")}</td></tr>')
     page = f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident batch</title>
 <style>body{{font-family:system-ui,sans-serif;margin:2em}}table{{border-collapse:collapse}}
 td,th{{border:1px solid #ccc;padding:3px 8px}}.failed{{color:#b00}}.ok{{color:#070}}</style></head><body>
-<h1>trms-ident batch: {doc['ok']} ok, {doc['failed']} failed</h1>
-<table><tr><th>log</th><th>status</th><th>J1 [kg m^2]</th><th>B1 [N m s/rad]</th><th>J2 [kg m^2]</th>
+<h1>trms-ident batch: {doc['ok']} ok, {doc['failed']} failed; the model does not fit {doc['inadequate']}</h1>
+<table><tr><th>log</th><th>status</th><th>model fits</th><th>J1 [kg m^2]</th><th>B1 [N m s/rad]</th><th>J2 [kg m^2]</th>
 <th>B2 [N m s/rad]</th><th>reason</th></tr>{''.join(items)}</table></body></html>
 """
     write_text(out_dir / "index.html", page)

@@ -3,7 +3,7 @@
 Exit codes (also in README): 0 ok, 1 internal error, 2 usage or bad option value,
 3 input file missing or unreadable, 4 log unusable, 5 parameter file invalid,
 6 log does not excite the parameters, 7 output cannot be written,
-8 batch: some logs failed, 9 batch: every log failed.
+8 batch: some logs failed, 9 batch: every log failed, 10 --strict: the model does not fit the log.
 """
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from typing import Annotated, Optional
 import typer
 
 from . import __version__
-from .errors import EXIT_ALL_FAILED, EXIT_INTERNAL, EXIT_SOME_FAILED, SettingsError, TrmsError
+from .errors import EXIT_ALL_FAILED, EXIT_INADEQUATE, EXIT_INTERNAL, EXIT_SOME_FAILED, SettingsError, TrmsError
 from .settings import GAIN_CONVENTIONS, HEADLINES, Settings
 from .params import ESTIMATED, THRUST_LAWS, UNITS, load_parameter_file
 
@@ -129,6 +129,8 @@ AngleOpt = Annotated[str, typer.Option("--angle-unit", help="Unit of the logged 
                                        "guess) or deg.")]
 TimeUnitOpt = Annotated[str, typer.Option("--time-unit", help="Unit of CSV time stamps: auto (told from the median "
                                           "step: <= 0.15 s, ms up to 150, else us; said on stderr), s, ms or us.")]
+StrictOpt = Annotated[bool, typer.Option("--strict", help="Exit with code 10 when the model does not fit the log "
+                                          "(model_check.adequate false; batch: any log).")]
 NoReportOpt = Annotated[bool, typer.Option("--no-report", help="Skip the HTML report.")]
 SignalOpt = Annotated[Optional[list[str]], typer.Option("--signal", help="MCAP: where a signal comes from, "
                                                         "NAME=TOPIC:FIELD, e.g. alpha=/arm/joint_states:position[pitch] "
@@ -187,6 +189,7 @@ def estimate(
     refine: RefineOpt = "auto",
     angle_unit: AngleOpt = "auto",
     time_unit: TimeUnitOpt = "auto",
+    strict: StrictOpt = False,
     truth: Annotated[Optional[Path], typer.Option(help="Ground-truth JSON [default: <log>.truth.json if present].")] = None,
     no_report: NoReportOpt = False,
     signal: SignalOpt = None,
@@ -203,11 +206,19 @@ def estimate(
                         signals=signal, time_source=time_source, on_stage=progress)
     if progress:
         sys.stderr.write("\r\033[K")
+    s = res.summary
+    check = s["model_check"]
+    say(("MODEL FITS: " if check["adequate"] else "MODEL DOES NOT FIT: ") + check["sentence"])
     for warning in filter(None, [res.log.meta.get("warnings")]):
         say(f"warning: {warning}")
-    s = res.summary
+    for note in res.log.meta.get("assumed", {}).values():
+        say(f"note: {note}")
+    samp = s["input"]["sampling"]
     say(f"{log}: {s['input']['samples']} samples, {s['input']['duration_s']:.6g} s at "
-        f"{1.0 / s['input']['sample_time_s']:.6g} Hz")
+        f"{1.0 / s['input']['sample_time_s']:.6g} Hz" +
+        ("" if samp["uniform"] else f" (jittered stamps: steps {samp['min_step_over_median']:.3g}-"
+         f"{samp['max_step_over_median']:.3g} x the median, {samp['dropped_samples']} dropped; voltages held over "
+         "each actual interval)"))
     say(f"  filters: a = {res.result.settings.filter_a_rad_s:g} rad/s, b = {res.result.settings.filter_b_rad_s:g} rad/s"
         f" ({'designed from the log' if res.result.design else 'given'})")
     say(f"  estimate: {res.result.headline}; {res.result.refine_note}")
@@ -219,12 +230,15 @@ def estimate(
             continue
         line = f"  {k} = {est:<11.6g} {UNITS[k]:<10}"
         line += f" 95 % [{lo:.6g}, {hi:.6g}]" if lo is not None else " (no interval: log too short)"
+        line += "" if check["adequate"] or lo is None else " (conditional on a model that does not fit)"
         if tv:
             line += f"   truth {tv['values'][k]:.6g}, error {tv['error_percent'][k]:+.3f} %"
         say(line)
     say("wrote " + ", ".join(str(p) for p in res.written))
     if json_path:
         emit_json(s, json_path)
+    if strict and not check["adequate"]:
+        raise typer.Exit(EXIT_INADEQUATE)
 
 
 @app.command()
@@ -250,6 +264,7 @@ def batch(
     refine: RefineOpt = "auto",
     angle_unit: AngleOpt = "auto",
     time_unit: TimeUnitOpt = "auto",
+    strict: StrictOpt = False,
     no_report: NoReportOpt = False,
     signal: SignalOpt = None,
     time_source: TimeSourceOpt = "auto",
@@ -289,11 +304,17 @@ def batch(
     for r in rows:
         if r["status"] != "ok":
             say(f"failed: {r['error']}")
-    say(f"{ok} ok ({skipped} up to date, skipped), {len(rows) - ok} failed; wrote " + ", ".join(map(str, written)))
+    bad_fit = [r for r in rows if r["adequate"] is False]
+    for r in bad_fit:
+        say(f"model does not fit: {r['path']}")
+    say(f"{ok} ok ({skipped} up to date, skipped), {len(rows) - ok} failed, the model does not fit {len(bad_fit)}; "
+        "wrote " + ", ".join(map(str, written)))
     if json_path:
         emit_json(json.loads((out / "summary.json").read_text()), json_path)
     if ok < len(rows):
         raise typer.Exit(EXIT_ALL_FAILED if ok == 0 else EXIT_SOME_FAILED)
+    if strict and bad_fit:
+        raise typer.Exit(EXIT_INADEQUATE)
 
 
 @app.command()

@@ -11,6 +11,7 @@ EXIT_NOT_IDENTIFIABLE = 6
 EXIT_OUTPUT = 7
 EXIT_SOME_FAILED = 8  # batch: at least one log failed, at least one succeeded
 EXIT_ALL_FAILED = 9  # batch: every log failed
+EXIT_INADEQUATE = 10  # --strict: the model does not fit the log (model_check.adequate is false)
 
 
 class TrmsError(Exception):

@@ -15,7 +15,8 @@ from .log import Log
 from .numerics.design import FilterDesign, angle_noise_rad, design_filters
 from .numerics.drem import gradient_estimator
 from .numerics.fused import mixed_regressions
-from .numerics.refine import Refined, refine, substeps
+from .numerics.adequacy import RMS_OVER_NOISE, model_check
+from .numerics.refine import WINDOW_S, Refined, refine, substeps
 from .numerics.stats import IDENTIFIABLE_REL_HALF_WIDTH, MIN_BLOCKS, Interval, block_length, confidence_interval
 from .params import ESTIMATED, merge
 from .settings import AXES, GAIN_CONVENTIONS, HEADLINES, MAX_TRACE_POINTS, REFINE_AUTO_MAX_STEPS, Settings
@@ -48,6 +49,8 @@ class Result:
     settings: Settings  # as used: designed bandwidths filled in
     design: FilterDesign | None  # how the bandwidths were chosen (None when given)
     sample_time_s: float
+    model_check: dict  # the adequacy verdict (numerics/adequacy.py): does the model fit this log?
+    simulated: np.ndarray | None  # (m, 2) the check's simulated alpha, beta [rad] at the first m samples
 
 
 def resolve_filters(log: Log, settings: Settings) -> tuple[Settings, FilterDesign | None]:
@@ -123,6 +126,7 @@ def identify(log: Log, settings: Settings | None = None) -> Result:
     with ThreadPoolExecutor(max_workers=2) as pool:  # the compiled loops release the GIL
         list(pool.map(estimate_axis, AXES))
     refined, note, usable = _refine(log, settings, params, offline)
+    check, simulated = _model_check(log, settings, params, refined, offline)
     headline = settings.headline
     if headline == "refined" and not usable:
         headline = "offline"
@@ -134,13 +138,47 @@ def identify(log: Log, settings: Settings | None = None) -> Result:
         chosen = offline if headline == "offline" else drem_final
     estimates = {k: (chosen[k] if head_intervals[k].identifiable else None) for k in ESTIMATED}
     return Result(grid_log.t_s[::step], traces, step, drem_final, offline, intervals, refined, note, headline,
-                  head_intervals, estimates, axes, params, settings, design, dt)
+                  head_intervals, estimates, axes, params, settings, design, dt, check, simulated)
 
 
 #: the refined fit must leave angle errors within this factor of the noise level, or the model misses
-#: something and its (precise-looking) refined numbers are not used.  The 36 clean benchmark cells
-#: (noise-free, 12-bit, 1 mrad; 100 Hz-1 kHz) gave 0.93-1.01; a 5 mrad encoder offset gave 5
-ADEQUATE_RMS_OVER_NOISE = 1.2
+#: something and its (precise-looking) refined numbers are not used (the adequacy verdict's own threshold)
+ADEQUATE_RMS_OVER_NOISE = RMS_OVER_NOISE
+
+
+def _noise(log: Log, n: int) -> dict:
+    """The angles' measurement-noise floor [rad] over the first n samples."""
+    t = None if log.uniform else log.t_s[:n]
+    return {"alpha": angle_noise_rad(log.alpha_rad[:n], t), "beta": angle_noise_rad(log.beta_rad[:n], t)}
+
+
+def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, offline: dict
+                 ) -> tuple[dict, np.ndarray | None]:
+    """The adequacy verdict from the best fit the model reaches: the refinement's simulation when it ran,
+    else an output-error fit made for the check alone over (at most) the automatic refinement length."""
+    dt = log.sample_time_s
+    scope = (f"output-error simulation of eq. (1) at the refined parameters, in {WINDOW_S:g} s windows from "
+             "fitted starts (start states estimated)")
+    n = len(log)
+    if r is None:
+        n = min(n, max(REFINE_AUTO_MAX_STEPS // substeps(dt), 10))
+        start = offline if all(math.isfinite(offline[k]) and offline[k] > 0 for k in ESTIMATED) else \
+            {k: params[k] for k in ESTIMATED}
+        noise = _noise(log, n)
+        try:
+            r = refine(log.u1_v[:n], log.u2_v[:n], log.alpha_rad[:n], log.beta_rad[:n], dt, params,
+                       settings.thrust_law, start, noise, t_s=None if log.uniform else log.t_s[:n])
+        except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as e:
+            return {"adequate": False, "axes": {}, "simulation": "none",
+                    "sentence": f"The model could not be fitted to this log for the adequacy check ({e}); treat "
+                                "every number as unverified."}, None
+        scope = (f"output-error fit of eq. (1) made for this check over the first {n * dt:.6g} s (of "
+                 f"{log.duration_s:.6g} s), in {WINDOW_S:g} s windows from fitted starts; the headline estimate "
+                 "is not this fit")
+    noise = _noise(log, n)
+    y = np.column_stack([log.alpha_rad[:n], log.beta_rad[:n]])
+    u = np.column_stack([log.u1_v[:n], log.u2_v[:n]])
+    return model_check(y, r.prediction, u, noise, dt, scope), r.prediction
 
 
 def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[Refined | None, str, bool]:
@@ -155,7 +193,7 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
                       "optimum is the estimate"), False
     if not all(math.isfinite(offline[k]) and offline[k] > 0 for k in ESTIMATED):
         return None, "refinement skipped: DREM's offline optimum is not a usable start (a value is not positive)", False
-    noise = {"alpha": angle_noise_rad(log.alpha_rad), "beta": angle_noise_rad(log.beta_rad)}
+    noise = _noise(log, len(log))
     try:
         r = refine(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, dt, params, settings.thrust_law, offline, noise,
                    t_s=None if log.uniform else log.t_s)

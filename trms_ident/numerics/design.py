@@ -57,10 +57,28 @@ def quantization_step(x: np.ndarray, max_samples: int = 200_000) -> float:
     return q if float(np.max(np.abs(k - np.round(k)))) < 1e-3 else 0.0
 
 
-def angle_noise_rad(x: np.ndarray) -> float:
-    """Noise level of an angle [rad]: white noise from third differences, or an encoder's rounding
-    error q/sqrt(12), whichever is larger."""
-    return max(noise_std(x), quantization_step(x) / math.sqrt(12.0))
+def noise_std_stamped(x: np.ndarray, t: np.ndarray) -> float:
+    """sigma of white measurement noise on jittered stamps, from third divided differences.
+
+    A smooth signal's third divided difference is its third derivative / 6 (small); white noise gives each
+    one the variance sigma^2 sum_i w_i^2 with w_i = 1 / prod_{j != i}(t_i - t_j), so
+    sigma^2 = sum D^2 / sum W.  On uniform stamps this is noise_std's estimate exactly."""
+    if x.size < 8:
+        return 0.0
+    tt = np.stack([t[i:t.size - 3 + i] for i in range(4)])
+    xx = np.stack([x[i:x.size - 3 + i] for i in range(4)])
+    w = np.empty_like(tt)
+    for i in range(4):
+        w[i] = 1.0 / np.prod([tt[i] - tt[j] for j in range(4) if j != i], axis=0)
+    d = np.sum(w * xx, axis=0)
+    return math.sqrt(float(np.dot(d, d)) / float(np.sum(w * w)))
+
+
+def angle_noise_rad(x: np.ndarray, t: np.ndarray | None = None) -> float:
+    """Noise level of an angle [rad]: white noise from third differences (divided differences on the stamps
+    ``t`` when they jitter), or an encoder's rounding error q/sqrt(12), whichever is larger."""
+    white = noise_std(x) if t is None else noise_std_stamped(x, t)
+    return max(white, quantization_step(x) / math.sqrt(12.0))
 
 
 def predicted_bias(windows: np.ndarray, sigma: float, a: float, dt: float) -> float:

@@ -47,6 +47,77 @@ def signals_figure(log: Log) -> str:
     return png_data_uri(fig)
 
 
+def _limits(result: Result, name: str, truth: dict | None) -> tuple[float, float]:
+    """Every line in view: the trace after its first 5 %, the estimates, the intervals and the truth."""
+    tr = result.traces[name]
+    vals = [tr[tr.size // 20:], [result.offline[name]]]
+    for ci in (result.offline_intervals[name], result.intervals[name]):
+        if np.isfinite(ci.low):
+            vals.append([ci.low, ci.high])
+    if result.refined is not None:
+        vals.append([result.refined.estimate[name]])
+    if truth:
+        vals.append([truth[name]])
+    v = np.concatenate([np.asarray(x, dtype=float).ravel() for x in vals])
+    v = v[np.isfinite(v)]
+    lo, hi = (float(v.min()), float(v.max())) if v.size else (0.0, 1.0)
+    pad = 0.1 * (hi - lo) or 0.05 * abs(hi) or 1.0
+    return lo - pad, hi + pad
+
+
+def compare_figure(log: Log, simulated: np.ndarray, check: dict) -> str:
+    """Measured against model-simulated angles, with the fit in %, as MATLAB's ``compare`` draws them."""
+    m = simulated.shape[0]
+    s = _stride(m)
+    t = log.t_s[:m][s]
+    fig, ax = plt.subplots(2, 1, figsize=(10, 5.5), sharex=True)
+    for j, (a, y, axis, label) in enumerate(((ax[0], log.alpha_rad, "pitch", "alpha [rad]"),
+                                             (ax[1], log.beta_rad, "yaw", "beta [rad]"))):
+        c = check["axes"].get(axis, {})
+        a.plot(t, y[:m][s], color="0.35", lw=1.0, label="measured")
+        a.plot(t, simulated[s, j], color="tab:blue", lw=0.9, ls="--",
+               label=f"model: fit {c.get('fit_percent', float('nan')):.2f} % (noise floor allows "
+                     f"{c.get('noise_floor_fit_percent', float('nan')):.2f} %)")
+        a.set_ylabel(label)
+        a.grid(alpha=0.3)
+        a.legend(fontsize=8, loc="upper right")
+    ax[1].set_xlabel("t [s]")
+    fig.suptitle("Measured and simulated angles (" + ("the model fits" if check["adequate"] else
+                                                      "the model does NOT fit") + ")")
+    return png_data_uri(fig)
+
+
+def residual_figure(log: Log, simulated: np.ndarray, dt_s: float) -> str:
+    """Residual autocorrelation and residual-input cross-correlation with their 99 % bands (as ``resid``)."""
+    from ..numerics.adequacy import LAGS, correlation_functions, decimation
+
+    m = simulated.shape[0]
+    step = decimation(dt_s)
+    fig, ax = plt.subplots(2, 3, figsize=(11, 5.5))
+    lags = np.arange(-LAGS, LAGS + 1) * step * dt_s
+    for j, (y, axis) in enumerate(((log.alpha_rad, "pitch"), (log.beta_rad, "yaw"))):
+        e = (y[:m] - simulated[:, j])[::step]
+        for i, u in enumerate((log.u1_v, log.u2_v)):
+            ud = np.add.reduceat(u[:m], np.arange(0, m, step))[:e.size] / step
+            auto, cross, band = correlation_functions(e, ud)
+            if i == 0:
+                a = ax[j, 0]
+                a.stem(np.arange(LAGS + 1) * step * dt_s, auto, basefmt=" ")
+                a.axhspan(-band, band, color="tab:blue", alpha=0.15, lw=0)
+                a.set_title(f"{axis}: residual autocorrelation", fontsize=9)
+            a = ax[j, 1 + i]
+            a.stem(lags, cross, basefmt=" ")
+            a.axhspan(-band, band, color="tab:blue", alpha=0.15, lw=0)
+            a.set_title(f"{axis}: residual x u{i + 1} (u leads for lag > 0)", fontsize=9)
+    for a in ax.ravel():
+        a.grid(alpha=0.3)
+    for a in ax[1]:
+        a.set_xlabel("lag [s]")
+    fig.suptitle(f"Residual tests on the residual decimated to every {step}th sample (99 % band shaded)")
+    fig.tight_layout()
+    return png_data_uri(fig)
+
+
 def traces_figure(result: Result, truth: dict | None) -> str:
     s = _stride(result.t_s.size)
     t = result.t_s[s]
@@ -60,10 +131,12 @@ def traces_figure(result: Result, truth: dict | None) -> str:
         if result.refined is not None:
             a.axhline(result.refined.estimate[name], color="tab:red", ls="-.", lw=1.2,
                       label="refined" + ("" if result.headline == "refined" else " (not used)"))
+        head = result.intervals[name]
+        if result.headline == "refined" and np.isfinite(head.low):
+            a.axhspan(head.low, head.high, color="tab:red", alpha=0.25, lw=0, label="95 % interval (refined)")
         if truth:
             a.axhline(truth[name], color="k", ls="--", lw=1.0, label="ground truth")
-            lo, hi = sorted((0.0, 1.3 * truth[name]))
-            a.set_ylim(lo, hi) if np.isfinite(hi) and hi > lo else None
+        a.set_ylim(*_limits(result, name, truth))
         a.set_ylabel(f"{name} [{UNITS[name]}]")
         a.grid(alpha=0.3)
     for a in ax[1]:

@@ -25,6 +25,42 @@ def _g(x: float) -> str:
     return f"{x:.6g}"
 
 
+def _white(w: dict) -> str:
+    return f"Q = {w['ljung_box_q']:.3g} (<= {w['threshold']:.3g})"
+
+
+def _cross(c: dict) -> str:
+    return ", ".join(f"{k} {x:.3g}" for k, x in c["statistic"].items()) + f" (<= {c['threshold']:.3g})"
+
+
+def _verdict(doc: dict) -> str:
+    c = doc["model_check"]
+    colour, title = ("#e8f5e9", "The model fits this log") if c["adequate"] else ("#fdecea", "The model does NOT fit "
+                                                                                  "this log")
+    rows = "".join(_row([axis, f"{v['fit_percent']:.2f} %", f"{v['noise_floor_fit_percent']:.2f} %",
+                         f"{v['rms_over_noise']:.3g} (<= {v['rms_over_noise_threshold']:g})",
+                         _white(v["whiteness"]), _cross(v["input_correlation"])])
+                   for axis, v in c["axes"].items())
+    head = _row(["axis", "simulation fit", "noise floor allows", "error RMS / noise", "whiteness",
+                 "input correlation"], "th")
+    table = f"<table>{head}{rows}</table>" if rows else ""
+    return (f'<div style="background:{colour};padding:0.6em 1em;border-radius:6px"><h2 style="margin-top:0.2em">'
+            f'{title}</h2><p>{html.escape(c["sentence"])}</p>{table}<p class="note">Simulation: '
+            f'{html.escape(c["simulation"])}. The verdict is the error RMS against the noise floor; the residual '
+            f'tests show where a misfit lies.</p></div>')
+
+
+def _fit_figures(result: Result, log: Log) -> str:
+    from .figures import compare_figure, residual_figure
+
+    if result.simulated is None:
+        return ""
+    return (f'<h2>Model against measurement</h2><img alt="measured and simulated angles" '
+            f'src="{compare_figure(log, result.simulated, result.model_check)}">'
+            f'<h2>Residual tests</h2><img alt="residual correlations" '
+            f'src="{residual_figure(log, result.simulated, result.sample_time_s)}">')
+
+
 def render(doc: dict, result: Result, log: Log) -> str:
     from .figures import signals_figure, traces_figure  # matplotlib only when a report is asked for
 
@@ -56,16 +92,19 @@ def render(doc: dict, result: Result, log: Log) -> str:
 <html lang="en"><head><meta charset="utf-8"><title>trms-ident report: {html.escape(inp['path'])}</title>
 <style>{CSS}</style></head><body>
 <h1>TRMS parameter identification</h1>
+{_verdict(doc)}
 <p>Log <code>{html.escape(inp['path'])}</code>: {inp['samples']} samples, {inp['duration_s']:.6g} s,
 sample time {inp['sample_time_s']:.6g} s.<br><span class="note">sha256 {inp['sha256']}</span></p>
 <h2>Estimates</h2>
 <table>{_row(head, 'th')}{''.join(rows)}</table>
+<p class="note"><b>Intervals:</b> {html.escape(doc['ci95_meaning'])}.</p>
 <p class="note">Headline: {html.escape(doc['headline_meaning'])}. Intervals: batch means over blocks
 (valid for correlated residuals); for DREM widened by the predicted errors-in-variables bias.</p>
 <p class="note">{html.escape(doc['refinement'])}.</p>
 <p>Excitation: {html.escape(excitation)}.</p><ul class="note">{notes}</ul>
 <p class="note">Filters: {html.escape(settings['filter_F'])}; {html.escape(settings['filter_H'])}.
 {html.escape(settings['filter_design'])}.</p>
+{_fit_figures(result, log)}
 <h2>Estimate traces</h2><img alt="estimate traces" src="{traces_figure(result, truth)}">
 <h2>Signals used</h2><img alt="signals" src="{signals_figure(log)}">
 <h2>Settings</h2><table>{_row(['setting', 'value'], 'th')}{set_rows}</table>

@@ -49,10 +49,16 @@ HEADLINE_MEANING = {
 def summarize(result: Result, log: Log, truth: dict | None = None, truth_source: str | None = None) -> dict:
     s = result.settings
     table = defaults()
+    check = result.model_check
     doc = {
         "tool": "trms-ident",
+        "model_check": check,
         "estimates": {k: result.estimates[k] for k in ESTIMATED},
         "ci95": {k: _pair(result.intervals[k]) for k in ESTIMATED},
+        "ci95_meaning": ("95 % intervals from the noise in this log; the model fits it to the noise level"
+                         if check["adequate"] else
+                         "95 % intervals CONDITIONAL on a model that does not fit this log (model_check): they "
+                         "measure the noise, not the model's error, and the true values may lie far outside"),
         "identifiable": {k: result.intervals[k].identifiable for k in ESTIMATED},
         "identifiability": {k: result.intervals[k].reason for k in ESTIMATED},
         "units": {k: UNITS[k] for k in ESTIMATED},
@@ -81,7 +87,7 @@ def summarize(result: Result, log: Log, truth: dict | None = None, truth_source:
             "samples": len(log),
             "sample_time_s": log.sample_time_s,
             "duration_s": log.duration_s,
-            **{k: v for k, v in log.meta.items() if isinstance(v, (str, int, float))},
+            **{k: v for k, v in log.meta.items() if isinstance(v, (str, int, float, dict))},
         },
         "settings": {
             **asdict(s),
