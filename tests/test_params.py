@@ -26,7 +26,7 @@ def test_toml_override_flat_and_table(tmp_path):
 @pytest.mark.parametrize("content, message", [
     ("Mgg = 0.3\n", "unknown parameter 'Mgg'"),
     ("Mg = 'heavy'\n", "must be a finite number"),
-    ("J1 = -1.0\n", "J1 must be > 0"),
+    ("J1 = 0.07\n", "J1 given, but J1, B1, J2, B2 are the unknowns trms-ident estimates"),
     ("Mg = \n", "not valid TOML"),
 ])
 def test_bad_parameter_files(tmp_path, content, message):
@@ -35,6 +35,15 @@ def test_bad_parameter_files(tmp_path, content, message):
     with pytest.raises(ParameterFileError, match=message) as info:
         load_parameter_file(f)
     assert str(f) in str(info.value)
+
+
+def test_true_values_of_the_unknowns_only_for_the_simulator(tmp_path):
+    f = tmp_path / "truth.toml"
+    f.write_text("J1 = 0.08\nB2 = 0.12\n")
+    assert load_parameter_file(f, allow_estimated=True) == {"J1": 0.08, "B2": 0.12}
+    f.write_text("J1 = -1.0\n")
+    with pytest.raises(ParameterFileError, match="J1 must be > 0"):
+        load_parameter_file(f, allow_estimated=True)
 
 
 def test_missing_parameter_file(tmp_path):

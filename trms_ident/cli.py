@@ -354,17 +354,19 @@ def diagnose(
         sys.stderr.write("\r\033[K")
     doc = to_doc(d, data)
     fits = ", ".join(f"{k} {v:.2f} %" for k, v in d.fit_before.items())
-    if not d.mismatch:
-        say(f"{log}: no mismatch found: the seed model explains the log (fit {fits}; "
-            f"{d.settings['candidates']} candidate effects tested)")
+    say(f"{log}: {d.verdict.upper().replace('_', ' ')}: {d.verdict_sentence}")
+    if not d.findings:
+        say(f"  no effect in the library is found ({d.settings['candidates']} candidates tested; prediction fit {fits})")
     else:
-        say(f"{log}: the seed model misses {len(d.findings)} effect(s) (fit {fits})")
+        say(f"  {len(d.findings)} effect(s) found (prediction fit before: {fits})")
         for i, f in enumerate(d.findings, 1):
             say(f"  {i}. {f.effect} on {f.axis}: {f.parameter['name']} = {f.parameter['value']:.4g} "
                 f"{f.parameter['unit']}")
             say(f"     {f.explanation[0].upper() + f.explanation[1:]}.")
             say(f"     fit {f.fit_before:.2f} % -> {f.fit_after:.2f} %; {f.evidence}")
         say("  estimates  " + "  ".join(f"{k} {d.nominal[k]:.5g} -> {d.augmented[k]:.5g}" for k in ESTIMATED))
+    for r in d.refused:
+        say(f"  refused: {r['effect']} on {r['axis']}: {r['reason']}")
     if report is not None:
         write_text(report / "diagnosis.json", to_json(doc))
         write_text(report / "report.html", render(doc, d, data))
@@ -425,7 +427,7 @@ def simulate(
         quantization = 2 * math.pi / 2 ** encoder_bits
     settings = SimSettings(ref=ref, duration_s=duration, sample_rate_hz=rate, seed=seed, noise_std_rad=noise,
                            quantization_rad=quantization, thrust_law=thrust_law, u_limit_v=u_limit,
-                           overrides=load_parameter_file(params) if params else {},
+                           overrides=load_parameter_file(params, allow_estimated=True) if params else {},
                            effects=[parse_effect(e) for e in effect or []], jitter=jitter, start_s=start)
     try:
         result = run_sim(settings)

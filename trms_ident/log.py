@@ -23,8 +23,8 @@ COLUMN_UNITS = {"t": "s", "u1": "V", "u2": "V", "alpha": "rad", "beta": "rad"}
 MIN_SAMPLES = 10
 #: steps within this relative deviation of the median step are jitter, accepted and measured
 JITTER_TOLERANCE = 0.25
-#: longer steps up to this many median steps are dropped samples (counted); longer ones are a gap: refused
-MAX_GAP_STEPS = 3.0
+#: longer steps up to this many median steps are dropped samples (two even at full jitter; counted); longer: a gap, refused
+MAX_GAP_STEPS = 4.0
 #: steps all within this relative deviation of their mean are uniform to the stamps' own rounding
 UNIFORM_TOLERANCE = 2e-3
 #: median steps that tell the unit of the stamps: a TRMS log is sampled at 10 Hz to 5 kHz

@@ -79,8 +79,11 @@ def merge(overrides: Mapping[str, float] | None, *, source: str = "overrides") -
     return values
 
 
-def load_parameter_file(path: str | Path) -> dict[str, float]:
-    """Read parameter overrides from TOML: top-level ``name = value`` or a ``[parameters]`` table."""
+def load_parameter_file(path: str | Path, allow_estimated: bool = False) -> dict[str, float]:
+    """Read parameter overrides from TOML: top-level ``name = value`` or a ``[parameters]`` table.
+
+    J1, B1, J2, B2 are refused unless ``allow_estimated`` (the simulator's true values): for estimate and
+    diagnose they are the unknowns, and a value given for them would silently mean nothing."""
     path = Path(path)
     try:
         raw = tomllib.loads(path.read_text(encoding="utf-8"))
@@ -92,5 +95,10 @@ def load_parameter_file(path: str | Path) -> dict[str, float]:
     if not isinstance(table, dict):
         raise ParameterFileError(f"{path}: [parameters] must be a table of name = value")
     overrides = {k: v for k, v in table.items() if k != "parameters"}
+    given = [k for k in ESTIMATED if k in overrides]
+    if given and not allow_estimated:
+        raise ParameterFileError(
+            f"{path}: {', '.join(given)} given, but J1, B1, J2, B2 are the unknowns trms-ident estimates; expected "
+            "known values only (remove them; `simulate --params` accepts them as the true values)")
     merge(overrides, source=str(path))  # validate now, with the file's name in the message
     return overrides

@@ -56,6 +56,20 @@ class Diagnosis:
     residual: dict  # axis -> (t, residual before, residual after)
     overlay: dict  # axis -> (t, measured, predicted before, predicted after)
     velocity: dict  # axis -> smoothed velocity [rad/s] used for the regressors and the regimes
+    verdict: str = "consistent"  # consistent | explained | partly_explained | unexplained (VERDICTS)
+    verdict_sentence: str = ""
+    refused: list = field(default_factory=list)  # findings the equation error chose but the checks refused
+    seed_check: dict = field(default_factory=dict)  # identify's model_check of the seed model
+
+
+VERDICTS = {
+    "consistent": "the seed model already fits the log to its noise level",
+    "explained": "the accepted findings bring the model's fit to the noise level",
+    "partly_explained": "the accepted findings raise the fit, but not to the noise level: something else is missing",
+    "unexplained": "no effect in the library improves the fit: the mismatch is physics outside the library",
+}
+#: the findings' prediction errors within this factor of the noise level count as explained
+EXPLAINED_RMS_OVER_NOISE = 1.5
 
 
 def _axes_of(c: Candidate) -> tuple[str, ...]:
@@ -95,6 +109,12 @@ def _refine(grid, gains, best_i, log_space: bool = True) -> float:
 
 
 def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_rad_s: float | None = None) -> Diagnosis:
+    """Find what the seed model leaves out of this log, fit it, and give the verdict (VERDICTS)."""
+    with np.errstate(all="ignore"):  # a model far off the log overflows its predictions: they score as misfits
+        return _diagnose(log, overrides, law, a_rad_s)
+
+
+def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None) -> Diagnosis:
     p = merge(overrides or {}, source="parameter overrides")
     dt = log.sample_time_s
     a = a_rad_s or design_filters(log.alpha_rad, log.beta_rad, dt).a_rad_s
@@ -136,14 +156,26 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
         if best["c"].key in PAIR and any(k in PAIR for k in alts):
             best, alts, told = _offsets_by_output_error(best, alts, ok, log, p, law, current)
         best["told_apart"] = told
+        best["before"] = (current, reg_now, score_now)
         current = best["model"]
         reg_now, score_now = best["reg"], best["score"]
         excluded.update(alts)
         findings.append((best, alts))
-    augmented = _estimates(score_now, reg_now)
-    values = _effect_values(current, score_now, reg_now)
     fit_before, over_before = _fits(log, p, law, Model(), {}, nominal)
-    fit_after, over_after = _fits(log, p, law, current, values, augmented)
+    refused = []
+    while True:  # accept only findings that keep J/B physical and raise the fit of every axis they touch
+        augmented = _estimates(score_now, reg_now)
+        values = _effect_values(current, score_now, reg_now)
+        fit_after, over_after = _fits(log, p, law, current, values, augmented)
+        if not findings:
+            break
+        why = _refusal(findings[-1][0]["c"], nominal, augmented, fit_before, fit_after)
+        if why is None:
+            break
+        best, _ = findings.pop()
+        refused.append({"effect": best["c"].effect, "axis": best["c"].axis, "parameter": best["value"],
+                        "reason": why})
+        current, reg_now, score_now = best["before"]
     out = []
     for best, alts in findings:
         c = best["c"]
@@ -180,11 +212,63 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
     delay = next((r for r in tested if r["effect"] == "input_delay"), None)
     lag = lag_profile([delay["parameter"]], [delay["held_out_gain"]]) if delay else {}
     overlay = {axis: (log.t_s, getattr(log, AXIS_ANGLE[axis]), over_before[axis], over_after[axis]) for axis in axes}
-    return Diagnosis(bool(out), out, nominal, augmented, fit_before, fit_after, seg, reg_stats, lag, tested,
+    seed = _seed_check(log, overrides, law)
+    verdict, sentence = _verdict(log, seed, out, fit_after, seg)
+    return Diagnosis(bool(out) or verdict != "consistent", out, nominal, augmented, fit_before, fit_after, seg, reg_stats, lag, tested,
                      {"a_rad_s": a, "block_s": block * dt, "horizon_s": HORIZON_S, "thrust_law": law,
                       "alpha_family": FAMILY_ALPHA, "candidates": len(cands),
                       "unobservable": UNOBSERVABLE}, residual, overlay,
-                     {axis: cache[("velocity", axis)] for axis in axes})
+                     {axis: cache[("velocity", axis)] for axis in axes}, verdict, sentence, refused, seed)
+
+
+def _refusal(c: Candidate, nominal: dict, augmented: dict, fit_before: dict, fit_after: dict) -> str | None:
+    """Why the last finding cannot stand, or None: its refit J/B must stay physical (finite, positive) and
+    the prediction fit of every axis it acts on must rise."""
+    axes_c = _axes_of(c)
+    bad = [k for k in _params_of(axes_c) if not (math.isfinite(augmented[k]) and augmented[k] > 0)]
+    if bad:
+        return "refitting with it makes " + ", ".join(f"{k} = {augmented[k]:.3g}" for k in bad) + " (not physical)"
+    for x in axes_c:
+        fb, fa = fit_before.get(x, math.nan), fit_after.get(x, math.nan)
+        if not math.isfinite(fa) or (math.isfinite(fb) and fa <= fb):
+            return f"it does not raise the {x} prediction fit ({fb:.4g} % -> {fa:.4g} %)"
+    return None
+
+
+def _seed_check(log: Log, overrides: dict | None, law: str) -> dict:
+    """identify's adequacy verdict for the seed model (output-error fit with start states)."""
+    from ..identify import Settings, identify
+    from ..errors import IdentificationError
+
+    try:
+        return identify(log, Settings(thrust_law=law, overrides=dict(overrides or {}))).model_check
+    except IdentificationError as exc:
+        return {"adequate": False, "axes": {}, "sentence": str(exc)}
+
+
+def _verdict(log: Log, seed: dict, findings: list, fit_after: dict, seg: dict) -> tuple[str, str]:
+    if seed.get("adequate"):
+        return "consistent", VERDICTS["consistent"] + "."
+    if findings:
+        ratios = {}
+        for axis in ("pitch", "yaw"):
+            y = getattr(log, AXIS_ANGLE[axis])
+            floor = seed.get("axes", {}).get(axis, {}).get("noise_floor_rad", 0.0)
+            rms = (100.0 - fit_after.get(axis, -math.inf)) / 100.0 * float(np.std(y))
+            ratios[axis] = rms / floor if floor > 0 else math.inf
+        if all(r <= EXPLAINED_RMS_OVER_NOISE for r in ratios.values()):
+            return "explained", VERDICTS["explained"] + "."
+        worst = max(ratios, key=ratios.get)
+        return "partly_explained", (VERDICTS["partly_explained"] + f" (the {worst} prediction error is still "
+                                    f"{ratios[worst]:.3g}x its noise level).")
+    where = []
+    for axis, s in seg.items():
+        for g in s[:2] if isinstance(s, list) else []:
+            if isinstance(g, dict) and "start_s" in g:
+                where.append(f"{axis} {g['start_s']:.4g}-{g.get('end_s', g['start_s']):.4g} s"
+                             + (f" ({', '.join(g['context'])})" if g.get("context") else ""))
+    return "unexplained", (VERDICTS["unexplained"] + ". " + seed.get("sentence", "") +
+                           (" The residual is largest at " + "; ".join(where) + "." if where else ""))
 
 
 def _params_of(axes) -> list[str]:

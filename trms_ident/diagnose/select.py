@@ -89,7 +89,8 @@ def compare(base: Score, new: Score, reg, axes, n_tests: int, alpha: float | Non
         d = d + np.log((b + tiny) / (n + tiny))
         # the best axis, not the sum: a candidate acting on both axes must not outrank one acting on one
         total_gain = max(total_gain, float((b - n).sum()) / scale)
-        share += float((b - n).sum()) / float(reg.g[axis] @ reg.g[axis])
+        energy = float(reg.g[axis] @ reg.g[axis])
+        share += float((b - n).sum()) / energy if energy > 0 else 0.0  # an unexcited axis explains nothing
     d = np.asarray(d)
     k = d.size
     if k < 4:

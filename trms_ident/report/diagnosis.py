@@ -11,7 +11,11 @@ from .summary import versions
 
 def to_doc(d: Diagnosis, log: Log) -> dict:
     return {
+        "verdict": d.verdict,
+        "verdict_sentence": d.verdict_sentence,
         "mismatch": d.mismatch,
+        "refused": d.refused,
+        "seed_model_check": d.seed_check,
         "findings": [{"effect": f.effect, "axis": f.axis, "parameter": f.parameter, "fit_before": f.fit_before,
                       "fit_after": f.fit_after, "evidence": f.evidence, "explanation": f.explanation,
                       "alternatives": f.alternatives, "estimate_shift_percent": f.shift} for f in d.findings],
@@ -89,8 +93,7 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
     est = "".join(f"<tr><td>{k}</td><td>{doc['estimates']['nominal'][k]:.6g}</td>"
                   f"<td>{doc['estimates']['augmented'][k]:.6g}</td></tr>" for k in ("J1", "B1", "J2", "B2"))
     imgs = "".join(f"<h2>{html.escape(title)}</h2><img alt='{html.escape(title)}' src='{uri}'>" for title, uri in figs)
-    verdict = (f"{len(doc['findings'])} missing effect(s) found" if doc["mismatch"] else
-               "no mismatch: the seed model explains this log")
+    verdict = f"{doc['verdict'].replace('_', ' ')}: {doc['verdict_sentence']} {len(doc['findings'])} finding(s)."
     return f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident diagnose</title>
 <style>body{{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto}}img{{max-width:100%}}
 table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px}}.note{{color:#555;font-size:.9em}}</style>
