@@ -146,6 +146,11 @@ def identify(log: Log, settings: Settings | None = None) -> Result:
 ADEQUATE_RMS_OVER_NOISE = RMS_OVER_NOISE
 
 
+#: when the refinement did not run, the check's own output-error fit covers at most this many integration
+#: steps (about 4 min at 1 kHz, ~0.5 s): enough samples for the verdict, a bounded cost on hour-long logs
+CHECK_MAX_STEPS = REFINE_AUTO_MAX_STEPS // 4
+
+
 def _noise(log: Log, n: int) -> dict:
     """The angles' measurement-noise floor [rad] over the first n samples."""
     t = None if log.uniform else log.t_s[:n]
@@ -161,7 +166,7 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
              "fitted starts (start states estimated)")
     n = len(log)
     if r is None:
-        n = min(n, max(REFINE_AUTO_MAX_STEPS // substeps(dt), 10))
+        n = min(n, max(CHECK_MAX_STEPS // substeps(dt), 10))
         start = offline if all(math.isfinite(offline[k]) and offline[k] > 0 for k in ESTIMATED) else \
             {k: params[k] for k in ESTIMATED}
         noise = _noise(log, n)
