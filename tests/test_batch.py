@@ -58,7 +58,7 @@ def test_folder_of_20_with_2_broken(folder, tmp_path):
 
     # same results with one process; re-runs skip what is up to date, and redo a changed log
     again = _batch([folder], out)
-    assert "18 ok (18 up to date, skipped), 2 failed" in again.output
+    assert "18 ok (18 up to date, skipped), 2 failed, the model does not fit 0" in again.output
     os.utime(folder / "run03.csv")
     third = _batch([folder], out)
     assert "18 ok (17 up to date, skipped), 2 failed" in third.output

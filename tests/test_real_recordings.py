@@ -84,6 +84,38 @@ def test_known_values_off_the_table_given_right_and_wrong():
     assert not wrong.model_check["adequate"]
     assert wrong.headline != "refined"
     assert "does NOT fit" in wrong.model_check["sentence"]
+    one_wrong = identify(_log(r), Settings(overrides={**known, "Mg": 0.32}))
+    assert one_wrong.model_check["suspect"]["name"] == "Mg"
+    assert one_wrong.model_check["suspect"]["refitted_value"] == pytest.approx(0.28, rel=1e-3)
+    assert "with Mg estimated too" in one_wrong.model_check["sentence"]
+
+
+def test_free_estimates_known_values_with_j_and_b(tmp_path):
+    r = simulate(SimSettings(ref="multisine", sample_rate_hz=200.0, duration_s=90.0, noise_std_rad=5e-4, seed=5,
+                             overrides={"Mg": 0.28, "k2": 0.9}))
+    path = tmp_path / "bench.csv"
+    write_csv_log(path, r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad)
+    res = runner.invoke(app, ["estimate", str(path), "--free", "Mg,k2", "-o", str(tmp_path / "o"), "--no-report",
+                              "--json", "-"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["model_check"]["adequate"] and doc["headline"] == "refined"
+    freed = doc["refined"]["known_values_estimated"]
+    for k, v in (("Mg", 0.28), ("k2", 0.9)):
+        assert freed[k]["estimate"] == pytest.approx(v, rel=2e-3)
+        assert freed[k]["ci95"][0] <= v <= freed[k]["ci95"][1]
+    for k, v in r.truth["estimated"].items():
+        assert doc["estimates"][k] == pytest.approx(v, rel=0.01 if k.startswith("J") else 0.03)
+    assert "(estimated with --free; given 0.32)" in res.stderr
+    bad = runner.invoke(app, ["estimate", str(path), "--free", "J1", "-o", str(tmp_path / "p")])
+    assert bad.exit_code == 2 and "--free J1: expected known values among" in bad.output
+
+
+def test_a_missing_effect_is_not_blamed_on_a_known_value():
+    r = simulate(SimSettings(ref="multisine", sample_rate_hz=200.0, duration_s=90.0, noise_std_rad=5e-4, seed=3,
+                             effects=[{"effect": "cable_stiffness", "axis": "yaw", "value": 0.004}]))
+    check = identify(_log(r)).model_check
+    assert not check["adequate"] and "No single known value explains the misfit" in check["sentence"]
 
 
 def test_a_published_plant_outside_eq1_is_flagged_and_strict_fails(tmp_path):

@@ -70,7 +70,7 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
     row = {"path": path, "output": out_dir, "status": "failed", "error": None, "skipped": False,
            "estimates": None, "adequate": None, "report": None}
     try:
-        key = job_key(path_p, settings, options)
+        key = json.loads(json.dumps(job_key(path_p, settings, options)))  # as stored: tuples become lists
         stamp = out / BATCH_KEY
         if stamp.exists() and (out / "result.json").exists():
             try:

@@ -129,6 +129,9 @@ AngleOpt = Annotated[str, typer.Option("--angle-unit", help="Unit of the logged 
                                        "guess) or deg.")]
 TimeUnitOpt = Annotated[str, typer.Option("--time-unit", help="Unit of CSV time stamps: auto (told from the median "
                                           "step: <= 0.15 s, ms up to 150, else us; said on stderr), s, ms or us.")]
+FreeOpt = Annotated[str, typer.Option("--free", help="Known values to estimate with J/B by the refinement, e.g. "
+                                      "Mg,kc (started from the table or --params; results in "
+                                      "refined.known_values_estimated).")]
 StrictOpt = Annotated[bool, typer.Option("--strict", help="Exit with code 10 when the model does not fit the log "
                                           "(model_check.adequate false; batch: any log).")]
 NoReportOpt = Annotated[bool, typer.Option("--no-report", help="Skip the HTML report.")]
@@ -149,11 +152,12 @@ def check_units(angle_unit: str, time_unit: str) -> None:
 
 
 def build_settings(a: str, b: str, gain_convention: str, gamma: str, settle: float, thrust_law: str, headline: str,
-                   params: Path | None, angle_unit: str, refine: str = "auto") -> Settings:
+                   params: Path | None, angle_unit: str, refine: str = "auto", free: str = "") -> Settings:
     check_units(angle_unit, "auto")
     settings = Settings(filter_a_rad_s=parse_auto("--a", a), filter_b_rad_s=parse_auto("--b", b),
                         gain_convention=gain_convention, gamma=parse_gamma(gamma), settle_time_s=settle,
                         thrust_law=thrust_law, headline=headline, refine=refine,
+                        free=tuple(x.strip() for x in free.split(",") if x.strip()),
                         overrides=load_parameter_file(params) if params else {})
     settings.validate()
     return settings
@@ -190,6 +194,7 @@ def estimate(
     angle_unit: AngleOpt = "auto",
     time_unit: TimeUnitOpt = "auto",
     strict: StrictOpt = False,
+    free: FreeOpt = "",
     truth: Annotated[Optional[Path], typer.Option(help="Ground-truth JSON [default: <log>.truth.json if present].")] = None,
     no_report: NoReportOpt = False,
     signal: SignalOpt = None,
@@ -198,7 +203,8 @@ def estimate(
     """Estimate J1, B1, J2, B2 from a log and write a report."""
     from .commands import estimate_file
 
-    settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit, refine)
+    settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit, refine,
+                              free)
     check_units(angle_unit, time_unit)
     out_dir = out if out is not None else Path(f"{log.name.split('.')[0]}_ident")
     progress = stage_reporter(str(log))
@@ -234,6 +240,9 @@ def estimate(
         if tv:
             line += f"   truth {tv['values'][k]:.6g}, error {tv['error_percent'][k]:+.3f} %"
         say(line)
+    for k, v in ((s.get("refined") or {}).get("known_values_estimated") or {}).items():
+        say(f"  {k} = {v['estimate']:<11.6g} {UNITS[k]:<10} 95 % [{v['ci95'][0]:.6g}, {v['ci95'][1]:.6g}]   "
+            f"(estimated with --free; given {v['table_or_file_value']:.6g})")
     say("wrote " + ", ".join(str(p) for p in res.written))
     if json_path:
         emit_json(s, json_path)
@@ -265,6 +274,7 @@ def batch(
     angle_unit: AngleOpt = "auto",
     time_unit: TimeUnitOpt = "auto",
     strict: StrictOpt = False,
+    free: FreeOpt = "",
     no_report: NoReportOpt = False,
     signal: SignalOpt = None,
     time_source: TimeSourceOpt = "auto",
@@ -276,7 +286,8 @@ def batch(
 
     if jobs < 1:
         raise SettingsError(f"--jobs {jobs}: expected 1 or more")
-    settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit, refine)
+    settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit, refine,
+                              free)
     paths = batch_mod.discover(inputs, out)
     if not paths:
         raise SettingsError(f"no .csv or .mcap logs found in {' '.join(inputs)}")

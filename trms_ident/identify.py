@@ -16,7 +16,7 @@ from .numerics.design import FilterDesign, angle_noise_rad, design_filters
 from .numerics.drem import gradient_estimator
 from .numerics.fused import mixed_regressions
 from .numerics.adequacy import RMS_OVER_NOISE, model_check
-from .numerics.refine import WINDOW_S, Refined, refine, substeps
+from .numerics.refine import _P, WINDOW_S, Refined, refine, substeps, suspect_known_values
 from .numerics.stats import IDENTIFIABLE_REL_HALF_WIDTH, MIN_BLOCKS, Interval, block_length, confidence_interval
 from .params import ESTIMATED, merge
 from .settings import AXES, GAIN_CONVENTIONS, HEADLINES, MAX_TRACE_POINTS, REFINE_AUTO_MAX_STEPS, Settings
@@ -183,7 +183,59 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
     noise = _noise(log, n)
     y = np.column_stack([log.alpha_rad[:n], log.beta_rad[:n]])
     u = np.column_stack([log.u1_v[:n], log.u2_v[:n]])
-    return model_check(y, r.prediction, u, noise, dt, scope), r.prediction
+    check = model_check(y, r.prediction, u, noise, dt, scope)
+    if not check["adequate"] and r.fit is not None:
+        def refit(name: str) -> Refined:
+            return refine(log.u1_v[:n], log.u2_v[:n], log.alpha_rad[:n], log.beta_rad[:n], dt, params,
+                          settings.thrust_law, r.estimate, noise, t_s=None if log.uniform else log.t_s[:n],
+                          free=tuple(settings.free) + (name,))
+
+        _blame(check, r, n * substeps(dt), noise, refit)
+    return check, r.prediction
+
+
+#: the suspect test runs one pass per known value: on logs up to this many integration steps
+SUSPECT_MAX_STEPS = REFINE_AUTO_MAX_STEPS // 4
+#: the known values that the score test ranks first are refitted (set free, one at a time, this many at most);
+#: one that makes the model fit is named, with the others whose score is within SUSPECT_ALIKE of its own
+SUSPECT_REFITS = 2
+SUSPECT_ALIKE = 0.9
+
+
+def _blame(check: dict, r: Refined, steps: int, noise: dict, refit) -> None:
+    """Which known value do the data blame for the misfit?  A score test ranks them (numerics/refine.
+    suspect_known_values: the share of the excess error one step with that value free would remove); the
+    first ranked are then refitted for real, and a value is named only if freeing it makes the model fit."""
+    if steps > SUSPECT_MAX_STEPS:
+        check["suspect_known_values"] = None
+        check["sentence"] += " (Which known value is suspect was not tested: the log is too long.)"
+        return
+    try:
+        shares = suspect_known_values(r)
+    except (np.linalg.LinAlgError, FloatingPointError, ValueError):
+        return
+    check["suspect_known_values"] = shares
+    for name, share in list(shares.items())[:SUSPECT_REFITS]:
+        try:
+            f = refit(name)
+        except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
+            continue
+        ratio = max(f.rms_rad[a] / noise[a] if noise[a] > 0 else math.inf for a in ("alpha", "beta"))
+        if f.converged and ratio <= ADEQUATE_RMS_OVER_NOISE:
+            value = f.freed[name]["estimate"]
+            alike = [k for k, v in shares.items() if k != name and v >= SUSPECT_ALIKE * share]
+            check["suspect"] = {"name": name, "refitted_value": value, "rms_over_noise_after": ratio,
+                                "look_alikes": alike}
+            check["sentence"] += (f" The data blame a known value: with {name} estimated too (it comes out "
+                                  f"{value:.4g} instead of {r.fit.problem.base[_P.index(name)]:.4g}) the model fits "
+                                  f"to the noise level" +
+                                  (f"; {', '.join(alike)} would explain the data as well (the log cannot tell them "
+                                   "apart)" if alike else "") + f". Check it, or estimate it with --free {name}.")
+            return
+    best = next(iter(shares.items()), (None, 0.0))
+    check["sentence"] += (" No single known value explains the misfit (freeing the most likely, "
+                          f"{', '.join(list(shares)[:SUSPECT_REFITS])}, does not make the model fit): the model "
+                          "leaves out physics, or several known values are off.")
 
 
 def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[Refined | None, str, bool]:
@@ -192,20 +244,33 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
     steps = len(log) * substeps(dt)
     if settings.refine == "off":
         return None, "refinement off (--refine off)", False
-    if settings.refine == "auto" and steps > REFINE_AUTO_MAX_STEPS:
+    if settings.refine == "auto" and steps > REFINE_AUTO_MAX_STEPS and not settings.free:
         return None, (f"refinement skipped: the log needs {steps:,} integration steps, more than the automatic "
                       f"limit of {REFINE_AUTO_MAX_STEPS:,} (use --refine on to force it); DREM's offline "
                       "optimum is the estimate"), False
     if not all(math.isfinite(offline[k]) and offline[k] > 0 for k in ESTIMATED):
         return None, "refinement skipped: DREM's offline optimum is not a usable start (a value is not positive)", False
     noise = _noise(log, len(log))
+    def run(start: dict) -> Refined:
+        return refine(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, dt, params, settings.thrust_law, start, noise,
+                      t_s=None if log.uniform else log.t_s, free=tuple(settings.free))
+
+    def worst_ratio(r: Refined) -> float:
+        return max(r.rms_rad[ax] / noise[ax] if noise[ax] > 0 else math.inf for ax in ("alpha", "beta"))
+
+    origin = "DREM's offline optimum"
     try:
-        r = refine(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, dt, params, settings.thrust_law, offline, noise,
-                   t_s=None if log.uniform else log.t_s)
+        r = run(offline)
+        if worst_ratio(r) > ADEQUATE_RMS_OVER_NOISE:
+            # DREM's numbers come from the same (possibly wrong) known values and can start Gauss-Newton in
+            # another basin (a wrong Mg made J1 3x too large): try the table's J/B too, keep the better fit
+            other = run({k: params[k] for k in ESTIMATED})
+            if other.cost < r.cost:
+                r, origin = other, "the table's J/B (DREM's optimum led to a worse fit)"
     except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as e:
         return None, f"refinement failed ({e}); DREM's offline optimum is the estimate", False
     ratio = {ax: r.rms_rad[ax] / noise[ax] if noise[ax] > 0 else math.inf for ax in ("alpha", "beta")}
-    base = (f"prediction-error refinement from DREM's offline optimum: {r.iterations} Gauss-Newton iteration(s), "
+    base = (f"prediction-error refinement from {origin}: {r.iterations} Gauss-Newton iteration(s), "
             f"{r.windows} window(s) of {len(log) * dt / r.windows:.3g} s, start states estimated, angle error RMS "
             f"alpha {r.rms_rad['alpha']:.3g} rad, beta {r.rms_rad['beta']:.3g} rad (noise {noise['alpha']:.3g}, "
             f"{noise['beta']:.3g} rad)")

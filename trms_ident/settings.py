@@ -5,7 +5,7 @@ import math
 from dataclasses import dataclass, field
 
 from .errors import SettingsError
-from .params import ESTIMATED, THRUST_LAWS
+from .params import ESTIMATED, KNOWN, THRUST_LAWS
 
 AXES = {"pitch": ("J1", "B1"), "yaw": ("J2", "B2")}
 #: traces of longer logs keep every k-th sample (Result.trace_step = k); plenty for plots
@@ -31,6 +31,7 @@ class Settings:
     headline: str = "refined"  # "the estimate": refined (falls back to offline), offline optimum, DREM final
     refine: str = "auto"  # prediction-error refinement after DREM: auto (by log length), on, off
     overrides: dict = field(default_factory=dict)  # known-parameter values replacing the table's
+    free: tuple = ()  # known values estimated with J/B by the refinement (--free), started from table/file
 
     def validate(self) -> None:
         for name in ("filter_a_rad_s", "filter_b_rad_s", "settle_time_s"):
@@ -50,6 +51,13 @@ class Settings:
             raise SettingsError(f"refine must be one of {REFINE_MODES}, got {self.refine!r}")
         if self.headline not in HEADLINES:
             raise SettingsError(f"headline must be one of {HEADLINES}, got {self.headline!r}")
+        from .numerics.refine import FREEABLE
+
+        for name in self.free:
+            if name not in FREEABLE:
+                raise SettingsError(f"--free {name}: expected known values among {', '.join(FREEABLE)}")
+        if self.free and self.refine == "off":
+            raise SettingsError("--free needs the refinement (it estimates the freed values); drop --refine off")
         if self.gamma is not None:
             for name, v in self.gamma.items():
                 if name not in ESTIMATED:

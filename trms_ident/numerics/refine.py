@@ -81,6 +81,8 @@ class Refined:
     start_states: dict  # tau1_0, tau2_0, zeta_0 (model units of tau), alpha_dot_0_rad_s, beta_dot_0_rad_s
     start_states_se: dict  # their standard errors (same keys)
     prediction: np.ndarray  # (n, 2) simulated alpha, beta [rad] at the estimate (per-window restarts)
+    freed: dict  # known values estimated with J/B (--free): name -> estimate, ci95, the value given
+    fit: object = None  # _Fit, for score tests on further unknowns (suspect_known_values)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -152,24 +154,28 @@ def _rhs(x, u1, u2, p, signed, d):
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
-def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, max_sub, win, block, out):
+def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, max_sub, win, block, out, extra):
     """One pass over the log: predictions (out), weighted cost, per-window normal equations in the
-    NU unknowns (J1, B1, J2, B2, tau1(0), tau2(0), zeta(0), alpha0, alpha'0, beta0, beta'0) and per-block
-    scores.  ``h``: the n - 1 sample intervals [s]; each is integrated in RK4 sub-steps <= max_sub."""
+    NU unknowns (J1, B1, J2, B2, tau1(0), tau2(0), zeta(0), alpha0, alpha'0, beta0, beta'0), then one per
+    column of ``extra`` (n, 2, m: sensitivities of alpha, beta to freed known values, computed by the
+    caller), and per-block scores.  ``h``: the n - 1 sample intervals [s]; each is integrated in RK4
+    sub-steps <= max_sub."""
     n = u1.size
     nw = starts.shape[0]
     nb = max(n // block, 1)
-    a_mat = np.zeros((nw, NU, NU))
-    b_vec = np.zeros((nw, NU))
-    scores = np.zeros((nb, NU))
+    m = extra.shape[2]
+    nt = NU + m
+    a_mat = np.zeros((nw, nt, nt))
+    b_vec = np.zeros((nw, nt))
+    scores = np.zeros((nb, nt))
     x = np.zeros(_NS)
     xt = np.empty(_NS)
     k1 = np.empty(_NS)
     k2 = np.empty(_NS)
     k3 = np.empty(_NS)
     k4 = np.empty(_NS)
-    ja = np.empty(NU)
-    jb = np.empty(NU)
+    ja = np.empty(nt)
+    jb = np.empty(nt)
     x[4], x[5], x[6] = m0[0], m0[1], m0[2]
     x[39], x[40], x[42] = 1.0, 1.0, 1.0
     cost = 0.0
@@ -196,12 +202,15 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, max_sub, win
             ja[7], ja[8], ja[9], ja[10] = x[11] * inv_sig[0], x[12] * inv_sig[0], 0.0, x[13] * inv_sig[0]
             jb[0], jb[1], jb[2], jb[3] = 0.0, 0.0, x[21] * inv_sig[1], x[22] * inv_sig[1]
             jb[7], jb[8], jb[9], jb[10] = 0.0, 0.0, inv_sig[1], x[23] * inv_sig[1]
+            for c in range(m):
+                ja[NU + c] = extra[k, 0, c] * inv_sig[0]
+                jb[NU + c] = extra[k, 1, c] * inv_sig[1]
             q = min(k // block, nb - 1)
-            for i in range(NU):
+            for i in range(nt):
                 g = ja[i] * ra + jb[i] * rb
                 b_vec[w, i] += g
                 scores[q, i] += g
-                for j in range(i, NU):
+                for j in range(i, nt):
                     a_mat[w, i, j] += ja[i] * ja[j] + jb[i] * jb[j]
             if k == n - 1:
                 break
@@ -221,7 +230,7 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, max_sub, win
                 _rhs(xt, u1[k], u2[k], p, signed, k4)
                 for i in range(_NS):
                     x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-        for i in range(NU):
+        for i in range(nt):
             for j in range(i):
                 a_mat[w, i, j] = a_mat[w, j, i]
     return cost, a_mat, b_vec, scores
@@ -234,7 +243,7 @@ def warm_up() -> None:
     n = 8
     u = np.zeros(n)
     gauss_newton_pass(u, u, np.zeros((n, 2)), np.ones(2), np.zeros((1, 4)), np.zeros(3), model_vector(defaults()),
-                      False, np.full(n - 1, 1e-3), MAX_SUBSTEP_S, n, n, np.empty((n, 2)))
+                      False, np.full(n - 1, 1e-3), MAX_SUBSTEP_S, n, n, np.empty((n, 2)), np.zeros((n, 2, 0)))
 
 
 def model_vector(params: dict, gravity_offset_rad: float = 0.0) -> np.ndarray:
@@ -262,25 +271,27 @@ def substeps(dt: float) -> int:
     return max(1, int(math.ceil(dt / MAX_SUBSTEP_S - 1e-9)))
 
 
-def _schur(a, b):
+def _schur(a, b, ng=NG):
     """Eliminate each window's start: the global unknowns' normal matrix and right-hand side, and per window
-    (L'L)^-1 [L'G, L'r], from which the starts' step and the projected scores follow."""
-    s_mat, s_rhs, per_window = np.zeros((NG, NG)), np.zeros(NG), []
+    (L'L)^-1 [L'G, L'r], from which the starts' step and the projected scores follow.  The first ``ng``
+    unknowns are global, the next NL per window."""
+    s_mat, s_rhs, per_window = np.zeros((ng, ng)), np.zeros(ng), []
     for w in range(a.shape[0]):
-        lg = a[w, NG:, :NG]
-        k_mat = np.linalg.lstsq(a[w, NG:, NG:], np.column_stack([lg, b[w, NG:]]), rcond=1e-13)[0]
-        s_mat += a[w, :NG, :NG] - lg.T @ k_mat[:, :NG]
-        s_rhs += b[w, :NG] - lg.T @ k_mat[:, NG]
+        lg = a[w, ng:, :ng]
+        k_mat = np.linalg.lstsq(a[w, ng:, ng:], np.column_stack([lg, b[w, ng:]]), rcond=1e-13)[0]
+        s_mat += a[w, :ng, :ng] - lg.T @ k_mat[:, :ng]
+        s_rhs += b[w, :ng] - lg.T @ k_mat[:, ng]
         per_window.append(k_mat)
     return s_mat, s_rhs, per_window
 
 
 def _covariance(s_mat, per_window, scores, win, block):
     """Batch-means covariance of the global unknowns: per-block scores with the windows' starts projected out."""
+    ng = s_mat.shape[0]
     nb = scores.shape[0]
     w_of_block = np.minimum(np.arange(nb) * block // win, len(per_window) - 1)
-    proj = np.stack([k[:, :NG] for k in per_window])[w_of_block]  # (nb, NL, NG)
-    sc = scores[:, :NG] - np.einsum("bij,bi->bj", proj, scores[:, NG:])
+    proj = np.stack([k[:, :ng] for k in per_window])[w_of_block]  # (nb, NL, ng)
+    sc = scores[:, :ng] - np.einsum("bij,bi->bj", proj, scores[:, ng:])
     sc = sc - sc.mean(axis=0)
     meat = nb / max(nb - 1, 1) * sc.T @ sc
     inv = _scaled_inverse(s_mat)
@@ -292,12 +303,73 @@ def _scaled_inverse(s_mat):
     return np.linalg.pinv(s_mat / np.outer(d, d), rcond=1e-13) / np.outer(d, d)
 
 
+def _globals_first(res, m):
+    """The kernel orders unknowns J/B, start states, window starts, freed values; put the freed values with
+    the globals, before the window starts."""
+    if m == 0:
+        return res
+    cost, a, b, scores = res
+    perm = np.r_[0:NG, NU:NU + m, NG:NU]
+    return cost, a[:, perm][:, :, perm], b[:, perm], scores[:, perm]
+
+
+@dataclass
+class _Problem:
+    """One log and model, evaluated at any parameters: the kernel pass, plus finite-difference columns for
+    known values set free (their sensitivities are not in the compiled model)."""
+    u1: np.ndarray
+    u2: np.ndarray
+    y: np.ndarray
+    inv_sig: np.ndarray
+    base: np.ndarray
+    signed: bool
+    h: np.ndarray
+    win: int
+    block: int
+    free_idx: list  # positions in the model vector of the freed known values
+
+    def run(self, th, st, out, max_sub=MAX_SUBSTEP_S, extra=None):
+        pv = self.base.copy()
+        pv[:4] = th[:4]
+        for j, i in enumerate(self.free_idx):
+            pv[i] = th[NG + j]
+        ext = np.zeros((self.y.shape[0], 2, 0)) if extra is None else extra
+        return gauss_newton_pass(self.u1, self.u2, self.y, self.inv_sig, st, th[4:NG], pv, self.signed, self.h,
+                                 max_sub, self.win, self.block, out, ext)
+
+    def columns(self, th, st, pred, idx, max_sub=MAX_SUBSTEP_S):
+        """(n, 2, len(idx)) forward-difference sensitivities of alpha, beta to the model values at ``idx``."""
+        cols = np.empty((pred.shape[0], 2, len(idx)))
+        tmp = np.empty_like(pred)
+        for c, i in enumerate(idx):
+            pv = self.base.copy()
+            pv[:4] = th[:4]
+            for j, k in enumerate(self.free_idx):
+                pv[k] = th[NG + j]
+            step = 1e-6 * max(abs(pv[i]), 1e-3)
+            pv[i] += step
+            gauss_newton_pass(self.u1, self.u2, self.y, self.inv_sig, st, th[4:NG], pv, self.signed, self.h,
+                              max_sub, self.win, self.block, tmp, np.zeros((pred.shape[0], 2, 0)))
+            cols[:, :, c] = (tmp - pred) / step
+        return cols
+
+    def evaluate(self, th, st, out, max_sub=MAX_SUBSTEP_S):
+        """Cost, normal equations (globals first) and scores at th, st; predictions in ``out``."""
+        res = self.run(th, st, out, max_sub)
+        if not self.free_idx:
+            return res
+        cols = self.columns(th, st, out, self.free_idx, max_sub)
+        return _globals_first(self.run(th, st, out, max_sub, cols), len(self.free_idx))
+
+
 def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict, noise_rad: dict,
-           window_s: float = WINDOW_S, gravity_offset_rad: float = 0.0, t_s: np.ndarray | None = None) -> Refined:
+           window_s: float = WINDOW_S, gravity_offset_rad: float = 0.0, t_s: np.ndarray | None = None,
+           free: tuple[str, ...] = ()) -> Refined:
     """Gauss-Newton on the noise-weighted angle errors, from theta0 (DREM's estimate).
 
     ``t_s``: the sample stamps [s] when they are not uniform (default: uniform steps of ``dt`` [s]); the
-    voltages are held over each actual interval.  ``gravity_offset_rad``: a centre-of-mass offset, gravity
+    voltages are held over each actual interval.  ``free``: known values (names of the parameter table) to
+    estimate with J/B, started from ``params``.  ``gravity_offset_rad``: a centre-of-mass offset, gravity
     Mg sin(alpha + delta) (diagnose's extended model; an encoder offset is handled by the caller, shifting
     the logged angle)."""
     n = alpha.size
@@ -307,73 +379,121 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     block = max(int(round(BLOCK_S / step_s)), 1)
     win = max(int(round(window_s / step_s)) // block, 1) * block  # windows hold whole blocks
     nw = max(n // win, 1)
-    signed = law == "signed"
     y = np.ascontiguousarray(np.column_stack([alpha, beta]))
     sig = np.array([max(noise_rad.get("alpha", 0.0), 1e-12), max(noise_rad.get("beta", 0.0), 1e-12)])
-    inv_sig = 1.0 / sig
     starts = np.array([[alpha[s], _start_velocity(alpha, t, s), beta[s], _start_velocity(beta, t, s)]
                        for s in range(0, nw * win, win)])
-    theta = np.concatenate([[theta0[k] for k in NAMES], steady_motor_states(u1[0], u2[0], params)])
-    # what "negligible" means per unknown: J/B relative to themselves, start states to the motors' range
+    free = tuple(free)
+    m = len(free)
+    theta = np.concatenate([[theta0[k] for k in NAMES], steady_motor_states(u1[0], u2[0], params),
+                            [params[k] for k in free]])
+    # what "negligible" means per unknown: J/B and freed values relative to themselves, start states to the
+    # motors' range
     motor_range = np.abs(steady_motor_states(float(np.max(np.abs(u1))), float(np.max(np.abs(u2))), params))
-    scale = np.concatenate([np.abs(theta[:4]), np.maximum(motor_range, 1e-6) * 1e3])
-    base = model_vector(params, gravity_offset_rad)
+    scale = np.concatenate([np.abs(theta[:4]), np.maximum(motor_range, 1e-6) * 1e3,
+                            np.maximum(np.abs(theta[NG:]), 1e-9)])
+    prob = _Problem(np.ascontiguousarray(u1, dtype=float), np.ascontiguousarray(u2, dtype=float), y, 1.0 / sig,
+                    model_vector(params, gravity_offset_rad), law == "signed", h, win, block,
+                    [_P.index(k) for k in free])
+    ng = NG + m
     out = np.empty((n, 2))
-    u1 = np.ascontiguousarray(u1, dtype=float)
-    u2 = np.ascontiguousarray(u2, dtype=float)
-
-    def evaluate(th, st, max_sub=MAX_SUBSTEP_S, target=out):
-        pv = base.copy()
-        pv[:4] = th[:4]
-        return gauss_newton_pass(u1, u2, y, inv_sig, st, th[4:], pv, signed, h, max_sub, win, block, target)
-
-    cost, a, b, scores = evaluate(theta, starts)
+    cost, a, b, scores = prob.evaluate(theta, starts, out)
     converged, it = False, 0
     for it in range(1, MAX_ITERATIONS + 1):
-        s_mat, s_rhs, per_window = _schur(a, b)
+        s_mat, s_rhs, per_window = _schur(a, b, ng)
         step = _scaled_inverse(s_mat) @ s_rhs
-        step_starts = np.array([k[:, NG] - k[:, :NG] @ step for k in per_window])
+        step_starts = np.array([k[:, ng] - k[:, :ng] @ step for k in per_window])
         se = np.sqrt(np.maximum(np.diag(_covariance(s_mat, per_window, scores, win, block)), 0.0))
         small = (np.abs(step) <= STEP_OVER_SE * se) | (np.abs(step) <= TOLERANCE * scale)
         if it > 1 and np.all(small):
             converged = True  # the next step would not move anything that matters: stop here, where the
             break  # normal equations (and so the interval) were evaluated
         lam, accepted = 1.0, None
+        trial = np.empty((n, 2))
         while lam >= 1e-4:  # step halving keeps every iteration downhill
             th_new = theta + lam * step
             if np.all(th_new[:4] > 0):
-                res = evaluate(th_new, starts + lam * step_starts)
-                if res[0] <= cost:
-                    accepted = th_new, starts + lam * step_starts, res
+                if prob.run(th_new, starts + lam * step_starts, trial)[0] <= cost:
+                    accepted = th_new, starts + lam * step_starts
                     break
             lam *= 0.5
         if accepted is None:  # no downhill step: at the minimum to working precision
             converged = bool(np.all(np.abs(step[:4]) <= np.maximum(1e-6 * theta[:4], 0.1 * se[:4])))
-            cost, a, b, scores = evaluate(theta, starts)  # predictions of the accepted parameters in ``out``
             break
-        theta, starts, (cost, a, b, scores) = accepted[0], accepted[1], accepted[2]
-    s_mat, s_rhs, per_window = _schur(a, b)
+        theta, starts = accepted
+        cost, a, b, scores = prob.evaluate(theta, starts, out)
+    s_mat, s_rhs, per_window = _schur(a, b, ng)
     cov = _covariance(s_mat, per_window, scores, win, block)
     nb = scores.shape[0]
     se = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    half = float(stdtrit(max(nb - 1, 1), 0.975)) * se[:4]
+    tq = float(stdtrit(max(nb - 1, 1), 0.975))
+    half = tq * se[:4]
     rms = _rms(y, out)
     integration = np.zeros(4)
     if np.any(half < RICHARDSON_BELOW * theta[:4]):
         # intervals this narrow (noise-free logs) meet the integrator's own error: estimate it from the
         # parameter shift that halving the sub-step causes (RK4: the error falls 16-fold) and add twice that
-        fine = evaluate(theta, starts, MAX_SUBSTEP_S / 2.0, np.empty((n, 2)))
-        _, rhs_fine, _ = _schur(fine[1], fine[2])
+        fine = prob.evaluate(theta, starts, np.empty((n, 2)), MAX_SUBSTEP_S / 2.0)
+        _, rhs_fine, _ = _schur(fine[1], fine[2], ng)
         integration = np.abs(_scaled_inverse(s_mat) @ (rhs_fine - s_rhs))[:4] * 16.0 / 15.0
         half = half + 2.0 * integration
     half = np.maximum(half, 10.0 * TOLERANCE * theta[:4])  # no claim finer than the convergence test
-    start_states = {**dict(zip(START_NAMES, map(float, theta[4:]))),
+    start_states = {**dict(zip(START_NAMES, map(float, theta[4:NG]))),
                     "alpha_dot_0_rad_s": float(starts[0, 1]), "beta_dot_0_rad_s": float(starts[0, 3])}
-    start_se = dict(zip(START_NAMES, map(float, se[4:])))
+    start_se = dict(zip(START_NAMES, map(float, se[4:NG])))
+    freed = {k: {"estimate": float(theta[NG + j]), "ci95": [float(theta[NG + j] - tq * se[NG + j]),
+                                                           float(theta[NG + j] + tq * se[NG + j])],
+                 "table_or_file_value": float(params[k])} for j, k in enumerate(free)}
     return Refined(dict(zip(NAMES, map(float, theta[:4]))),
                    {k: (float(theta[i] - half[i]), float(theta[i] + half[i])) for i, k in enumerate(NAMES)},
                    converged, it, rms, float(cost), win * step_s, nw, substeps(step_s), nb,
-                   {k: float(integration[i]) for i, k in enumerate(NAMES)}, start_states, start_se, out)
+                   {k: float(integration[i]) for i, k in enumerate(NAMES)}, start_states, start_se, out, freed,
+                   _Fit(prob, theta, starts, a, b))
+
+
+@dataclass(frozen=True)
+class _Fit:
+    """What a score test on further unknowns needs: the problem and the fit's normal equations."""
+    problem: _Problem
+    theta: np.ndarray
+    starts: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+
+
+#: known values that --free can move into the estimated set (every model value but J/B)
+FREEABLE = _P[4:]
+#: known values the suspect test tries (the motors' and thrusts' gains, gravity, gyroscope, reaction)
+SUSPECTS = ("Mg", "Kg", "a1", "b1", "a2", "b2", "k1", "k2", "T11", "T21", "kc", "T0", "Tp")
+
+
+def suspect_known_values(r: Refined, candidates: tuple[str, ...] = SUSPECTS) -> dict:
+    """Score test for each known value: how much of the fit's excess cost (above the noise floor's) one
+    Gauss-Newton step with that value set free would remove, J/B, start states and window starts re-fitted.
+    Returns name -> fraction of the excess (0..1), largest first.  Linear in the freed value: a guide to
+    which known value the data blame, not an estimate of it."""
+    fit = r.fit
+    prob = fit.problem
+    n = prob.y.shape[0]
+    ng = fit.a.shape[1] - NL
+    cand = [k for k in candidates if _P.index(k) not in prob.free_idx]
+    pred = np.empty((n, 2))
+    prob.run(fit.theta, fit.starts, pred)
+    cols = prob.columns(fit.theta, fit.starts, pred, prob.free_idx + [_P.index(k) for k in cand])
+    cost, a, b, _ = prob.run(fit.theta, fit.starts, pred, extra=cols)
+    nf = len(prob.free_idx)
+    # order: globals (J/B, start states), freed, candidates, window starts
+    perm = np.r_[0:NG, NU:NU + nf, NU + nf:NU + nf + len(cand), NG:NU]
+    a, b = a[:, perm][:, :, perm], b[:, perm]
+    s_mat, s_rhs, _ = _schur(a, b, ng + len(cand))
+    base = s_rhs[:ng] @ _scaled_inverse(s_mat[:ng, :ng]) @ s_rhs[:ng]
+    excess = max(cost - 2.0 * n, 1e-300)
+    out = {}
+    for j, k in enumerate(cand):
+        idx = np.r_[0:ng, ng + j]
+        gain = s_rhs[idx] @ _scaled_inverse(s_mat[np.ix_(idx, idx)]) @ s_rhs[idx] - base
+        out[k] = float(min(max(gain / excess, 0.0), 1.0))
+    return dict(sorted(out.items(), key=lambda kv: -kv[1]))
 
 
 def _rms(y, pred) -> dict:

@@ -75,6 +75,7 @@ def summarize(result: Result, log: Log, truth: dict | None = None, truth_source:
             "iterations": result.refined.iterations, "window_s": result.refined.window_s,
             "windows": result.refined.windows, "start_states": result.refined.start_states,
             "start_states_se": result.refined.start_states_se,
+            "known_values_estimated": result.refined.freed,
             "rk4_substeps_per_sample": result.refined.substeps,
             "angle_error_rms_rad": result.refined.rms_rad,
             "integration_error": result.refined.integration_error},
