@@ -87,11 +87,13 @@ def _quantize(v, q):
 
 
 @njit(cache=True)
-def closed_loop(dts, aref, bref, p, law, gains, u_lim, fx, noise_a, noise_b, q, h_max, x0):
+def closed_loop(dts, aref, bref, p, law, gains, u_lim, fx, noise_a, noise_b, q, h_max, x0, u_offset):
     """Run the loop for ``aref.size`` samples; returns (u1, u2, alpha_log, beta_log, state_true).
 
     dts[k] [s] is the actual interval from sample k to k + 1 (the voltage set at sample k is held
     over it; jittered stamps have unequal intervals); the controller itself assumes the nominal step.
+    u_offset: the voltage computed at sample k reaches the motors u_offset x dts[k] after it (a controller
+    that publishes after reading the angles); the previous voltage holds until then.
 
     gains = [Kp1, Ki1, Kd1, Kp2, Ki2, Kd2, Tf] (PID per axis, derivative on the
     measurement filtered with time constant Tf [s]).  u_lim [V] is the controller's
@@ -154,7 +156,8 @@ def closed_loop(dts, aref, bref, p, law, gains, u_lim, fx, noise_a, noise_b, q, 
         ua2 = u2_log[i_old] if i_old >= 0 else 0.0
         ub1 = u1_log[i_new] if i_new >= 0 else 0.0
         ub2 = u2_log[i_new] if i_new >= 0 else 0.0
-        pieces_len = (min(r_del, dts[k]), dts[k] - min(r_del, dts[k]))
+        r_k = r_del if delay > 0.0 else u_offset * dts[k]
+        pieces_len = (min(r_k, dts[k]), dts[k] - min(r_k, dts[k]))
         pieces_u1 = (ua1, ub1)
         pieces_u2 = (ua2, ub2)
         for j in range(2):

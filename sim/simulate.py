@@ -35,6 +35,7 @@ class SimSettings:
     max_step_s: float = 5e-4
     jitter: float = 0.0  # sample intervals drawn uniformly in nominal x [1 - jitter, 1 + jitter] (seeded)
     start_s: float = 0.0  # the log begins this long after the run started from rest (0: from rest)
+    voltage_offset: float = 0.0  # voltages reach the motors (and are stamped) this fraction of a step after the angles
     overrides: dict = field(default_factory=dict)
     effects: list = field(default_factory=list)
     pid: dict = field(default_factory=lambda: dict(DEFAULT_PID))
@@ -49,6 +50,10 @@ class SimSettings:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         if self.duration_s is not None and not self.duration_s > 0:
             raise ValueError(f"duration_s must be > 0, got {self.duration_s}")
+        if not 0.0 <= self.voltage_offset < 1.0:
+            raise ValueError(f"voltage_offset must be in [0, 1) of the sample step, got {self.voltage_offset}")
+        if self.voltage_offset and any(e.get("effect") == "input_delay" for e in self.effects):
+            raise ValueError("voltage_offset and an input_delay effect cannot be combined")
         if not 0.0 <= self.jitter <= 0.5:
             raise ValueError(f"jitter must be in [0, 0.5] of the sample step, got {self.jitter}")
         for name in ("noise_std_rad", "quantization_rad", "start_s"):
@@ -65,6 +70,7 @@ class SimResult:
     beta_rad: np.ndarray
     true_state: np.ndarray  # columns alpha, alpha', beta, beta' (noise-free)
     truth: dict  # true parameters and every setting: enough to reproduce the log
+    u_time_s: np.ndarray  # when each voltage reached the motors [s] (t_s unless voltage_offset)
 
 
 def simulate(settings: SimSettings) -> SimResult:
@@ -92,7 +98,7 @@ def simulate(settings: SimSettings) -> SimResult:
     u1, u2, a_log, b_log, state = closed_loop(
         dts, aref, bref, p, 1 if settings.thrust_law == "signed" else 0, gains,
         settings.u_limit_v, effect_vec, noise[0], noise[1], settings.quantization_rad,
-        settings.max_step_s, x0,
+        settings.max_step_s, x0, settings.voltage_offset,
     )
     truth = {
         "generator": "trms-ident simulator (sim/)",
@@ -102,4 +108,5 @@ def simulate(settings: SimSettings) -> SimResult:
         "samples": n - skip,
     }
     cut = slice(skip, None)  # a log cut from the middle of a run keeps the run's own clock
-    return SimResult(t[cut], u1[cut], u2[cut], a_log[cut], b_log[cut], state[cut], truth)
+    u_time = t + settings.voltage_offset * dts
+    return SimResult(t[cut], u1[cut], u2[cut], a_log[cut], b_log[cut], state[cut], truth, u_time[cut])

@@ -53,8 +53,8 @@ def test_held_motor_states_match_scipy_zero_order_hold_and_a_fine_integration():
 def _pass(r, pv, starts, m0, h, out):
     y = np.column_stack([r.alpha_rad, r.beta_rad])
     n = r.t_s.size
-    return R.gauss_newton_pass(r.u1_v, r.u2_v, y, np.ones(2), starts, m0, pv, False, h, R.MAX_SUBSTEP_S, n,
-                               1000, out, np.zeros((n, 2, 0)))
+    return R.gauss_newton_pass(r.u1_v, r.u2_v, y, np.ones(2), starts, m0, pv, False, h, np.zeros((n, 2)),
+                               R.MAX_SUBSTEP_S, n, 1000, out, np.zeros((n, 2, 0)))
 
 
 @pytest.mark.parametrize("jitter", [0.0, 0.2])

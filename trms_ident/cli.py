@@ -140,6 +140,9 @@ SignalOpt = Annotated[Optional[list[str]], typer.Option("--signal", help="MCAP: 
                                                         "(repeatable; see `inspect`).")]
 TimeSourceOpt = Annotated[str, typer.Option("--time-source", help="MCAP message time: auto (header.stamp when "
                                             "present, else log time), header, log or publish.")]
+VoltageTimeOpt = Annotated[str, typer.Option("--voltage-time", help="MCAP: when a voltage message takes effect: "
+                                             "'stamp' (at its own time, inside the angle interval where it falls) or "
+                                             "'next-sample' (from the next angle sample on).")]
 
 
 def check_units(angle_unit: str, time_unit: str) -> None:
@@ -199,6 +202,7 @@ def estimate(
     no_report: NoReportOpt = False,
     signal: SignalOpt = None,
     time_source: TimeSourceOpt = "auto",
+    voltage_time: VoltageTimeOpt = "stamp",
 ) -> None:
     """Estimate J1, B1, J2, B2 from a log and write a report."""
     from .commands import estimate_file
@@ -209,7 +213,7 @@ def estimate(
     out_dir = out if out is not None else Path(f"{log.name.split('.')[0]}_ident")
     progress = stage_reporter(str(log))
     res = estimate_file(log, settings, out_dir, angle_unit=angle_unit, time_unit=time_unit, html=not no_report, truth_file=truth,
-                        signals=signal, time_source=time_source, on_stage=progress)
+                        signals=signal, time_source=time_source, voltage_time=voltage_time, on_stage=progress)
     if progress:
         sys.stderr.write("\r\033[K")
     s = res.summary
@@ -225,6 +229,11 @@ def estimate(
         ("" if samp["uniform"] else f" (jittered stamps: steps {samp['min_step_over_median']:.3g}-"
          f"{samp['max_step_over_median']:.3g} x the median, {samp['dropped_samples']} dropped; voltages held over "
          "each actual interval)"))
+    from .report.summary import voltage_timing_text
+
+    timing_line = voltage_timing_text(s["input"])
+    if timing_line:
+        say("  " + timing_line)
     say(f"  filters: a = {res.result.settings.filter_a_rad_s:g} rad/s, b = {res.result.settings.filter_b_rad_s:g} rad/s"
         f" ({'designed from the log' if res.result.design else 'given'})")
     say(f"  estimate: {res.result.headline}; {res.result.refine_note}")
@@ -278,6 +287,7 @@ def batch(
     no_report: NoReportOpt = False,
     signal: SignalOpt = None,
     time_source: TimeSourceOpt = "auto",
+    voltage_time: VoltageTimeOpt = "stamp",
 ) -> None:
     """Estimate every CSV and MCAP log under folders or globs; carry on past bad files; write a summary.
 
@@ -293,7 +303,7 @@ def batch(
         raise SettingsError(f"no .csv or .mcap logs found in {' '.join(inputs)}")
     check_units(angle_unit, time_unit)
     options = {"html": not no_report, "signals": signal, "time_source": time_source, "angle_unit": angle_unit,
-               "time_unit": time_unit}
+               "time_unit": time_unit, "voltage_time": voltage_time}
     if force:
         options["force_token"] = os.urandom(8).hex()
     bar = None
@@ -342,6 +352,7 @@ def diagnose(
     time_unit: TimeUnitOpt = "auto",
     signal: SignalOpt = None,
     time_source: TimeSourceOpt = "auto",
+    voltage_time: VoltageTimeOpt = "stamp",
 ) -> None:
     """Find where the model and the recording disagree, name the missing physics, fit it, show the gain."""
     from .diagnose.run import diagnose as run_diagnosis
@@ -356,7 +367,8 @@ def diagnose(
     overrides = load_parameter_file(params) if params else {}
     progress = stage_reporter(str(log))
     progress and progress("reading")
-    data = read_log(log, angle_unit=angle_unit, signals=signal, time_source=time_source, time_unit=time_unit)
+    data = read_log(log, angle_unit=angle_unit, signals=signal, time_source=time_source, time_unit=time_unit,
+                    voltage_time=voltage_time)
     for note in data.meta.get("assumed", {}).values():
         say(f"note: {note}")
     progress and progress("testing candidate effects")
@@ -421,6 +433,9 @@ def simulate(
                                           "uniform draw in [1 - jitter, 1 + jitter] (0..0.5).")] = 0.0,
     start: Annotated[float, typer.Option("--start", help="The log begins this many seconds into the run (0: from "
                                          "rest; > 0: a log cut from the middle of a run) [s].")] = 0.0,
+    voltage_offset: Annotated[float, typer.Option("--voltage-offset", help="Voltages reach the motors this fraction "
+                                                  "of a step after the angle sample, and stamps them then (MCAP: "
+                                                  "the voltage messages' time; CSV: a t_u column) (0..0.99).")] = 0.0,
 ) -> None:
     """Simulate the closed-loop bench (paper eq. 1 with PID eq. 9) and write a log with its ground truth."""
     from sim import SimSettings
@@ -439,7 +454,8 @@ def simulate(
     settings = SimSettings(ref=ref, duration_s=duration, sample_rate_hz=rate, seed=seed, noise_std_rad=noise,
                            quantization_rad=quantization, thrust_law=thrust_law, u_limit_v=u_limit,
                            overrides=load_parameter_file(params, allow_estimated=True) if params else {},
-                           effects=[parse_effect(e) for e in effect or []], jitter=jitter, start_s=start)
+                           effects=[parse_effect(e) for e in effect or []], jitter=jitter, start_s=start,
+                           voltage_offset=voltage_offset)
     try:
         result = run_sim(settings)
     except ValueError as exc:
@@ -449,11 +465,11 @@ def simulate(
         raise SettingsError(f"--output {path}: expected a {formats[fmt]} file name for --format {fmt}")
     columns = (result.t_s, result.u1_v, result.u2_v, result.alpha_rad, result.beta_rad)
     if fmt == "csv":
-        write_csv_log(path, *columns)
+        write_csv_log(path, *columns, u_t_s=result.u_time_s if voltage_offset else None)
     else:
         from .io.mcap_log import write_mcap_log
 
-        write_mcap_log(path, *columns, encoding="cdr" if fmt == "mcap" else "json")
+        write_mcap_log(path, *columns, encoding="cdr" if fmt == "mcap" else "json", u_t_s=result.u_time_s)
     write_text(truth_path(path), json.dumps(result.truth, indent=2) + "\n")
     say(f"wrote {path} ({result.t_s.size} samples, {result.t_s[-1]:.6g} s at {rate:g} Hz) and {truth_path(path)}")
 

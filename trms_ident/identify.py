@@ -69,20 +69,33 @@ def on_uniform_grid(log: Log, params: dict) -> tuple[Log, tuple | None]:
     """DREM's filters run on a uniform grid.  A jittered log is evaluated on the grid of its mean step:
     angles by cubic-spline interpolation (continuous signals), the motor and M_R states exactly, with every
     voltage held over its real interval (numerics/hold.py).  Uniform logs pass unchanged (motor None)."""
-    if log.uniform:
+    if log.held_at_stamps:
         return log, None
-    from scipy.interpolate import CubicSpline
-
     from .numerics.hold import motor_states_on_grid, reaction_moment
 
-    grid = log.t_s[0] + np.arange(len(log)) * log.sample_time_s
-    grid[-1] = min(grid[-1], log.t_s[-1])
-    m = motor_states_on_grid(log.t_s, log.u1_v, log.u2_v, grid, params)
+    if log.uniform:
+        grid = log.t_s
+        ang = np.column_stack([log.alpha_rad, log.beta_rad])
+    else:
+        from scipy.interpolate import CubicSpline
+
+        grid = log.t_s[0] + np.arange(len(log)) * log.sample_time_s
+        grid[-1] = min(grid[-1], log.t_s[-1])
+        ang = CubicSpline(log.t_s, np.column_stack([log.alpha_rad, log.beta_rad]))(grid)
+    sw = log.t_s[:, None] + log.switch_offsets_s()
+    m = motor_states_on_grid(sw[:, 0], log.u1_v, log.u2_v, grid, params, t2_s=sw[:, 1])
     motor = (m[:, 0], m[:, 1], reaction_moment(m[:, 0], m[:, 2], params))
-    ang = CubicSpline(log.t_s, np.column_stack([log.alpha_rad, log.beta_rad]))(grid)
     held = np.searchsorted(log.t_s, grid, side="right") - 1  # for plots only: the voltage in force
     return replace(log, t_s=grid, u1_v=log.u1_v[held], u2_v=log.u2_v[held], alpha_rad=ang[:, 0],
-                   beta_rad=ang[:, 1]), motor
+                   beta_rad=ang[:, 1], u_switch_s=None), motor
+
+
+def timing(log: Log, n: int | None = None) -> dict:
+    """The refinement's view of the first n samples' time: stamps when they jitter, voltage switch delays
+    when the voltages act at their own times (refine's ``t_s`` and ``switch_delay_s``)."""
+    n = len(log) if n is None else n
+    return {"t_s": None if log.uniform else log.t_s[:n],
+            "switch_delay_s": None if log.u_switch_s is None else log.switch_offsets_s()[:n]}
 
 
 def identify(log: Log, settings: Settings | None = None) -> Result:
@@ -172,7 +185,7 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
         noise = _noise(log, n)
         try:
             r = refine(log.u1_v[:n], log.u2_v[:n], log.alpha_rad[:n], log.beta_rad[:n], dt, params,
-                       settings.thrust_law, start, noise, t_s=None if log.uniform else log.t_s[:n])
+                       settings.thrust_law, start, noise, **timing(log, n))
         except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as e:
             return {"adequate": False, "axes": {}, "simulation": "none",
                     "sentence": f"The model could not be fitted to this log for the adequacy check ({e}); treat "
@@ -187,8 +200,8 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
     if not check["adequate"] and r.fit is not None:
         def refit(name: str) -> Refined:
             return refine(log.u1_v[:n], log.u2_v[:n], log.alpha_rad[:n], log.beta_rad[:n], dt, params,
-                          settings.thrust_law, r.estimate, noise, t_s=None if log.uniform else log.t_s[:n],
-                          free=tuple(settings.free) + (name,))
+                          settings.thrust_law, r.estimate, noise, free=tuple(settings.free) + (name,),
+                          **timing(log, n))
 
         _blame(check, r, n * substeps(dt), noise, refit)
     return check, r.prediction
@@ -253,7 +266,7 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
     noise = _noise(log, len(log))
     def run(start: dict) -> Refined:
         return refine(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, dt, params, settings.thrust_law, start, noise,
-                      t_s=None if log.uniform else log.t_s, free=tuple(settings.free))
+                      free=tuple(settings.free), **timing(log))
 
     def worst_ratio(r: Refined) -> float:
         return max(r.rms_rad[ax] / noise[ax] if noise[ax] > 0 else math.inf for ax in ("alpha", "beta"))

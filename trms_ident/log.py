@@ -47,6 +47,9 @@ class Log:
     source: str = "<memory>"
     sha256: str | None = None
     meta: dict = field(default_factory=dict)
+    #: (n, 2) times [s] at which u1[k], u2[k] take effect, in [t_k, t_k+1) (the voltage topic's own stamps,
+    #: e.g. a controller that publishes just after reading the angles); None: at t_k, held until t_k+1
+    u_switch_s: np.ndarray | None = None
 
     @property
     def sample_time_s(self) -> float:
@@ -57,6 +60,17 @@ class Log:
     def uniform(self) -> bool:
         """True when every step equals the mean step to the stamps' rounding (UNIFORM_TOLERANCE)."""
         return bool(self.meta.get("sampling", {}).get("uniform", True))
+
+    @property
+    def held_at_stamps(self) -> bool:
+        """True when every voltage takes effect at its own sample's stamp on a uniform grid (the simple case)."""
+        return self.uniform and self.u_switch_s is None
+
+    def switch_offsets_s(self) -> np.ndarray:
+        """(n, 2) delay [s] from each sample's stamp to the moment its voltages take effect (0: at the stamp)."""
+        if self.u_switch_s is None:
+            return np.zeros((self.t_s.size, 2))
+        return self.u_switch_s - self.t_s[:, None]
 
     @property
     def duration_s(self) -> float:
@@ -72,7 +86,7 @@ def _default_locate(i: int, t: np.ndarray) -> str:
 
 def validated(t, u1, u2, alpha, beta, *, source: str = "<memory>", sha256: str | None = None,
               locate: Callable[[int], str] | None = None, meta: dict | None = None,
-              angle_unit: str = "auto", time_unit: str = "auto") -> Log:
+              angle_unit: str = "auto", time_unit: str = "auto", u_switch_s: np.ndarray | None = None) -> Log:
     """Check a recording and return it as a Log; the first problem raises LogFormatError.
 
     ``locate(i)`` renders sample i's position for messages (e.g. "line 57 (t = 0.055 s)").
@@ -108,6 +122,7 @@ def validated(t, u1, u2, alpha, beta, *, source: str = "<memory>", sha256: str |
         raise LogFormatError(f"{source}: time unit {time_unit!r}; expected auto, {', '.join(TIME_UNITS)}")
     if factor != 1.0:
         t = arrays["t"] = t * factor
+        u_switch_s = None if u_switch_s is None else np.asarray(u_switch_s, dtype=float) * factor
         dt = np.diff(t)
         where = locate or (lambda i: _default_locate(i, t))
     back = np.flatnonzero(dt <= 0)
@@ -148,4 +163,14 @@ def validated(t, u1, u2, alpha, beta, *, source: str = "<memory>", sha256: str |
                 "radians)")
     if assumed:
         meta["assumed"] = assumed
-    return Log(*arrays.values(), source=source, sha256=sha256, meta=meta)
+    if u_switch_s is not None:
+        u_switch_s = np.ascontiguousarray(u_switch_s, dtype=float).reshape(n, 2)
+        nxt = np.append(t[1:], np.inf)[:, None]
+        bad = np.flatnonzero(np.any((u_switch_s < t[:, None]) | (u_switch_s >= nxt) | ~np.isfinite(u_switch_s), axis=1))
+        if bad.size:
+            i = int(bad[0])
+            raise LogFormatError(f"{source}: {where(i)}: a voltage takes effect at {u_switch_s[i].tolist()} s, outside "
+                                 f"its sample interval [{t[i]:.9g}, {nxt[i, 0]:.9g}) s; expected one switch per interval")
+        if not np.any(u_switch_s > t[:, None]):
+            u_switch_s = None  # every voltage at its own stamp: the simple case
+    return Log(*arrays.values(), source=source, sha256=sha256, meta=meta, u_switch_s=u_switch_s)

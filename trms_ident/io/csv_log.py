@@ -1,5 +1,8 @@
 """CSV logs: header ``t,u1,u2,alpha,beta`` (any order, case-insensitive), one row per sample.
 
+An optional column ``t_u`` gives the time each row's voltages took effect (in the unit of ``t``, within the
+row's sample interval), for loggers that stamp voltages apart from the angles.
+
 Also accepted: a UTF-8 byte-order mark, ``;`` or tab as delimiter, and an optional unit
 row under the header (``s,V,V,rad,rad``; ``deg`` for angles and ``ms`` for time are
 converted).  Messages name the file's own line numbers.
@@ -18,6 +21,8 @@ from ..errors import InputNotFoundError, LogFormatError
 from ..log import COLUMNS, Log, validated
 from .atomic import atomic_path
 
+#: optional column: when the row's voltages took effect (same unit as t)
+VOLTAGE_TIME = "t_u"
 UNIT_SCALE = {
     "t": {"s": 1.0, "ms": 1e-3},
     "u1": {"v": 1.0},
@@ -113,32 +118,36 @@ def read_csv_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "a
                 scale[c] = UNIT_SCALE[c][unit]
             first_data_line = 3
             angle_unit, time_unit = "rad", "s"  # the file says its units: converted above, nothing guessed
-    cols = _parse_fast(path, names, delim, first_data_line)
-    if cols is None:  # something is off: the slow parser names the line and cell
-        cols = _parse_located(path, delim, first_data_line)
-    cols = [cols[c] * scale[c] if scale[c] != 1.0 else cols[c] for c in COLUMNS]
+    wanted = COLUMNS + ((VOLTAGE_TIME,) if VOLTAGE_TIME in names else ())
+    parsed = _parse_fast(path, names, delim, first_data_line, wanted)
+    if parsed is None:  # something is off: the slow parser names the line and cell
+        parsed = _parse_located(path, delim, first_data_line, wanted)
+    cols = [parsed[c] * scale[c] if scale[c] != 1.0 else parsed[c] for c in COLUMNS]
     t = cols[0]
+    t_u = parsed.get(VOLTAGE_TIME)
     return validated(*cols, source=str(path), sha256=hasher.result(),
                      locate=lambda i: f"line {i + first_data_line} (t = {t[i]:.6g} s)",
-                     meta={"format": "csv", "delimiter": delim}, angle_unit=angle_unit, time_unit=time_unit)
+                     meta={"format": "csv", "delimiter": delim}, angle_unit=angle_unit, time_unit=time_unit,
+                     u_switch_s=None if t_u is None else np.repeat((t_u * scale["t"])[:, None], 2, axis=1))
 
 
-def _parse_fast(path: Path, names: list[str], delim: str, first_data_line: int) -> dict | None:
+def _parse_fast(path: Path, names: list[str], delim: str, first_data_line: int,
+                wanted: tuple = COLUMNS) -> dict | None:
     """pyarrow's multithreaded parser (faster than pandas here); None when the file is not clean."""
     import pyarrow as pa
     import pyarrow.csv as pc
 
-    unique = [n if n in COLUMNS else f"_extra{i}" for i, n in enumerate(names)]
+    unique = [n if n in wanted else f"_extra{i}" for i, n in enumerate(names)]
     try:
         table = pc.read_csv(
             path,
             read_options=pc.ReadOptions(column_names=unique, skip_rows=first_data_line - 1, block_size=1 << 24),
             parse_options=pc.ParseOptions(delimiter=delim, ignore_empty_lines=False),
-            convert_options=pc.ConvertOptions(column_types={c: pa.float64() for c in COLUMNS},
-                                              include_columns=list(COLUMNS)))
+            convert_options=pc.ConvertOptions(column_types={c: pa.float64() for c in wanted},
+                                              include_columns=list(wanted)))
     except (pa.ArrowInvalid, pa.ArrowKeyError, UnicodeDecodeError):
         return None
-    cols = {c: _to_numpy(table.column(c)) for c in COLUMNS}
+    cols = {c: _to_numpy(table.column(c)) for c in wanted}
     del table
     pa.default_memory_pool().release_unused()  # hand the parse buffers back before identification
     return cols
@@ -160,7 +169,7 @@ def _to_numpy(column) -> np.ndarray:
     return np.concatenate(parts) if len(parts) != 1 else parts[0].copy()
 
 
-def _parse_located(path: Path, delim: str, first_data_line: int) -> dict:
+def _parse_located(path: Path, delim: str, first_data_line: int, wanted: tuple = COLUMNS) -> dict:
     """pandas, cell by cell when needed: slow, but it names the first bad line and cell."""
     import pandas as pd
 
@@ -177,7 +186,7 @@ def _parse_located(path: Path, delim: str, first_data_line: int) -> dict:
     if frame is None:
         frame = pd.read_csv(io.BytesIO(raw), dtype=str, keep_default_na=False, **opts)
         frame.columns = [c.strip().lower() for c in frame.columns]
-        for c in COLUMNS:
+        for c in wanted:
             cells = frame[c].str.strip()
             num = pd.to_numeric(cells, errors="coerce")
             bad = np.flatnonzero(num.isna().to_numpy() & (cells != "").to_numpy() &
@@ -192,12 +201,16 @@ def _parse_located(path: Path, delim: str, first_data_line: int) -> dict:
     if blank.size:
         raise LogFormatError(f"{path}: line {int(blank[0]) + first_data_line} is empty; expected "
                              f"{len(COLUMNS)} numbers")
-    return {c: frame[c].to_numpy(dtype=float) for c in COLUMNS}
+    return {c: frame[c].to_numpy(dtype=float) for c in wanted}
 
 
-def write_csv_log(path: str | Path, t_s, u1_v, u2_v, alpha_rad, beta_rad) -> None:
-    """Write a log atomically; every double round-trips exactly (shortest repr)."""
-    write_columns(path, dict(zip(COLUMNS, (t_s, u1_v, u2_v, alpha_rad, beta_rad))))
+def write_csv_log(path: str | Path, t_s, u1_v, u2_v, alpha_rad, beta_rad, u_t_s=None) -> None:
+    """Write a log atomically; every double round-trips exactly (shortest repr).  ``u_t_s``: when each row's
+    voltages took effect [s], written as the optional column t_u (omitted when None)."""
+    cols = dict(zip(COLUMNS, (t_s, u1_v, u2_v, alpha_rad, beta_rad)))
+    if u_t_s is not None:
+        cols[VOLTAGE_TIME] = u_t_s
+    write_columns(path, cols)
 
 
 def write_columns(path: str | Path, columns: dict[str, np.ndarray]) -> None:

@@ -29,6 +29,9 @@ from .csv_log import Sha256Thread, check_readable
 from .signals import DEFAULT_JSON, DEFAULT_ROS2, SIGNALS, SignalSource, extract, mapping
 
 TIME_SOURCES = ("auto", "header", "log", "publish")
+#: when a voltage message takes effect: at its own time, inside the angle interval where it falls ("stamp"),
+#: or from the next angle sample on ("next-sample": the voltage in force at each angle stamp, held over it)
+VOLTAGE_TIMES = ("stamp", "next-sample")
 JOINT_STATE = "sensor_msgs/msg/JointState"
 MULTIARRAY = "std_msgs/msg/Float64MultiArray"
 ENCODINGS = ("cdr", "json")
@@ -298,10 +301,12 @@ def _defaults_for(path: Path) -> dict[str, SignalSource]:
 
 
 def read_mcap_log(path: str | Path, angle_unit: str = "auto", signals: list[str] | None = None,
-                  time_source: str = "auto") -> Log:
+                  time_source: str = "auto", voltage_time: str = "stamp") -> Log:
     path = Path(path)
     if time_source not in TIME_SOURCES:
         raise SettingsError(f"--time-source {time_source!r}: expected one of {', '.join(TIME_SOURCES)}")
+    if voltage_time not in VOLTAGE_TIMES:
+        raise SettingsError(f"--voltage-time {voltage_time!r}: expected one of {', '.join(VOLTAGE_TIMES)}")
     check_readable(path)
     hasher = Sha256Thread(path)
     hasher.start()
@@ -330,16 +335,21 @@ def read_mcap_log(path: str | Path, angle_unit: str = "auto", signals: list[str]
         t, v = t[order], v[order]
         for j, src in enumerate(srcs):
             per_signal[src.signal] = (topic, t, v[:, j])
-    log = align(path, per_signal, angle_unit, hasher.result(), s.warnings)
-    return log
+    clocks = {topic: s.series[topic].clock for topic in wanted}
+    return align(path, per_signal, angle_unit, hasher.result(), s.warnings, voltage_time, clocks)
 
 
 def _needs_defaults(signals: list[str] | None) -> bool:
     return len(signals or []) < len(SIGNALS)
 
 
-def align(path: Path, per_signal: dict, angle_unit: str, sha: str, warnings: list[str]) -> Log:
-    """Angles' times are the grid; every other signal is held (ZOH) onto it, with gap checks."""
+def align(path: Path, per_signal: dict, angle_unit: str, sha: str, warnings: list[str],
+          voltage_time: str = "stamp", clocks: dict | None = None) -> Log:
+    """Angles' times are the grid; every other signal is held (ZOH), with gap checks.
+
+    ``voltage_time="stamp"``: a voltage takes effect at its own message time, inside the angle interval where
+    it falls (Log.u_switch_s); the value of sample k is the last message before t_k+1.  ``"next-sample"``: the
+    value in force at each angle stamp, held from there (a message between two stamps acts from the next)."""
     topic_a, t_grid, alpha = per_signal["alpha"]
     warnings = list(warnings)
 
@@ -353,12 +363,29 @@ def align(path: Path, per_signal: dict, angle_unit: str, sha: str, warnings: lis
                              "increasing stamps")
     out = {}
     first_valid = 0
+    switch = np.repeat(t_grid[:, None].astype(np.float64), 2, axis=1)
+    offsets, merged = {}, 0
+    step_ns = float(np.median(np.diff(t_grid))) if t_grid.size > 1 else 1.0
     for name in SIGNALS:
         topic, t, v = per_signal[name]
         if topic == topic_a and np.array_equal(t, t_grid):
             out[name] = v
             continue
         idx = np.searchsorted(t, t_grid, side="right") - 1  # last message at or before each grid time
+        if name in ("u1", "u2"):
+            lead = t - t_grid[np.clip(np.searchsorted(t_grid, t, side="right") - 1, 0, None)]
+            offsets[topic] = lead[(t >= t_grid[0]) & (t <= t_grid[-1])]
+        if voltage_time == "stamp" and name in ("u1", "u2"):
+            # the last message before the next angle stamp, switching at its own time inside the interval
+            nxt = np.append(t_grid[1:], np.iinfo(np.int64).max)
+            last = np.searchsorted(t, nxt, side="left") - 1
+            inside = (last >= 0) & (t[np.clip(last, 0, None)] > t_grid)
+            col = 0 if name == "u1" else 1
+            switch[inside, col] = t[last[inside]]
+            merged = max(merged, int(np.sum(np.diff(last[last >= 0]) > 1)))
+            idx_value = last
+        else:
+            idx_value = idx
         first_valid = max(first_valid, int(np.searchsorted(idx, 0)))
         period = float(np.median(np.diff(t))) if t.size > 1 else math.inf
         age = t_grid - t[np.clip(idx, 0, None)]
@@ -368,35 +395,59 @@ def align(path: Path, per_signal: dict, angle_unit: str, sha: str, warnings: lis
             raise LogFormatError(
                 f"{path}: {where(i)}: {name} from {topic} is stale: its last message is {age[i] * 1e-9:.6g} s old "
                 f"(its period is {period * 1e-9:.6g} s); a gap in {topic} is not interpolated over")
-        out[name] = v[np.clip(idx, 0, None)]
+        out[name] = v[np.clip(idx_value, 0, None)]
     if first_valid >= t_grid.size:
         raise LogFormatError(f"{path}: no voltage message precedes any angle sample; expected voltages while the "
                              "angles are recorded")
     if first_valid:
         warnings.append(f"dropped the first {first_valid} angle samples, recorded before the first voltage message")
+    if merged:
+        warnings.append(f"{merged} angle interval(s) hold more than one voltage message (voltages faster than "
+                        "angles): the last of each interval is used")
     t0 = int(t_grid[first_valid])
     t_s = (t_grid[first_valid:] - t0) * 1e-9
+    sw = (switch[first_valid:] - t0) * 1e-9
     cols = {k: v[first_valid:] for k, v in out.items()}
     if angle_unit == "deg":
         cols["alpha"] = cols["alpha"] * (math.pi / 180)
         cols["beta"] = cols["beta"] * (math.pi / 180)
     meta = {"format": "mcap", "start_time_ns": t0, "time_topic": topic_a,
-            "signals": " ".join(f"{k}={v[0]}" for k, v in per_signal.items())}
+            "signals": " ".join(f"{k}={v[0]}" for k, v in per_signal.items()),
+            "voltage_timing": _timing_doc(voltage_time, offsets, step_ns, clocks or {})}
     if warnings:
         meta["warnings"] = "; ".join(warnings)
     return validated(t_s, cols["u1"], cols["u2"], cols["alpha"], cols["beta"], source=str(path), sha256=sha,
-                     locate=lambda i: where(i + first_valid), meta=meta, angle_unit=angle_unit, time_unit="s")
+                     locate=lambda i: where(i + first_valid), meta=meta, angle_unit=angle_unit, time_unit="s",
+                     u_switch_s=sw if voltage_time == "stamp" else None)
+
+
+def _timing_doc(convention: str, offsets: dict, step_ns: float, clocks: dict) -> dict:
+    """How the voltages were placed in time: the convention, each topic's clock, and the measured offset of
+    voltage messages after the preceding angle stamp (median and 5-95 % spread, in ms and in samples)."""
+    doc = {"convention": convention, "clocks": {k: ("header.stamp" if c == "header" else f"{c} time")
+                                                 for k, c in clocks.items()}, "offset_after_angle": {}}
+    for topic, off in offsets.items():
+        if off.size:
+            q = np.percentile(off, [5, 50, 95])
+            doc["offset_after_angle"][topic] = {
+                "median_ms": float(q[1] * 1e-6), "p05_ms": float(q[0] * 1e-6), "p95_ms": float(q[2] * 1e-6),
+                "median_samples": float(q[1] / step_ns), "p05_samples": float(q[0] / step_ns),
+                "p95_samples": float(q[2] / step_ns)}
+    return doc
 
 
 # ---- writing ---------------------------------------------------------------------------------
 
-def write_mcap_log(path: str | Path, t_s, u1_v, u2_v, alpha_rad, beta_rad, encoding: str = "cdr") -> None:
-    """The default layout, ROS 2 CDR (``encoding="cdr"``) or JSON, zstd chunks, atomically."""
+def write_mcap_log(path: str | Path, t_s, u1_v, u2_v, alpha_rad, beta_rad, encoding: str = "cdr",
+                   u_t_s=None) -> None:
+    """The default layout, ROS 2 CDR (``encoding="cdr"``) or JSON, zstd chunks, atomically.  ``u_t_s``: the
+    voltage messages' times [s] (their log time; default: the angles' stamps)."""
     from mcap.writer import CompressionType, Writer
 
     if encoding not in ENCODINGS:
         raise SettingsError(f"encoding must be one of {ENCODINGS}, got {encoding!r}")
     t_ns = np.round(np.asarray(t_s) * 1e9).astype(np.int64)
+    tu_ns = t_ns if u_t_s is None else np.round(np.asarray(u_t_s) * 1e9).astype(np.int64)
     with atomic_path(path) as tmp, open(tmp, "wb") as f:
         w = Writer(f, compression=CompressionType.ZSTD, chunk_size=1 << 20)
         w.start(profile="ros2" if encoding == "cdr" else "", library="trms-ident")
@@ -409,7 +460,7 @@ def write_mcap_log(path: str | Path, t_s, u1_v, u2_v, alpha_rad, beta_rad, encod
             for i in range(t_ns.size):
                 tn = int(t_ns[i])
                 w.add_message(cj, tn, ej(tn, (alpha_rad[i], beta_rad[i])), tn, i)
-                w.add_message(cv, tn, ev((u1_v[i], u2_v[i])), tn, i)
+                w.add_message(cv, int(tu_ns[i]), ev((u1_v[i], u2_v[i])), int(tu_ns[i]), i)
         else:
             obj = {"type": "object", "properties": {}}
             sj = w.register_schema("trms/Angles", "jsonschema", json.dumps(
@@ -422,7 +473,8 @@ def write_mcap_log(path: str | Path, t_s, u1_v, u2_v, alpha_rad, beta_rad, encod
                 tn = int(t_ns[i])
                 w.add_message(cj, tn, json.dumps({"alpha": float(alpha_rad[i]), "beta": float(beta_rad[i])}).encode(),
                               tn, i)
-                w.add_message(cv, tn, json.dumps({"u1": float(u1_v[i]), "u2": float(u2_v[i])}).encode(), tn, i)
+                w.add_message(cv, int(tu_ns[i]), json.dumps({"u1": float(u1_v[i]), "u2": float(u2_v[i])}).encode(),
+                              int(tu_ns[i]), i)
         w.finish()
 
 

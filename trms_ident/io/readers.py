@@ -11,7 +11,7 @@ LOG_SUFFIXES = (".csv", ".mcap")
 
 
 def read_log(path: str | Path, angle_unit: str = "auto", signals: list[str] | None = None,
-             time_source: str = "auto", time_unit: str = "auto") -> Log:
+             time_source: str = "auto", time_unit: str = "auto", voltage_time: str = "stamp") -> Log:
     """Read a CSV or MCAP log; ``signals``/``time_source`` apply to MCAP (see mcap_log), ``time_unit`` to CSV
     (MCAP stamps are nanoseconds by the format)."""
     path = Path(path)
@@ -19,7 +19,8 @@ def read_log(path: str | Path, angle_unit: str = "auto", signals: list[str] | No
     if suffix == ".mcap":
         from .mcap_log import read_mcap_log  # mcap and its decoders only when needed
 
-        return read_mcap_log(path, angle_unit=angle_unit, signals=signals, time_source=time_source)
+        return read_mcap_log(path, angle_unit=angle_unit, signals=signals, time_source=time_source,
+                             voltage_time=voltage_time)
     if signals:
         from ..errors import SettingsError
 

@@ -58,12 +58,20 @@ def _on_grid(t, u1, u2, grid, p, out):
 
 
 def motor_states_on_grid(t_s: np.ndarray, u1_v: np.ndarray, u2_v: np.ndarray, grid_s: np.ndarray,
-                         params: dict) -> np.ndarray:
-    """(len(grid), 3): tau1, tau2, zeta at the grid times [s], u_k held over [t_k, t_k+1) (eq. 1)."""
+                         params: dict, t2_s: np.ndarray | None = None) -> np.ndarray:
+    """(len(grid), 3): tau1, tau2, zeta at the grid times [s], u_k held over [t_k, t_k+1) (eq. 1).
+
+    ``t2_s``: the times u2 switches at, when they differ from u1's (``t_s``)."""
     p = np.array([params[k] for k in ("k1", "T11", "T10", "k2", "T21", "T20", "Tp")], dtype=float)
-    out = np.empty((grid_s.size, 3))
-    _on_grid(np.ascontiguousarray(t_s, dtype=float), np.ascontiguousarray(u1_v, dtype=float),
-             np.ascontiguousarray(u2_v, dtype=float), np.ascontiguousarray(grid_s, dtype=float), p, out)
+    grid = np.ascontiguousarray(grid_s, dtype=float)
+    u1 = np.ascontiguousarray(u1_v, dtype=float)
+    u2 = np.ascontiguousarray(u2_v, dtype=float)
+    out = np.empty((grid.size, 3))
+    _on_grid(np.ascontiguousarray(t_s, dtype=float), u1, u2, grid, p, out)
+    if t2_s is not None:
+        second = np.empty_like(out)
+        _on_grid(np.ascontiguousarray(t2_s, dtype=float), u1, u2, grid, p, second)
+        out[:, 1] = second[:, 1]
     return out
 
 

@@ -153,13 +153,34 @@ def _rhs(x, u1, u2, p, signed, d):
         d[30 + c] = a10 * x[27 + c] + a11 * x[30 + c] + a13 * x[36 + c] + df1_t1 * st1
 
 
+@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
+def _rk4(x, xt, k1, k2, k3, k4, v1, v2, p, signed, dur, max_sub):
+    """Advance x (with its sensitivities) by dur [s] with the voltages v1, v2 held, RK4 sub-steps <= max_sub."""
+    nsub = max(1, int(math.ceil(dur / max_sub - 1e-9)))
+    hs = dur / nsub
+    for _ in range(nsub):
+        _rhs(x, v1, v2, p, signed, k1)
+        for i in range(_NS):
+            xt[i] = x[i] + 0.5 * hs * k1[i]
+        _rhs(xt, v1, v2, p, signed, k2)
+        for i in range(_NS):
+            xt[i] = x[i] + 0.5 * hs * k2[i]
+        _rhs(xt, v1, v2, p, signed, k3)
+        for i in range(_NS):
+            xt[i] = x[i] + hs * k3[i]
+        _rhs(xt, v1, v2, p, signed, k4)
+        for i in range(_NS):
+            x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+
+
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
-def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, max_sub, win, block, out, extra):
+def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub, win, block, out, extra):
     """One pass over the log: predictions (out), weighted cost, per-window normal equations in the
     NU unknowns (J1, B1, J2, B2, tau1(0), tau2(0), zeta(0), alpha0, alpha'0, beta0, beta'0), then one per
     column of ``extra`` (n, 2, m: sensitivities of alpha, beta to freed known values, computed by the
     caller), and per-block scores.  ``h``: the n - 1 sample intervals [s]; each is integrated in RK4
-    sub-steps <= max_sub."""
+    sub-steps <= max_sub.  ``dsw`` (n, 2): u1[k], u2[k] take effect dsw[k] [s] after sample k (before that the
+    previous voltage holds); zeros when every voltage acts from its own stamp."""
     n = u1.size
     nw = starts.shape[0]
     nb = max(n // block, 1)
@@ -214,22 +235,18 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, max_sub, win
                     a_mat[w, i, j] += ja[i] * ja[j] + jb[i] * jb[j]
             if k == n - 1:
                 break
-            # hold u[k] over the actual interval (the motor states run on into the next window)
-            nsub = max(1, int(math.ceil(h[k] / max_sub - 1e-9)))
-            hs = h[k] / nsub
-            for _ in range(nsub):
-                _rhs(x, u1[k], u2[k], p, signed, k1)
-                for i in range(_NS):
-                    xt[i] = x[i] + 0.5 * hs * k1[i]
-                _rhs(xt, u1[k], u2[k], p, signed, k2)
-                for i in range(_NS):
-                    xt[i] = x[i] + 0.5 * hs * k2[i]
-                _rhs(xt, u1[k], u2[k], p, signed, k3)
-                for i in range(_NS):
-                    xt[i] = x[i] + hs * k3[i]
-                _rhs(xt, u1[k], u2[k], p, signed, k4)
-                for i in range(_NS):
-                    x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            # hold the voltages over the actual interval, each switching at its own time (the motor states
+            # run on into the next window): up to three pieces, cut where u1 and u2 switch
+            d1, d2 = (dsw[k, 0], dsw[k, 1]) if k > 0 else (0.0, 0.0)
+            lo, hi = min(d1, d2), max(d1, d2)
+            cuts = (0.0, lo, hi, h[k])
+            for j in range(3):
+                dur = cuts[j + 1] - cuts[j]
+                if dur <= 0.0:
+                    continue
+                v1 = u1[k] if cuts[j] >= d1 else u1[k - 1]
+                v2 = u2[k] if cuts[j] >= d2 else u2[k - 1]
+                _rk4(x, xt, k1, k2, k3, k4, v1, v2, p, signed, dur, max_sub)
         for i in range(nt):
             for j in range(i):
                 a_mat[w, i, j] = a_mat[w, j, i]
@@ -243,7 +260,8 @@ def warm_up() -> None:
     n = 8
     u = np.zeros(n)
     gauss_newton_pass(u, u, np.zeros((n, 2)), np.ones(2), np.zeros((1, 4)), np.zeros(3), model_vector(defaults()),
-                      False, np.full(n - 1, 1e-3), MAX_SUBSTEP_S, n, n, np.empty((n, 2)), np.zeros((n, 2, 0)))
+                      False, np.full(n - 1, 1e-3), np.zeros((n, 2)), MAX_SUBSTEP_S, n, n, np.empty((n, 2)),
+                      np.zeros((n, 2, 0)))
 
 
 def model_vector(params: dict, gravity_offset_rad: float = 0.0) -> np.ndarray:
@@ -324,6 +342,7 @@ class _Problem:
     base: np.ndarray
     signed: bool
     h: np.ndarray
+    dsw: np.ndarray  # (n, 2) voltage switch delays after each stamp [s]
     win: int
     block: int
     free_idx: list  # positions in the model vector of the freed known values
@@ -335,7 +354,7 @@ class _Problem:
             pv[i] = th[NG + j]
         ext = np.zeros((self.y.shape[0], 2, 0)) if extra is None else extra
         return gauss_newton_pass(self.u1, self.u2, self.y, self.inv_sig, st, th[4:NG], pv, self.signed, self.h,
-                                 max_sub, self.win, self.block, out, ext)
+                                 self.dsw, max_sub, self.win, self.block, out, ext)
 
     def columns(self, th, st, pred, idx, max_sub=MAX_SUBSTEP_S):
         """(n, 2, len(idx)) forward-difference sensitivities of alpha, beta to the model values at ``idx``."""
@@ -349,7 +368,7 @@ class _Problem:
             step = 1e-6 * max(abs(pv[i]), 1e-3)
             pv[i] += step
             gauss_newton_pass(self.u1, self.u2, self.y, self.inv_sig, st, th[4:NG], pv, self.signed, self.h,
-                              max_sub, self.win, self.block, tmp, np.zeros((pred.shape[0], 2, 0)))
+                              self.dsw, max_sub, self.win, self.block, tmp, np.zeros((pred.shape[0], 2, 0)))
             cols[:, :, c] = (tmp - pred) / step
         return cols
 
@@ -364,11 +383,12 @@ class _Problem:
 
 def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict, noise_rad: dict,
            window_s: float = WINDOW_S, gravity_offset_rad: float = 0.0, t_s: np.ndarray | None = None,
-           free: tuple[str, ...] = ()) -> Refined:
+           free: tuple[str, ...] = (), switch_delay_s: np.ndarray | None = None) -> Refined:
     """Gauss-Newton on the noise-weighted angle errors, from theta0 (DREM's estimate).
 
     ``t_s``: the sample stamps [s] when they are not uniform (default: uniform steps of ``dt`` [s]); the
-    voltages are held over each actual interval.  ``free``: known values (names of the parameter table) to
+    voltages are held over each actual interval.  ``switch_delay_s`` (n, 2): u1[k], u2[k] take effect this long
+    after stamp k (the voltage topic's own times; default 0).  ``free``: known values (names of the parameter table) to
     estimate with J/B, started from ``params``.  ``gravity_offset_rad``: a centre-of-mass offset, gravity
     Mg sin(alpha + delta) (diagnose's extended model; an encoder offset is handled by the caller, shifting
     the logged angle)."""
@@ -393,7 +413,9 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     scale = np.concatenate([np.abs(theta[:4]), np.maximum(motor_range, 1e-6) * 1e3,
                             np.maximum(np.abs(theta[NG:]), 1e-9)])
     prob = _Problem(np.ascontiguousarray(u1, dtype=float), np.ascontiguousarray(u2, dtype=float), y, 1.0 / sig,
-                    model_vector(params, gravity_offset_rad), law == "signed", h, win, block,
+                    model_vector(params, gravity_offset_rad), law == "signed", h,
+                    np.zeros((n, 2)) if switch_delay_s is None else np.ascontiguousarray(switch_delay_s, dtype=float),
+                    win, block,
                     [_P.index(k) for k in free])
     ng = NG + m
     out = np.empty((n, 2))

@@ -25,6 +25,19 @@ def _g(x: float) -> str:
     return f"{x:.6g}"
 
 
+def _timing(inp: dict) -> str:
+    from .summary import voltage_timing_text
+
+    s = inp.get("sampling", {})
+    lines = [] if s.get("uniform", True) else [
+        f"Jittered stamps: steps {s['min_step_over_median']:.3g}-{s['max_step_over_median']:.3g} x the median "
+        f"({s['median_step_s']:.6g} s), jitter RMS {s['jitter_rms_percent']:.3g} %, {s['dropped_samples']} dropped "
+        "sample(s); voltages held over each actual interval."]
+    if voltage_timing_text(inp):
+        lines.append(voltage_timing_text(inp).capitalize() + ".")
+    return "".join(f'<br><span class="note">{html.escape(x)}</span>' for x in lines)
+
+
 def _white(w: dict) -> str:
     return f"Q = {w['ljung_box_q']:.3g} (<= {w['threshold']:.3g})"
 
@@ -94,7 +107,8 @@ def render(doc: dict, result: Result, log: Log) -> str:
 <h1>TRMS parameter identification</h1>
 {_verdict(doc)}
 <p>Log <code>{html.escape(inp['path'])}</code>: {inp['samples']} samples, {inp['duration_s']:.6g} s,
-sample time {inp['sample_time_s']:.6g} s.<br><span class="note">sha256 {inp['sha256']}</span></p>
+sample time {inp['sample_time_s']:.6g} s.<br><span class="note">sha256 {inp['sha256']}</span>
+{_timing(inp)}</p>
 <h2>Estimates</h2>
 <table>{_row(head, 'th')}{''.join(rows)}</table>
 <p class="note"><b>Intervals:</b> {html.escape(doc['ci95_meaning'])}.</p>

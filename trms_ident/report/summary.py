@@ -132,5 +132,18 @@ def _verdict(intervals) -> str:
     return ("good" if worst < 0.01 else "adequate") + f": widest 95 % interval ±{100 * worst:.2g} %"
 
 
+def voltage_timing_text(inp: dict) -> str | None:
+    """One line on how an MCAP log's voltages were placed in time, or None for logs without a voltage topic."""
+    vt = inp.get("voltage_timing")
+    if not vt:
+        return None
+    parts = [f"{topic} {o['median_ms']:.3g} ms ({o['median_samples']:.2f} samples) after the angle stamp, "
+             f"5-95 % {o['p05_ms']:.3g}-{o['p95_ms']:.3g} ms" for topic, o in vt["offset_after_angle"].items()]
+    rule = ("each voltage acts from its own message time" if vt["convention"] == "stamp" else
+            "each voltage acts from the next angle sample on (--voltage-time next-sample)")
+    clocks = ", ".join(f"{k}: {v}" for k, v in vt["clocks"].items())
+    return f"voltages: {'; '.join(parts) or 'at the angle stamps'}; {rule}; clocks {clocks}"
+
+
 def to_json(doc: dict) -> str:
     return json.dumps(doc, indent=2, sort_keys=False, allow_nan=True) + "\n"
