@@ -77,6 +77,33 @@ def output_error(log, truth: dict, decimate_to_hz: float = 50.0) -> dict:
     return dict(zip(NAMES, sol.x))
 
 
+def output_error_x0(log, truth: dict, decimate_to_hz: float = 50.0) -> dict:
+    """The output-error fit with the initial state estimated too (as greyest's InitialState='estimate'):
+    J1, B1, J2, B2 and alpha'(0), beta'(0), tau1(0), tau2(0), zeta(0); alpha(0), beta(0) from the first
+    sample.  A fair baseline for logs that do not start at rest."""
+    p = defaults()
+    dt = log.sample_time_s
+    step = max(1, int(round(1.0 / (decimate_to_hz * dt))))
+    fx = np.zeros(13)
+    fx[10] = fx[11] = np.inf
+    meas = np.column_stack([log.alpha_rad, log.beta_rad])[::step]
+    d0 = np.gradient(np.column_stack([log.alpha_rad, log.beta_rad])[:50], dt, axis=0)[0]
+
+    def residual(theta):
+        pp = dict(p, J1=theta[0], B1=theta[1], J2=theta[2], B2=theta[3])
+        vec = np.array([pp[k] for k in PARAM_ORDER])
+        x0 = np.array([log.alpha_rad[0], theta[4], log.beta_rad[0], theta[5], theta[6], theta[7], theta[8]])
+        sim = open_loop(dt, log.u1_v, log.u2_v, vec, 0, fx, 5e-4, x0)[::step]
+        return (sim - meas).ravel()
+
+    t1 = p["k1"] / p["T10"] * log.u1_v[0]
+    start = np.array([0.5 * truth[k] for k in NAMES] + [d0[0], d0[1], t1, p["k2"] / p["T20"] * log.u2_v[0], t1])
+    scale = np.r_[start[:4], 1.0, 1.0, 1.0, 1.0, 1.0]
+    lo = np.r_[np.full(4, 1e-6), np.full(5, -np.inf)]
+    sol = least_squares(residual, start, x_scale=scale, bounds=(lo, np.inf), max_nfev=300)
+    return dict(zip(NAMES, sol.x[:4]))
+
+
 def timed(fn, *args) -> tuple[dict, float, float]:
     """(result, wall time [s], CPU time of this process [s], all threads: the work, less sensitive than
     the wall time to what else the shared machine runs)."""

@@ -118,7 +118,7 @@ def identify(log: Log, settings: Settings | None = None) -> Result:
     for axis, (phi, _) in mixed.items():
         if not np.all(np.isfinite(phi)) or not np.any(phi):
             raise IdentificationError(
-                f"the {axis} axis is not excited: det M is zero over the whole log "
+                f"{log.source}: the {axis} axis is not excited: det M is zero over the whole log "
                 f"(constant input and angle?); {', '.join(AXES[axis])} cannot be identified")
 
     def estimate_axis(axis: str) -> None:

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import LogFormatError
 from ..log import Log
 from ..numerics.design import design_filters
 from ..numerics.stats import block_length
@@ -114,10 +115,20 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
         return _diagnose(log, overrides, law, a_rad_s)
 
 
+#: the held-out tests need this many blocks (each five filter memories long)
+MIN_BLOCKS_DIAGNOSE = 4
+
+
 def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None) -> Diagnosis:
     p = merge(overrides or {}, source="parameter overrides")
+    seed = _seed_check(log, overrides, law)  # also refuses an axis with no excitation (exit 6), as estimate does
     dt = log.sample_time_s
     a = a_rad_s or design_filters(log.alpha_rad, log.beta_rad, dt).a_rad_s
+    need_s = max(MIN_BLOCKS_DIAGNOSE * 5.0 / a, 2 * HORIZON_S)
+    if log.duration_s < need_s:
+        raise LogFormatError(f"{log.source}: {log.duration_s:.6g} s long; diagnose needs at least {need_s:.3g} s "
+                             f"({MIN_BLOCKS_DIAGNOSE} blocks of five filter memories at a = {a:g} rad/s for its "
+                             f"held-out tests, and {HORIZON_S:g} s prediction windows)")
     block = block_length(len(log), dt, 1.0 / a)
     ids = np.minimum(np.arange(len(log)) // block, max(len(log) // block, 1) - 1)
     cache: dict = {}
@@ -212,7 +223,6 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None)
     delay = next((r for r in tested if r["effect"] == "input_delay"), None)
     lag = lag_profile([delay["parameter"]], [delay["held_out_gain"]]) if delay else {}
     overlay = {axis: (log.t_s, getattr(log, AXIS_ANGLE[axis]), over_before[axis], over_after[axis]) for axis in axes}
-    seed = _seed_check(log, overrides, law)
     verdict, sentence = _verdict(log, seed, out, fit_after, seg)
     return Diagnosis(bool(out) or verdict != "consistent", out, nominal, augmented, fit_before, fit_after, seg, reg_stats, lag, tested,
                      {"a_rad_s": a, "block_s": block * dt, "horizon_s": HORIZON_S, "thrust_law": law,
@@ -236,14 +246,11 @@ def _refusal(c: Candidate, nominal: dict, augmented: dict, fit_before: dict, fit
 
 
 def _seed_check(log: Log, overrides: dict | None, law: str) -> dict:
-    """identify's adequacy verdict for the seed model (output-error fit with start states)."""
+    """identify's adequacy verdict for the seed model (output-error fit with start states); an axis with no
+    excitation raises IdentificationError, as in estimate."""
     from ..identify import Settings, identify
-    from ..errors import IdentificationError
 
-    try:
-        return identify(log, Settings(thrust_law=law, overrides=dict(overrides or {}))).model_check
-    except IdentificationError as exc:
-        return {"adequate": False, "axes": {}, "sentence": str(exc)}
+    return identify(log, Settings(thrust_law=law, overrides=dict(overrides or {}))).model_check
 
 
 def _verdict(log: Log, seed: dict, findings: list, fit_after: dict, seg: dict) -> tuple[str, str]:
@@ -397,12 +404,16 @@ def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict):
         if axis == "yaw":
             fx[2] = values.get("cable_stiffness:yaw", 0.0)
             th = np.array([est["J2"], est["B2"], pp["a2"], pp["b2"], 0.0, 0.0, law == "signed"], dtype=float)
-            y = predict_fitted_start(False, x, v, ps.tau2, ps.MR_nm, dt, horizon, th, fx)
+            drive, other = ps.tau2, ps.MR_nm
         else:
             fx[3] = values.get("com_offset:pitch", 0.0)
             fx[4] = values.get("sensor_offset:pitch", 0.0)
             th = np.array([est["J1"], est["B1"], pp["a1"], pp["b1"], pp["Mg"], pp["Kg"], law == "signed"], dtype=float)
-            y = predict_fitted_start(True, x, v, ps.tau1, ps.dbeta_rad_s, dt, horizon, th, fx)
+            drive, other = ps.tau1, ps.dbeta_rad_s
+        if all(math.isfinite(q) and q > 0 for q in th[:2]):
+            y = predict_fitted_start(axis == "pitch", x, v, drive, other, dt, horizon, th, fx)
+        else:  # J or B not physical: nothing to predict with, nothing to score
+            y = np.full_like(x, np.nan)
         fits[axis] = nrmse_fit(x, y)
         preds[axis] = y
     return fits, preds
