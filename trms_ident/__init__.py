@@ -1,2 +1,16 @@
-"""trms-ident: DREM parameter identification for the Twin Rotor MIMO System."""
+"""trms-ident: DREM parameter identification for the Twin Rotor MIMO System.
+
+    import trms_ident as ti
+    est = ti.estimate("log.csv")     # path, pandas DataFrame or Log; see trms_ident.api
+"""
 __version__ = "0.1.0"
+
+__all__ = ["__version__", "diagnose", "estimate", "log_frame", "simulate"]
+
+
+def __getattr__(name):  # the library face loads numpy and friends only when used (the CLI starts fast)
+    if name in ("estimate", "diagnose", "simulate", "log_frame", "Estimate"):
+        from . import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'trms_ident' has no attribute {name!r}")

@@ -71,15 +71,22 @@ def estimate_file(log_path: str | Path, settings: Settings, out_dir: str | Path 
     summary = summarize(result, log, truth, str(tpath) if truth else None)
     written: list[Path] = []
     if out_dir is not None:
-        out = Path(out_dir)
-        write_text(out / "result.json", to_json(summary))
-        write_traces(out / "traces.csv", result)
-        written += [out / "result.json", out / "traces.csv"]
-        if html:
-            stage("drawing the report")
-            write_text(out / "report.html", render(summary, result, log))
-            written.append(out / "report.html")
+        written = write_outputs(out_dir, summary, result, log, html, stage)
     return EstimateOutput(log, result, summary, written)
+
+
+def write_outputs(out_dir: str | Path, summary: dict, result: Result, log: Log, html: bool = True,
+                  stage: Callable[[str], None] = lambda _: None) -> list[Path]:
+    """result.json, traces.csv and (html) report.html into out_dir, each atomically."""
+    out = Path(out_dir)
+    write_text(out / "result.json", to_json(summary))
+    write_traces(out / "traces.csv", result)
+    written = [out / "result.json", out / "traces.csv"]
+    if html:
+        stage("drawing the report")
+        write_text(out / "report.html", render(summary, result, log))
+        written.append(out / "report.html")
+    return written
 
 
 def _size(path: str | Path) -> int:

@@ -1,0 +1,46 @@
+"""The library face (trms_ident.estimate / diagnose / simulate): same numbers as the CLI, clear errors."""
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+import trms_ident as ti
+from trms_ident.cli import app
+from trms_ident.errors import LogFormatError, SettingsError
+from trms_ident.io.csv_log import write_csv_log
+
+
+def test_estimate_from_a_dataframe_equals_the_cli_on_the_same_csv(tmp_path):
+    r = ti.simulate(ref="multisine", duration_s=60.0, sample_rate_hz=200.0, noise_std_rad=5e-4, seed=1)
+    path = tmp_path / "run.csv"
+    write_csv_log(path, r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad)
+    est = ti.estimate(ti.log_frame(r), truth=r.truth["estimated"], free=["Mg"])
+    cli = CliRunner().invoke(app, ["estimate", str(path), "--free", "Mg", "-o", str(tmp_path / "o"), "--no-report",
+                                   "--json", "-"])
+    doc = json.loads(cli.stdout)
+    assert est.adequate is True and est.model_check == doc["model_check"]
+    assert est.estimates == doc["estimates"] and est.ci95 == doc["ci95"]
+    for k, v in r.truth["estimated"].items():
+        assert est.estimates[k] == pytest.approx(v, rel=0.01)
+    assert list(est.traces.columns) == ["t", "J1", "B1", "J2", "B2"] and est.traces["t"].iloc[-1] == 60.0
+    assert json.loads(est.to_json())["refined"]["known_values_estimated"]["Mg"]["estimate"] == pytest.approx(0.32,
+                                                                                                         rel=1e-2)
+    written = est.save(tmp_path / "api")
+    assert {p.name for p in written} == {"result.json", "traces.csv", "report.html"}
+    assert est.plot().axes[0].get_ylabel() == "alpha [rad]"
+    assert "model fits" in repr(est)
+
+
+def test_estimate_from_a_path_with_options_and_clear_errors(tmp_path):
+    est = ti.estimate("sample_logs/paper_square.csv", refine="off")
+    assert est.doc["headline"] == "offline" and est.adequate
+    with pytest.raises(SettingsError, match="unknown option\\(s\\) gamma_typo"):
+        ti.estimate("sample_logs/paper_square.csv", gamma_typo=3)
+    frame = ti.log_frame(ti.simulate(duration_s=2.0)).drop(columns=["beta"])
+    with pytest.raises(LogFormatError, match="missing column\\(s\\) beta"):
+        ti.estimate(frame)
+
+
+def test_diagnose_from_python():
+    d = ti.diagnose("sample_logs/concealed_effect.csv")
+    assert d.verdict == "explained" and d.findings[0].effect == "cable_stiffness"

@@ -1,0 +1,183 @@
+"""The library face: estimate, diagnose and simulate from Python (notebooks, scripts).
+
+    import trms_ident as ti
+    est = ti.estimate("log.csv")                 # or a pandas DataFrame with t, u1, u2, alpha, beta
+    est.adequate, est.estimates, est.ci95        # does the model fit? J1, B1, J2, B2 with 95 % intervals
+    est.traces                                   # DataFrame: t [s], J1, B1, J2, B2 (DREM traces, eq. 8)
+    est.save("out/"); est.plot(); est.to_json()
+    ti.diagnose("log.csv").verdict               # consistent | explained | partly_explained | unexplained
+    log = ti.simulate(ref="square", noise=1e-3)  # a synthetic log with its ground truth
+
+The command line calls the same functions (commands.py); nothing here prints.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .log import Log, validated
+from .settings import Settings
+
+#: estimate()'s options that are settings (the rest select how the file is read)
+_SETTINGS = {f.name for f in fields(Settings)}
+_READ = ("angle_unit", "time_unit", "signals", "time_source", "voltage_time")
+
+
+def _as_log(data, read: dict) -> Log:
+    """A Log from a path, a DataFrame (columns t [s], u1, u2 [V], alpha, beta [rad], optional t_u) or a Log."""
+    if isinstance(data, Log):
+        return data
+    if isinstance(data, (str, Path)):
+        from .io.readers import read_log
+
+        return read_log(data, **read)
+    try:
+        cols = {str(c).strip().lower(): c for c in data.columns}
+    except AttributeError:
+        raise TypeError(f"expected a log file path, a pandas DataFrame or a Log, got {type(data).__name__}") from None
+    from .errors import LogFormatError
+    from .log import COLUMNS
+
+    missing = [c for c in COLUMNS if c not in cols]
+    if missing:
+        raise LogFormatError(f"<DataFrame>: missing column(s) {', '.join(missing)}; expected {', '.join(COLUMNS)}")
+    arrays = [np.asarray(data[cols[c]], dtype=float) for c in COLUMNS]
+    digest = hashlib.sha256(b"".join(np.ascontiguousarray(a).tobytes() for a in arrays)).hexdigest()
+    t_u = np.asarray(data[cols["t_u"]], dtype=float) if "t_u" in cols else None
+    if read.get("angle_unit") == "deg":
+        arrays[3], arrays[4] = np.radians(arrays[3]), np.radians(arrays[4])
+    return validated(*arrays, source="<DataFrame>", sha256=digest, meta={"format": "dataframe"},
+                     angle_unit=read.get("angle_unit", "auto"), time_unit=read.get("time_unit", "auto"),
+                     u_switch_s=None if t_u is None else np.repeat(t_u[:, None], 2, axis=1))
+
+
+@dataclass
+class Estimate:
+    """The result of :func:`estimate`: numbers with units, the adequacy verdict, traces, and the outputs."""
+
+    log: Log
+    result: Any  # identify.Result
+    doc: dict  # the result.json contract (report/summary.py)
+
+    @property
+    def adequate(self) -> bool:
+        """Does the model fit the log to its noise level?  (``model_check``; read before any number)"""
+        return bool(self.doc["model_check"]["adequate"])
+
+    @property
+    def model_check(self) -> dict:
+        return self.doc["model_check"]
+
+    @property
+    def estimates(self) -> dict:
+        """J1, J2 [kg m^2], B1, B2 [N m s/rad]; None where the log does not determine one."""
+        return dict(self.doc["estimates"])
+
+    @property
+    def ci95(self) -> dict:
+        """95 % intervals, name -> [low, high] (conditional on the model when it does not fit)."""
+        return dict(self.doc["ci95"])
+
+    @property
+    def traces(self):
+        """DataFrame of the DREM estimate traces (eq. 8): t [s], J1, B1, J2, B2."""
+        import pandas as pd
+
+        r = self.result
+        return pd.DataFrame({"t": r.t_s, **{k: r.traces[k] for k in ("J1", "B1", "J2", "B2")}})
+
+    def to_json(self) -> str:
+        from .report.summary import to_json
+
+        return to_json(self.doc)
+
+    def save(self, out_dir: str | Path, html: bool = True) -> list[Path]:
+        """Write result.json, traces.csv and report.html (atomically) into out_dir; returns their paths."""
+        from .commands import write_outputs
+
+        return write_outputs(out_dir, self.doc, self.result, self.log, html)
+
+    def plot(self):
+        """Measured against simulated angles with the fit in % (as ``compare``); a matplotlib Figure."""
+        import matplotlib.pyplot as plt
+
+        sim = self.result.simulated
+        m = 0 if sim is None else sim.shape[0]
+        fig, ax = plt.subplots(2, 1, figsize=(10, 5.5), sharex=True)
+        for j, (axis, y) in enumerate((("pitch", self.log.alpha_rad), ("yaw", self.log.beta_rad))):
+            ax[j].plot(self.log.t_s, y, color="0.35", lw=1.0, label="measured")
+            if m:
+                fit = self.model_check["axes"][axis]["fit_percent"]
+                ax[j].plot(self.log.t_s[:m], sim[:, j], "--", lw=0.9, label=f"model: fit {fit:.2f} %")
+            ax[j].set_ylabel(f"{'alpha' if axis == 'pitch' else 'beta'} [rad]")
+            ax[j].legend(fontsize=8)
+            ax[j].grid(alpha=0.3)
+        ax[1].set_xlabel("t [s]")
+        fig.suptitle("the model fits" if self.adequate else "the model does NOT fit")
+        return fig
+
+    def __repr__(self) -> str:
+        head = "model fits" if self.adequate else "MODEL DOES NOT FIT"
+        est = ", ".join(f"{k}={v:.6g}" if v is not None else f"{k}=n.i." for k, v in self.estimates.items())
+        return f"<Estimate {self.log.source}: {head}; {est}>"
+
+
+def estimate(log, *, params: dict | str | Path | None = None, truth: dict | None = None, **options) -> Estimate:
+    """Estimate J1, B1, J2, B2 of a TRMS log with DREM (eqs. 3-8) and the output-error refinement.
+
+    ``log``: a CSV or MCAP path, a pandas DataFrame (t [s], u1, u2 [V], alpha, beta [rad]) or a Log.
+    ``params``: known values (dict, or a TOML file) replacing Table 1's.  ``truth``: J/B ground truth for the
+    error columns (simulated logs).  Other options: the Settings fields (``refine``, ``headline``, ``free``,
+    ``thrust_law``, ``filter_a_rad_s``, ...) and the reader's (``angle_unit``, ``time_unit``, ``signals``,
+    ``time_source``, ``voltage_time``).  Same numbers as ``trms-ident estimate`` with the same options."""
+    from .errors import SettingsError
+    from .identify import identify
+    from .params import load_parameter_file
+    from .report.summary import summarize
+
+    unknown = set(options) - _SETTINGS - set(_READ)
+    if unknown:
+        raise SettingsError(f"unknown option(s) {', '.join(sorted(unknown))}; expected settings "
+                            f"{', '.join(sorted(_SETTINGS - {'overrides'}))} or {', '.join(_READ)}")
+    read = {k: options.pop(k) for k in _READ if k in options}
+    if isinstance(params, (str, Path)):
+        params = load_parameter_file(params)
+    settings = Settings(overrides=dict(params or {}), **{k: (tuple(v) if k == "free" else v)
+                                                          for k, v in options.items()})
+    data = _as_log(log, read)
+    result = identify(data, settings)
+    return Estimate(data, result, summarize(result, data, truth, "given" if truth else None))
+
+
+def diagnose(log, *, params: dict | str | Path | None = None, thrust_law: str = "quadratic",
+             filter_a_rad_s: float | None = None, **read):
+    """Where the model and the log disagree: the verdict, the findings with their physics, the fit before and
+    after.  Returns diagnose.run.Diagnosis (``.verdict``, ``.findings``, ``.fit_before``, ``.fit_after``)."""
+    from .diagnose.run import diagnose as run
+    from .params import load_parameter_file
+
+    if isinstance(params, (str, Path)):
+        params = load_parameter_file(params)
+    return run(_as_log(log, read), dict(params or {}), thrust_law, filter_a_rad_s)
+
+
+def simulate(ref: str = "square", **options):
+    """The bundled closed-loop simulator (sim/): returns its SimResult (t_s, u1_v, u2_v, alpha_rad, beta_rad,
+    true_state, truth, u_time_s).  Options: sim.SimSettings' fields (duration_s, sample_rate_hz, seed,
+    noise_std_rad, quantization_rad, jitter, start_s, voltage_offset, overrides, effects, ...)."""
+    from sim import SimSettings
+    from sim import simulate as run
+
+    return run(SimSettings(ref=ref, **options))
+
+
+def log_frame(sim_result):
+    """A simulator result as the DataFrame estimate() takes (t, u1, u2, alpha, beta)."""
+    import pandas as pd
+
+    r = sim_result
+    return pd.DataFrame({"t": r.t_s, "u1": r.u1_v, "u2": r.u2_v, "alpha": r.alpha_rad, "beta": r.beta_rad})
