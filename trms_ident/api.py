@@ -24,7 +24,7 @@ from .settings import Settings
 
 #: estimate()'s options that are settings (the rest select how the file is read)
 _SETTINGS = {f.name for f in fields(Settings)}
-_READ = ("angle_unit", "time_unit", "signals", "time_source", "voltage_time")
+_READ = ("angle_unit", "time_unit", "signals", "time_source", "voltage_time", "rate_hz")
 
 
 def _as_log(data, read: dict) -> Log:

@@ -85,7 +85,7 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
         res = estimate_file(path_p, settings, out, html=options.get("html", True), angle_unit=options.get("angle_unit", "auto"),
                             time_unit=options.get("time_unit", "auto"),
                             signals=options.get("signals"), time_source=options.get("time_source", "auto"),
-                            voltage_time=options.get("voltage_time", "stamp"))
+                            voltage_time=options.get("voltage_time", "stamp"), rate_hz=options.get("rate_hz"))
         write_text(stamp, json.dumps(key, indent=1))
         row.update(status="ok", estimates=res.summary["estimates"], adequate=res.summary["model_check"]["adequate"],
                    report=str(out / "report.html") if options.get("html", True) else None)

@@ -136,8 +136,11 @@ StrictOpt = Annotated[bool, typer.Option("--strict", help="Exit with code 10 whe
                                           "(model_check.adequate false; batch: any log).")]
 NoReportOpt = Annotated[bool, typer.Option("--no-report", help="Skip the HTML report.")]
 SignalOpt = Annotated[Optional[list[str]], typer.Option("--signal", help="MCAP: where a signal comes from, "
-                                                        "NAME=TOPIC:FIELD, e.g. alpha=/arm/joint_states:position[pitch] "
-                                                        "(repeatable; see `inspect`).")]
+                                                        "NAME=TOPIC:FIELD, e.g. alpha=/arm/joint_states:position[pitch]; "
+                                                        "MATLAB: NAME=VARIABLE, e.g. alpha=psi, alpha=data[2], "
+                                                        "alpha=yout.signals[0] (repeatable; see `inspect`).")]
+RateOpt = Annotated[Optional[float], typer.Option("--rate", help="MATLAB logs without a time vector: the sample "
+                                                  "rate [Hz].")]
 TimeSourceOpt = Annotated[str, typer.Option("--time-source", help="MCAP message time: auto (header.stamp when "
                                             "present, else log time), header, log or publish.")]
 VoltageTimeOpt = Annotated[str, typer.Option("--voltage-time", help="MCAP: when a voltage message takes effect: "
@@ -181,7 +184,8 @@ def stage_reporter(label: str):
 @app.command()
 @handled
 def estimate(
-    log: Annotated[Path, typer.Argument(help="Log file: CSV (t,u1,u2,alpha,beta) or MCAP.", show_default=False)],
+    log: Annotated[Path, typer.Argument(help="Log file: CSV (t,u1,u2,alpha,beta), MCAP or MATLAB .mat.",
+                                        show_default=False)],
     out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Folder for report.html, traces.csv, "
                                                 "result.json [default: ./<log name>_ident].")] = None,
     json_path: Annotated[Optional[str], typer.Option("--json", help="Also write the result JSON here; '-' = stdout.")] = None,
@@ -203,6 +207,7 @@ def estimate(
     signal: SignalOpt = None,
     time_source: TimeSourceOpt = "auto",
     voltage_time: VoltageTimeOpt = "stamp",
+    rate: RateOpt = None,
 ) -> None:
     """Estimate J1, B1, J2, B2 from a log and write a report."""
     from .commands import estimate_file
@@ -213,7 +218,8 @@ def estimate(
     out_dir = out if out is not None else Path(f"{log.name.split('.')[0]}_ident")
     progress = stage_reporter(str(log))
     res = estimate_file(log, settings, out_dir, angle_unit=angle_unit, time_unit=time_unit, html=not no_report, truth_file=truth,
-                        signals=signal, time_source=time_source, voltage_time=voltage_time, on_stage=progress)
+                        signals=signal, time_source=time_source, voltage_time=voltage_time, rate_hz=rate,
+                        on_stage=progress)
     if progress:
         sys.stderr.write("\r\033[K")
     s = res.summary
@@ -288,6 +294,7 @@ def batch(
     signal: SignalOpt = None,
     time_source: TimeSourceOpt = "auto",
     voltage_time: VoltageTimeOpt = "stamp",
+    rate: RateOpt = None,
 ) -> None:
     """Estimate every CSV and MCAP log under folders or globs; carry on past bad files; write a summary.
 
@@ -303,7 +310,7 @@ def batch(
         raise SettingsError(f"no .csv or .mcap logs found in {' '.join(inputs)}")
     check_units(angle_unit, time_unit)
     options = {"html": not no_report, "signals": signal, "time_source": time_source, "angle_unit": angle_unit,
-               "time_unit": time_unit, "voltage_time": voltage_time}
+               "time_unit": time_unit, "voltage_time": voltage_time, "rate_hz": rate}
     if force:
         options["force_token"] = os.urandom(8).hex()
     bar = None
@@ -353,6 +360,7 @@ def diagnose(
     signal: SignalOpt = None,
     time_source: TimeSourceOpt = "auto",
     voltage_time: VoltageTimeOpt = "stamp",
+    rate: RateOpt = None,
 ) -> None:
     """Find where the model and the recording disagree, name the missing physics, fit it, show the gain."""
     from .diagnose.run import diagnose as run_diagnosis
@@ -368,7 +376,7 @@ def diagnose(
     progress = stage_reporter(str(log))
     progress and progress("reading")
     data = read_log(log, angle_unit=angle_unit, signals=signal, time_source=time_source, time_unit=time_unit,
-                    voltage_time=voltage_time)
+                    voltage_time=voltage_time, rate_hz=rate)
     for note in data.meta.get("assumed", {}).values():
         say(f"note: {note}")
     progress and progress("testing candidate effects")
@@ -477,7 +485,8 @@ def simulate(
 @app.command()
 @handled
 def inspect(
-    file: Annotated[Path, typer.Argument(help="An MCAP recording (or a CSV log).", show_default=False)],
+    file: Annotated[Path, typer.Argument(help="An MCAP recording, a MATLAB .mat log (or a CSV log).",
+                                         show_default=False)],
     json_out: Annotated[bool, typer.Option("--json", help="Print the description as JSON on stdout.")] = False,
 ) -> None:
     """Describe a recording: topics, types, encodings, counts, rates, time span, numeric fields, --signal mapping."""
@@ -487,7 +496,8 @@ def inspect(
     if json_out:
         emit_json(doc, "-")
         return
-    say(f"{doc['file']}: {doc['bytes']:,} bytes, {doc['duration_s']:.6g} s")
+    say(f"{doc['file']}: {doc['bytes']:,} bytes" +
+        (f", {doc['duration_s']:.6g} s" if "duration_s" in doc else ""))
     for t in doc.get("topics", []):
         rate = f"{t['rate_hz']:.6g} Hz" if t.get("rate_hz") else "-"
         say(f"  {t['topic']}  {t['type'] or '?'} ({t['message_encoding']}): {t['messages']} messages, {rate}")
@@ -495,10 +505,16 @@ def inspect(
             say("      numeric: " + ", ".join(t["numeric_fields"]))
     for c in doc.get("columns", []):
         say(f"  column {c}")
+    for name, shape in doc.get("variables", {}).items():
+        say(f"  variable {name}: {shape}")
+    for m in doc.get("missing", []):
+        say(f"  no variable found for {m}" + (" (pass --rate HZ)" if m == "t" else f" (map it: --signal {m}=VARIABLE)"))
     if doc.get("suggested_signals"):
         say("suggested mapping: " + " ".join(f"--signal {v}" for v in doc["suggested_signals"].values()))
     elif "topics" in doc:
         say("no obvious mapping for alpha, beta, u1, u2: pass --signal NAME=TOPIC:FIELD for each")
+    elif "variables" in doc:
+        say("no variable matches a known name: pass --signal NAME=VARIABLE for alpha, beta, u1 and u2")
     for w in doc.get("warnings", []):
         say(f"warning: {w}")
 

@@ -50,6 +50,7 @@ class EstimateOutput:
 def estimate_file(log_path: str | Path, settings: Settings, out_dir: str | Path | None,
                   *, angle_unit: str = "auto", time_unit: str = "auto", html: bool = True, truth_file: str | Path | None = None,
                   signals: list[str] | None = None, time_source: str = "auto", voltage_time: str = "stamp",
+                  rate_hz: float | None = None,
                   on_stage: Callable[[str], None] | None = None) -> EstimateOutput:
     """Identify J1, B1, J2, B2 from one log; write report.html, traces.csv and result.json to out_dir."""
     stage = on_stage or (lambda _: None)
@@ -59,7 +60,7 @@ def estimate_file(log_path: str | Path, settings: Settings, out_dir: str | Path 
         threading.Thread(target=_load_refinement, daemon=True).start()  # identify waits for it if needed
     stage("reading")
     log = read_log(log_path, angle_unit=angle_unit, signals=signals, time_source=time_source, time_unit=time_unit,
-                   voltage_time=voltage_time)
+                   voltage_time=voltage_time, rate_hz=rate_hz)
     warm.join()
     from .identify import identify
 

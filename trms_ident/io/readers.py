@@ -7,11 +7,12 @@ from ..errors import LogFormatError
 from ..log import Log
 from .csv_log import check_readable, read_csv_log
 
-LOG_SUFFIXES = (".csv", ".mcap")
+LOG_SUFFIXES = (".csv", ".mcap", ".mat")
 
 
 def read_log(path: str | Path, angle_unit: str = "auto", signals: list[str] | None = None,
-             time_source: str = "auto", time_unit: str = "auto", voltage_time: str = "stamp") -> Log:
+             time_source: str = "auto", time_unit: str = "auto", voltage_time: str = "stamp",
+             rate_hz: float | None = None) -> Log:
     """Read a CSV or MCAP log; ``signals``/``time_source`` apply to MCAP (see mcap_log), ``time_unit`` to CSV
     (MCAP stamps are nanoseconds by the format)."""
     path = Path(path)
@@ -21,14 +22,20 @@ def read_log(path: str | Path, angle_unit: str = "auto", signals: list[str] | No
 
         return read_mcap_log(path, angle_unit=angle_unit, signals=signals, time_source=time_source,
                              voltage_time=voltage_time)
-    if signals:
-        from ..errors import SettingsError
+    if suffix == ".mat":
+        from .mat_log import read_mat_log  # scipy.io / h5py only when needed
 
-        raise SettingsError(f"--signal applies to MCAP logs; {path} is a CSV file with fixed column names")
+        return read_mat_log(path, angle_unit=angle_unit, time_unit=time_unit, signals=signals, rate_hz=rate_hz)
+    from ..errors import SettingsError
+
+    if rate_hz is not None:
+        raise SettingsError(f"--rate applies to MATLAB logs without a time vector; {path} has its own stamps")
+    if signals:
+        raise SettingsError(f"--signal applies to MCAP and MATLAB logs; {path} is a CSV file with fixed column names")
     if suffix in (".csv", ".txt", ".tsv"):
         return read_csv_log(path, angle_unit=angle_unit, time_unit=time_unit)
     check_readable(path)  # a missing file is reported as missing, not as a format problem
-    raise LogFormatError(f"{path}: unknown log type {suffix or '(no suffix)'!r}; expected .csv or .mcap")
+    raise LogFormatError(f"{path}: unknown log type {suffix or '(no suffix)'!r}; expected .csv, .mcap or .mat")
 
 
 def describe(path: str | Path) -> dict:
@@ -38,6 +45,10 @@ def describe(path: str | Path) -> dict:
         from .mcap_log import inspect_mcap
 
         return inspect_mcap(path)
+    if path.suffix.lower() == ".mat":
+        from .mat_log import describe_mat
+
+        return describe_mat(path)
     log = read_log(path)
     return {"file": str(path), "bytes": path.stat().st_size, "duration_s": log.duration_s,
             "samples": len(log), "sample_time_s": log.sample_time_s, "columns": ["t", "u1", "u2", "alpha", "beta"],
