@@ -36,6 +36,7 @@ class SimSettings:
     jitter: float = 0.0  # sample intervals drawn uniformly in nominal x [1 - jitter, 1 + jitter] (seeded)
     start_s: float = 0.0  # the log begins this long after the run started from rest (0: from rest)
     voltage_offset: float = 0.0  # voltages reach the motors (and are stamped) this fraction of a step after the angles
+    initial_yaw_rad: float = 0.0  # where the beam rests in yaw when the run starts (the encoder reads it as is)
     overrides: dict = field(default_factory=dict)
     effects: list = field(default_factory=list)
     pid: dict = field(default_factory=lambda: dict(DEFAULT_PID))
@@ -95,6 +96,7 @@ def simulate(settings: SimSettings) -> SimResult:
     p = np.array([params[k] for k in PARAM_ORDER], dtype=float)
     x0 = np.zeros(7)
     x0[0] = -effect_vec[fx.I_COM]  # at rest in the gravity equilibrium
+    x0[2] = settings.initial_yaw_rad
     u1, u2, a_log, b_log, state = closed_loop(
         dts, aref, bref, p, 1 if settings.thrust_law == "signed" else 0, gains,
         settings.u_limit_v, effect_vec, noise[0], noise[1], settings.quantization_rad,

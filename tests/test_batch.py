@@ -93,3 +93,13 @@ def test_unreachable_scheduler(folder, tmp_path):
     pytest.importorskip("distributed")
     res = _batch([folder / "run00.csv"], tmp_path / "o", "--scheduler", "tcp://127.0.0.1:1")
     assert res.exit_code == EXIT_USAGE and "cannot connect" in res.output
+
+
+def test_earlier_outputs_are_never_inputs(folder, tmp_path, monkeypatch):
+    monkeypatch.chdir(folder.parent)
+    first = _batch([folder.name], folder / "results_a")  # outputs inside the searched folder, relative paths
+    assert first.exit_code == EXIT_SOME_FAILED, first.output
+    again = _batch([folder.name], tmp_path / "results_b")  # a new output folder: the old one's files are ignored
+    doc = json.loads((tmp_path / "results_b" / "summary.json").read_text())
+    assert len(doc["files"]) == 20, [f["path"] for f in doc["files"]]
+    assert all(os.path.isabs(f["output"]) for f in doc["files"]) and again.exit_code == EXIT_SOME_FAILED

@@ -40,11 +40,19 @@ def discover(inputs: Iterable[str], out_dir: Path) -> list[Path]:
                 raise SettingsError(f"{arg}: no such file, folder or matching pattern")
             cands = [q for q in cands if q.is_file()]
         for q in cands:
-            if out_dir in q.resolve().parents:
-                continue  # never re-read our own outputs
+            if out_dir in q.resolve().parents or is_our_output(q):
+                continue  # never re-read our own outputs, of this batch or an earlier one
             if q.resolve() not in {f.resolve() for f in found}:
                 found.append(q)
     return found
+
+
+def is_our_output(path: Path) -> bool:
+    """A file trms-ident wrote: traces.csv beside result.json, a batch's summary.csv, anything in a folder a
+    batch stamped (batch_key.json)."""
+    folder = path.parent
+    return ((folder / BATCH_KEY).exists() or (path.name == "traces.csv" and (folder / "result.json").exists())
+            or (path.name == "summary.csv" and (folder / "summary.json").exists()))
 
 
 def output_name(path: Path, taken: set[str]) -> str:
@@ -102,7 +110,8 @@ def run(paths: list[Path], out_dir: Path, settings: Settings, options: dict, job
         scheduler: str | None = None, on_done: Callable[[dict], None] | None = None) -> list[dict]:
     """Process every log; rows come back in the order of ``paths``."""
     taken: set[str] = set()
-    work = [(str(p), str(out_dir / output_name(p, taken))) for p in paths]
+    # absolute paths: workers (other processes, Dask workers) may run in other working directories
+    work = [(str(p.resolve()), str((out_dir / output_name(p, taken)).resolve())) for p in paths]
     done = on_done or (lambda row: None)
     rows: list[dict] = [None] * len(work)  # type: ignore[list-item]
     if scheduler:
