@@ -3,7 +3,13 @@
     import trms_ident as ti
     est = ti.estimate("log.csv")     # path, pandas DataFrame or Log; see trms_ident.api
 """
+from pathlib import Path as _Path
+
+from ._cache import configure as _configure_cache
+
 __version__ = "0.1.0"
+#: said by the CLI when the compiled kernels cannot be cached beside a read-only install
+CACHE_NOTE = _configure_cache(_Path(__file__).resolve().parent.parent)
 
 __all__ = ["__version__", "diagnose", "estimate", "log_frame", "simulate"]
 

@@ -216,6 +216,10 @@ def estimate(
                               free)
     check_units(angle_unit, time_unit)
     out_dir = out if out is not None else Path(f"{log.name.split('.')[0]}_ident")
+    from . import CACHE_NOTE
+
+    if CACHE_NOTE:
+        say(f"note: {CACHE_NOTE}")
     progress = stage_reporter(str(log))
     res = estimate_file(log, settings, out_dir, angle_unit=angle_unit, time_unit=time_unit, html=not no_report, truth_file=truth,
                         signals=signal, time_source=time_source, voltage_time=voltage_time, rate_hz=rate,
