@@ -70,7 +70,7 @@ def cases():
 
 def run_case(c):
     from sim import SimSettings, simulate
-    from trms_ident.diagnose.run import diagnose
+    from trms_ident.diagnosis.run import diagnose
     from trms_ident.log import validated
 
     name, sigma, q = c["noise"]

@@ -69,7 +69,7 @@ def test_missing_file(tmp_path):
 def test_unknown_suffix(tmp_path):
     p = _write(tmp_path, [HEADER] + _rows(), name="log.xlsx")
     res = _run(p)
-    assert res.exit_code == EXIT_BAD_LOG and "unknown log type '.xlsx'; expected .csv or .mcap" in res.output
+    assert res.exit_code == EXIT_BAD_LOG and "unknown log type '.xlsx'; expected .csv, .mcap or .mat" in res.output
 
 
 def test_binary_file(tmp_path):

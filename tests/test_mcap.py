@@ -209,7 +209,7 @@ def test_unknown_encoding_and_bad_signal_option(tmp_path, logs):
     res = _estimate(logs / "log.mcap", tmp_path / "o", "--signal", "theta=/a:b")
     assert res.exit_code == EXIT_USAGE and "signal must be one of alpha, beta, u1, u2" in res.output
     res = _estimate(logs / "log.csv", tmp_path / "o", "--signal", "alpha=/a:b")
-    assert res.exit_code == EXIT_USAGE and "--signal applies to MCAP logs" in res.output
+    assert res.exit_code == EXIT_USAGE and "--signal applies to MCAP and MATLAB logs" in res.output
 
 
 @pytest.mark.parametrize("name", ["talker.mcap", "cdr_test_0.mcap", "only_topics.mcap"])

@@ -156,8 +156,8 @@ def estimate(log, *, params: dict | str | Path | None = None, truth: dict | None
 def diagnose(log, *, params: dict | str | Path | None = None, thrust_law: str = "quadratic",
              filter_a_rad_s: float | None = None, **read):
     """Where the model and the log disagree: the verdict, the findings with their physics, the fit before and
-    after.  Returns diagnose.run.Diagnosis (``.verdict``, ``.findings``, ``.fit_before``, ``.fit_after``)."""
-    from .diagnose.run import diagnose as run
+    after.  Returns diagnosis.run.Diagnosis (``.verdict``, ``.findings``, ``.fit_before``, ``.fit_after``)."""
+    from .diagnosis.run import diagnose as run
     from .params import load_parameter_file
 
     if isinstance(params, (str, Path)):

@@ -367,7 +367,7 @@ def diagnose(
     rate: RateOpt = None,
 ) -> None:
     """Find where the model and the recording disagree, name the missing physics, fit it, show the gain."""
-    from .diagnose.run import diagnose as run_diagnosis
+    from .diagnosis.run import diagnose as run_diagnosis
     from .io.atomic import write_text
     from .io.readers import read_log
     from .report.diagnosis import render, to_doc
@@ -398,7 +398,7 @@ def diagnose(
             say(f"  {i}. {f.effect} on {f.axis}: {f.parameter['name']} = {f.parameter['value']:.4g} "
                 f"{f.parameter['unit']}")
             say(f"     {f.explanation[0].upper() + f.explanation[1:]}.")
-            say(f"     fit {f.fit_before:.2f} % -> {f.fit_after:.2f} %; {f.evidence}")
+            say(f"     fit {_fit_text(f.fit_before)} -> {_fit_text(f.fit_after)}; {f.evidence}")
         say("  estimates  " + "  ".join(f"{k} {d.nominal[k]:.5g} -> {d.augmented[k]:.5g}" for k in ESTIMATED))
     for r in d.refused:
         say(f"  refused: {r['effect']} on {r['axis']}: {r['reason']}")
@@ -408,6 +408,10 @@ def diagnose(
         say(f"wrote {report / 'report.html'}, {report / 'diagnosis.json'}")
     if json_path:
         emit_json(doc, json_path)
+
+
+def _fit_text(fit: float) -> str:
+    return f"{fit:.2f} %" if math.isfinite(fit) else "n/a (J or B not physical: no prediction)"
 
 
 def parse_effect(text: str) -> dict:

@@ -4,7 +4,7 @@ from __future__ import annotations
 import html
 from dataclasses import asdict
 
-from ..diagnose.run import Diagnosis
+from ..diagnosis.run import Diagnosis
 from ..log import Log
 from .summary import versions
 
