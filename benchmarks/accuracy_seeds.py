@@ -7,7 +7,7 @@ Cells: noise (12-bit encoder, 0.5 mrad Gaussian) x sample rate (1 kHz, 100 Hz) x
 multisine) x start (from rest with the controller driving; cut 21-39 s into a running experiment), 60 s each,
 seed-model logs from sim/; each seed is another run (noise, multisine phases, the yaw angle the beam rests
 at, the cut time).  Per cell and parameter, over the seeds: the tool's mean |error|, the output-error
-baseline's mean |error| (benchmarks/baselines.output_error_x0: scipy least squares on the angles, decimated to
+baseline's mean |error| (benchmarks/baselines.output_error with initial_state="estimate": scipy least squares on the angles, decimated to
 50 Hz, the initial state estimated too, started from 0.5x the truth), and the tool's mean 95 % half-width.
 Criterion: tool mean |error| <= baseline mean |error| + tool mean half-width, in every cell and parameter;
 the tool's 95 % intervals cover the truth in >= 90 % of (run, parameter) pairs.  Writes the section
@@ -35,7 +35,7 @@ NAMES = ("J1", "B1", "J2", "B2")
 
 
 def run(args) -> dict:
-    from baselines import output_error_x0
+    from baselines import output_error
 
     from sim import SimSettings, simulate
     from trms_ident.identify import identify
@@ -55,7 +55,7 @@ def run(args) -> dict:
     res = identify(log)
     t_tool = time.perf_counter() - t0
     t0 = time.perf_counter()
-    oe = output_error_x0(log, truth)
+    oe = output_error(log, truth, initial_state="estimate")
     t_oe = time.perf_counter() - t0
     row = {"cell": (noise, rate, ref, start), "seed": seed, "adequate": res.model_check["adequate"],
            "headline": res.headline, "t_tool": t_tool, "t_oe": t_oe}

@@ -5,7 +5,8 @@
 * rls: recursive least squares with exponential forgetting (memory 20 s) on the unmixed
   regression (4) g = m^T q, with the paper's F (a = 10 rad/s, unit DC gain).
 * oe: output-error grey-box fit, scipy.optimize.least_squares on the angle error of an
-  open-loop simulation driven by the logged voltages, started from 0.5x the truth.
+  open-loop simulation driven by the logged voltages, started from 0.5x the truth; from rest, or with
+  the initial state estimated too (accuracy_seeds.py).
 """
 from __future__ import annotations
 
@@ -56,51 +57,39 @@ def rls(log, memory_s: float = 20.0) -> dict:
     return out
 
 
-def output_error(log, truth: dict, decimate_to_hz: float = 50.0) -> dict:
+def output_error(log, truth: dict, decimate_to_hz: float = 50.0, initial_state: str = "rest") -> dict:
+    """scipy least squares on the angle errors of an open-loop simulation (the simulator's own integrator),
+    decimated to ``decimate_to_hz``, started from 0.5x the truth.  ``initial_state``: "rest" (angles from the
+    first sample, everything else 0) or "estimate" (alpha'(0), beta'(0), tau1(0), tau2(0), zeta(0) fitted too,
+    as greyest's InitialState='estimate': fair for logs that do not start at rest)."""
     p = defaults()
     dt = log.sample_time_s
     step = max(1, int(round(1.0 / (decimate_to_hz * dt))))
     fx = np.zeros(13)
     fx[10] = fx[11] = np.inf
     meas = np.column_stack([log.alpha_rad, log.beta_rad])[::step]
-    x0 = np.zeros(7)
-    x0[0], x0[2] = log.alpha_rad[0], log.beta_rad[0]
+    free_x0 = initial_state == "estimate"
 
     def residual(theta):
         pp = dict(p, J1=theta[0], B1=theta[1], J2=theta[2], B2=theta[3])
         vec = np.array([pp[k] for k in PARAM_ORDER])
+        x0 = np.zeros(7)
+        x0[0], x0[2] = log.alpha_rad[0], log.beta_rad[0]
+        if free_x0:
+            x0[1], x0[3], x0[4], x0[5], x0[6] = theta[4:9]
         sim = open_loop(dt, log.u1_v, log.u2_v, vec, 0, fx, 5e-4, x0)[::step]
         return (sim - meas).ravel()
 
-    start = np.array([0.5 * truth[k] for k in NAMES])
-    sol = least_squares(residual, start, x_scale=start, bounds=(1e-6, np.inf), max_nfev=200)
-    return dict(zip(NAMES, sol.x))
-
-
-def output_error_x0(log, truth: dict, decimate_to_hz: float = 50.0) -> dict:
-    """The output-error fit with the initial state estimated too (as greyest's InitialState='estimate'):
-    J1, B1, J2, B2 and alpha'(0), beta'(0), tau1(0), tau2(0), zeta(0); alpha(0), beta(0) from the first
-    sample.  A fair baseline for logs that do not start at rest."""
-    p = defaults()
-    dt = log.sample_time_s
-    step = max(1, int(round(1.0 / (decimate_to_hz * dt))))
-    fx = np.zeros(13)
-    fx[10] = fx[11] = np.inf
-    meas = np.column_stack([log.alpha_rad, log.beta_rad])[::step]
-    d0 = np.gradient(np.column_stack([log.alpha_rad, log.beta_rad])[:50], dt, axis=0)[0]
-
-    def residual(theta):
-        pp = dict(p, J1=theta[0], B1=theta[1], J2=theta[2], B2=theta[3])
-        vec = np.array([pp[k] for k in PARAM_ORDER])
-        x0 = np.array([log.alpha_rad[0], theta[4], log.beta_rad[0], theta[5], theta[6], theta[7], theta[8]])
-        sim = open_loop(dt, log.u1_v, log.u2_v, vec, 0, fx, 5e-4, x0)[::step]
-        return (sim - meas).ravel()
-
-    t1 = p["k1"] / p["T10"] * log.u1_v[0]
-    start = np.array([0.5 * truth[k] for k in NAMES] + [d0[0], d0[1], t1, p["k2"] / p["T20"] * log.u2_v[0], t1])
-    scale = np.r_[start[:4], 1.0, 1.0, 1.0, 1.0, 1.0]
-    lo = np.r_[np.full(4, 1e-6), np.full(5, -np.inf)]
-    sol = least_squares(residual, start, x_scale=scale, bounds=(lo, np.inf), max_nfev=300)
+    start = [0.5 * truth[k] for k in NAMES]
+    scale, lo = list(start), [1e-6] * 4
+    if free_x0:
+        d0 = np.gradient(np.column_stack([log.alpha_rad, log.beta_rad])[:50], dt, axis=0)[0]
+        t1 = p["k1"] / p["T10"] * log.u1_v[0]
+        start += [d0[0], d0[1], t1, p["k2"] / p["T20"] * log.u2_v[0], t1]
+        scale += [1.0] * 5
+        lo += [-np.inf] * 5
+    sol = least_squares(residual, np.array(start), x_scale=np.array(scale), bounds=(np.array(lo), np.inf),
+                        max_nfev=300 if free_x0 else 200)
     return dict(zip(NAMES, sol.x[:4]))
 
 
