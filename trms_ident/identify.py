@@ -16,7 +16,7 @@ from .numerics.design import FilterDesign, angle_noise_rad, design_filters
 from .numerics.drem import gradient_estimator
 from .numerics.fused import mixed_regressions
 from .numerics.adequacy import RMS_OVER_NOISE, model_check
-from .numerics.refine import _P, WINDOW_S, Refined, refine, substeps, suspect_known_values
+from .numerics.refine import WINDOW_S, Refined, refine, substeps, suspect_known_values
 from .numerics.stats import IDENTIFIABLE_REL_HALF_WIDTH, MIN_BLOCKS, Interval, block_length, confidence_interval
 from .params import ESTIMATED, merge
 from .settings import AXES, GAIN_CONVENTIONS, HEADLINES, MAX_TRACE_POINTS, REFINE_AUTO_MAX_STEPS, Settings
@@ -173,16 +173,15 @@ def _noise(log: Log, n: int) -> dict:
 def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, offline: dict
                  ) -> tuple[dict, np.ndarray | None]:
     """The adequacy verdict from the best fit the model reaches: the refinement's simulation when it ran,
-    else an output-error fit made for the check alone over (at most) the automatic refinement length."""
+    else an output-error fit made for the check alone over at most CHECK_MAX_STEPS integration steps."""
     dt = log.sample_time_s
     scope = (f"output-error simulation of eq. (1) at the refined parameters, in {WINDOW_S:g} s windows from "
              "fitted starts (start states estimated)")
-    n = len(log)
+    n = len(log) if r is not None else min(len(log), max(CHECK_MAX_STEPS // substeps(dt), 10))
+    noise = _noise(log, n)
     if r is None:
-        n = min(n, max(CHECK_MAX_STEPS // substeps(dt), 10))
         start = offline if all(math.isfinite(offline[k]) and offline[k] > 0 for k in ESTIMATED) else \
             {k: params[k] for k in ESTIMATED}
-        noise = _noise(log, n)
         try:
             r = refine(log.u1_v[:n], log.u2_v[:n], log.alpha_rad[:n], log.beta_rad[:n], dt, params,
                        settings.thrust_law, start, noise, **timing(log, n))
@@ -193,7 +192,6 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
         scope = (f"output-error fit of eq. (1) made for this check over the first {n * dt:.6g} s (of "
                  f"{log.duration_s:.6g} s), in {WINDOW_S:g} s windows from fitted starts; the headline estimate "
                  "is not this fit")
-    noise = _noise(log, n)
     y = np.column_stack([log.alpha_rad[:n], log.beta_rad[:n]])
     u = np.column_stack([log.u1_v[:n], log.u2_v[:n]])
     check = model_check(y, r.prediction, u, noise, dt, scope)
@@ -203,7 +201,7 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
                           settings.thrust_law, r.estimate, noise, free=tuple(settings.free) + (name,),
                           **timing(log, n))
 
-        _blame(check, r, n * substeps(dt), noise, refit)
+        _blame(check, r, n * substeps(dt), noise, refit, params)
     return check, r.prediction
 
 
@@ -215,7 +213,7 @@ SUSPECT_REFITS = 2
 SUSPECT_ALIKE = 0.9
 
 
-def _blame(check: dict, r: Refined, steps: int, noise: dict, refit) -> None:
+def _blame(check: dict, r: Refined, steps: int, noise: dict, refit, params: dict) -> None:
     """Which known value do the data blame for the misfit?  A score test ranks them (numerics/refine.
     suspect_known_values: the share of the excess error one step with that value free would remove); the
     first ranked are then refitted for real, and a value is named only if freeing it makes the model fit."""
@@ -240,7 +238,7 @@ def _blame(check: dict, r: Refined, steps: int, noise: dict, refit) -> None:
             check["suspect"] = {"name": name, "refitted_value": value, "rms_over_noise_after": ratio,
                                 "look_alikes": alike}
             check["sentence"] += (f" The data blame a known value: with {name} estimated too (it comes out "
-                                  f"{value:.4g} instead of {r.fit.problem.base[_P.index(name)]:.4g}) the model fits "
+                                  f"{value:.4g} instead of {params[name]:.4g}) the model fits "
                                   f"to the noise level" +
                                   (f"; {', '.join(alike)} would explain the data as well (the log cannot tell them "
                                    "apart)" if alike else "") + f". Check it, or estimate it with --free {name}.")
