@@ -93,7 +93,11 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
     est = "".join(f"<tr><td>{k}</td><td>{doc['estimates']['nominal'][k]:.6g}</td>"
                   f"<td>{doc['estimates']['augmented'][k]:.6g}</td></tr>" for k in ("J1", "B1", "J2", "B2"))
     imgs = "".join(f"<h2>{html.escape(title)}</h2><img alt='{html.escape(title)}' src='{uri}'>" for title, uri in figs)
-    verdict = f"{doc['verdict'].replace('_', ' ')}: {doc['verdict_sentence']} {len(doc['findings'])} finding(s)."
+    colour = {"consistent": "#e8f5e9", "explained": "#e8f5e9", "partly_explained": "#fff4e0"}.get(doc["verdict"],
+                                                                                                   "#fdecea")
+    verdict = (f'<span style="background:{colour};padding:2px 6px;border-radius:4px">'
+               f'{html.escape(doc["verdict"].replace("_", " ").upper())}</span> '
+               f'{html.escape(doc["verdict_sentence"])} {len(doc["findings"])} finding(s)')
     return f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident diagnose</title>
 <style>body{{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto}}img{{max-width:100%}}
 table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px}}.note{{color:#555;font-size:.9em}}</style>
