@@ -44,3 +44,21 @@ def test_estimate_from_a_path_with_options_and_clear_errors(tmp_path):
 def test_diagnose_from_python():
     d = ti.diagnose("sample_logs/concealed_effect.csv")
     assert d.verdict == "explained" and d.findings[0].effect == "cable_stiffness"
+
+
+def test_export_writes_a_model_simulate_and_params_accept(tmp_path):
+    runner = CliRunner()
+    res = runner.invoke(app, ["estimate", "sample_logs/bench_multisine_12bit.csv", "--free", "Mg", "-o",
+                              str(tmp_path / "o"), "--no-report", "--json", "-"])
+    est = json.loads(res.stdout)
+    out = runner.invoke(app, ["export", str(tmp_path / "o" / "result.json"), "-o", str(tmp_path / "m.toml")])
+    assert out.exit_code == 0 and "wrote" in out.stderr
+    from trms_ident.params import load_parameter_file
+
+    as_truth = load_parameter_file(tmp_path / "m.toml", allow_estimated=True)
+    assert as_truth["J2"] == est["estimates"]["J2"]  # the simulator's true values
+    assert as_truth["Mg"] == est["refined"]["known_values_estimated"]["Mg"]["estimate"]
+    known = load_parameter_file(tmp_path / "m.toml")  # estimate --params: known values only
+    assert "J2" not in known and known["Mg"] == as_truth["Mg"]
+    bad = runner.invoke(app, ["export", str(tmp_path / "m.toml")])
+    assert bad.exit_code == 4 and "not a result.json of trms-ident estimate" in bad.output

@@ -103,3 +103,16 @@ def test_angle_unit_option_converts_degrees(tmp_path):
     deg = read_csv_log(p, angle_unit="deg")
     rad = read_csv_log(_write(tmp_path, [HEADER] + _rows(), "rad.csv"))
     np.testing.assert_allclose(deg.beta_rad, rad.beta_rad, atol=1e-12)
+
+
+def test_csv_column_mapping(tmp_path):
+    rows = _rows()
+    std = _write(tmp_path, [HEADER] + rows, "std.csv")
+    other = _write(tmp_path, ["time;um;ut;pitch_rad;yaw_rad;alpha"] +
+                   [x.replace(",", ";") + ";9" for x in rows], "other.csv")  # a stray 'alpha' column too
+    a = read_csv_log(std)
+    b = read_csv_log(other, signals=["t=time", "u1=um", "u2=ut", "alpha=pitch_rad", "beta=yaw_rad"])
+    for x, y in ((a.t_s, b.t_s), (a.u1_v, b.u1_v), (a.alpha_rad, b.alpha_rad), (a.beta_rad, b.beta_rad)):
+        np.testing.assert_array_equal(x, y)
+    res = _run(other, "--signal", "alpha=pitch")
+    assert res.exit_code == EXIT_BAD_LOG and "line 1: no column 'pitch' (for alpha); columns: time, um" in res.output

@@ -138,7 +138,8 @@ NoReportOpt = Annotated[bool, typer.Option("--no-report", help="Skip the HTML re
 SignalOpt = Annotated[Optional[list[str]], typer.Option("--signal", help="MCAP: where a signal comes from, "
                                                         "NAME=TOPIC:FIELD, e.g. alpha=/arm/joint_states:position[pitch]; "
                                                         "MATLAB: NAME=VARIABLE, e.g. alpha=psi, alpha=data[2], "
-                                                        "alpha=yout.signals[0] (repeatable; see `inspect`).")]
+                                                        "alpha=yout.signals[0]; CSV: NAME=COLUMN, e.g. "
+                                                        "alpha=pitch_rad (repeatable; see `inspect`).")]
 RateOpt = Annotated[Optional[float], typer.Option("--rate", help="MATLAB logs without a time vector: the sample "
                                                   "rate [Hz].")]
 TimeSourceOpt = Annotated[str, typer.Option("--time-source", help="MCAP message time: auto (header.stamp when "
@@ -354,8 +355,8 @@ def batch(
 def diagnose(
     log: Annotated[Path, typer.Argument(help="Log file: CSV or MCAP.", show_default=False)],
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the diagnosis JSON here; '-' = stdout.")] = None,
-    report: Annotated[Optional[Path], typer.Option("--report", help="Folder for report.html (figures) and "
-                                                   "diagnosis.json.")] = None,
+    report: Annotated[Optional[Path], typer.Option("--output", "-o", "--report", help="Folder for report.html "
+                                                   "(figures) and diagnosis.json (--report: the older name).")] = None,
     params: ParamsOpt = None,
     a: AOpt = "auto",
     thrust_law: LawOpt = "quadratic",
@@ -495,15 +496,17 @@ def simulate(
 def inspect(
     file: Annotated[Path, typer.Argument(help="An MCAP recording, a MATLAB .mat log (or a CSV log).",
                                          show_default=False)],
-    json_out: Annotated[bool, typer.Option("--json", help="Print the description as JSON on stdout.")] = False,
+    json_path: Annotated[Optional[str], typer.Option("--json", help="Write the description as JSON here; '-' = "
+                                                     "stdout.")] = None,
 ) -> None:
     """Describe a recording: topics, types, encodings, counts, rates, time span, numeric fields, --signal mapping."""
     from .io.readers import describe
 
     doc = describe(file)
-    if json_out:
-        emit_json(doc, "-")
-        return
+    if json_path:
+        emit_json(doc, json_path)
+        if json_path == "-":
+            return
     say(f"{doc['file']}: {doc['bytes']:,} bytes" +
         (f", {doc['duration_s']:.6g} s" if "duration_s" in doc else ""))
     for t in doc.get("topics", []):
@@ -525,6 +528,45 @@ def inspect(
         say("no variable matches a known name: pass --signal NAME=VARIABLE for alpha, beta, u1 and u2")
     for w in doc.get("warnings", []):
         say(f"warning: {w}")
+
+
+@app.command()
+@handled
+def export(
+    result: Annotated[Path, typer.Argument(help="A result.json written by estimate.", show_default=False)],
+    output: Annotated[Optional[Path], typer.Option("--output", "-o", help="TOML file to write [default: model.toml "
+                                                   "beside the result].")] = None,
+) -> None:
+    """Write the identified model as a TOML parameter file (known values + identified J/B) for simulate and
+    --params."""
+    from .errors import InputNotFoundError, LogFormatError
+    from .io.atomic import write_text
+    from .params import to_toml
+
+    try:
+        doc = json.loads(result.read_text(encoding="utf-8"))
+        known = {k: v["value"] for k, v in doc["parameters"].items()}
+        freed = ((doc.get("refined") or {}).get("known_values_estimated") or {})
+        known.update({k: v["estimate"] for k, v in freed.items()})
+        estimates, check = doc["estimates"], doc["model_check"]
+    except FileNotFoundError:
+        raise InputNotFoundError(f"{result}: no such file") from None
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise LogFormatError(f"{result}: not a result.json of trms-ident estimate ({exc})") from None
+    missing = [k for k in ESTIMATED if estimates.get(k) is None]
+    header = [f"identified by trms-ident {doc.get('versions', {}).get('trms-ident', '?')} from "
+              f"{doc.get('input', {}).get('path')} (sha256 {doc.get('input', {}).get('sha256')})",
+              f"headline estimate: {doc.get('headline')}; model fits the log: {check['adequate']}",
+              f"thrust law: {doc.get('settings', {}).get('thrust_law')}"]
+    if missing:
+        header.append(f"not identifiable from that log, left out: {', '.join(missing)}")
+    if freed:
+        header.append(f"estimated with --free: {', '.join(freed)}")
+    path = output or result.with_name("model.toml")
+    write_text(path, to_toml(known, estimates, header))
+    if not check["adequate"]:
+        say("warning: the model did NOT fit that log; these values are those of a model that does not fit")
+    say(f"wrote {path}" + (f" (without {', '.join(missing)}: not identifiable)" if missing else ""))
 
 
 def run() -> None:

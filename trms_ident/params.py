@@ -79,11 +79,22 @@ def merge(overrides: Mapping[str, float] | None, *, source: str = "overrides") -
     return values
 
 
+def to_toml(known: dict[str, float], identified: dict[str, float], header: list[str]) -> str:
+    """A parameter file: comment lines, [parameters] (known values) and [identified] (J/B), with units."""
+    lines = [f"# {h}" for h in header] + ["", "[parameters]"]
+    lines += [f"{k} = {float(v)!r}  # {UNITS[k]}" for k, v in known.items()]
+    lines += ["", "# estimated; `simulate --params` uses them as the true values, `estimate --params` ignores them",
+              "[identified]"]
+    lines += [f"{k} = {float(v)!r}  # {UNITS[k]}" for k, v in identified.items() if v is not None]
+    return "\n".join(lines) + "\n"
+
+
 def load_parameter_file(path: str | Path, allow_estimated: bool = False) -> dict[str, float]:
     """Read parameter overrides from TOML: top-level ``name = value`` or a ``[parameters]`` table.
 
     J1, B1, J2, B2 are refused unless ``allow_estimated`` (the simulator's true values): for estimate and
-    diagnose they are the unknowns, and a value given for them would silently mean nothing."""
+    diagnose they are the unknowns, and a value given for them would silently mean nothing.  An
+    ``[identified]`` table (written by ``export``) holds J/B: read with ``allow_estimated``, ignored otherwise."""
     path = Path(path)
     try:
         raw = tomllib.loads(path.read_text(encoding="utf-8"))
@@ -94,7 +105,10 @@ def load_parameter_file(path: str | Path, allow_estimated: bool = False) -> dict
     table = raw.get("parameters", raw)
     if not isinstance(table, dict):
         raise ParameterFileError(f"{path}: [parameters] must be a table of name = value")
-    overrides = {k: v for k, v in table.items() if k != "parameters"}
+    overrides = {k: v for k, v in table.items() if k not in ("parameters", "identified")}
+    identified = raw.get("identified", {})  # an exported model's J/B: true values for the simulator only
+    if allow_estimated and isinstance(identified, dict):
+        overrides.update({k: v for k, v in identified.items() if k in ESTIMATED})
     given = [k for k in ESTIMATED if k in overrides]
     if given and not allow_estimated:
         raise ParameterFileError(

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputNotFoundError, LogFormatError
+from ..errors import InputNotFoundError, LogFormatError, SettingsError
 from ..log import COLUMNS, Log, validated
 from .atomic import atomic_path
 
@@ -76,7 +76,24 @@ def _is_number(token: str) -> bool:
         return False
 
 
-def read_csv_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "auto") -> Log:
+def _mapped(names: list[str], signals: list[str] | None, path: Path) -> list[str]:
+    """Header names with ``--signal NAME=COLUMN`` applied (NAME one of t, u1, u2, alpha, beta, t_u)."""
+    names = list(names)
+    for text in signals or []:
+        name, sep, column = (x.strip() for x in text.partition("="))
+        if not sep or name not in (*COLUMNS, VOLTAGE_TIME):
+            raise SettingsError(f"--signal {text!r}: expected NAME=COLUMN with NAME one of "
+                                f"{', '.join((*COLUMNS, VOLTAGE_TIME))}")
+        if column.lower() not in names:
+            raise LogFormatError(f"{path}: line 1: no column {column!r} (for {name}); columns: {', '.join(names)}")
+        if name in names and names.index(name) != names.index(column.lower()):
+            names[names.index(name)] = f"_unused_{name}"  # the file's own column of that name steps aside
+        names[names.index(column.lower())] = name
+    return names
+
+
+def read_csv_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "auto",
+                 signals: list[str] | None = None) -> Log:
     """Read and validate a CSV log; ``angle_unit="deg"`` converts angle columns from degrees, "rad" says they
     are radians (no guess); ``time_unit`` s, ms, us or auto (see log.validated).  A unit row overrides both."""
     path = Path(path)
@@ -95,7 +112,7 @@ def read_csv_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "a
         raise LogFormatError(f"{path}: file is empty; expected a header line {','.join(COLUMNS)}")
     header = lines[0]
     delim = max((",", ";", "\t"), key=header.count)
-    names = [c.strip().strip('"').strip().lower() for c in header.split(delim)]
+    names = _mapped([c.strip().strip('"').strip().lower() for c in header.split(delim)], signals, path)
     missing = [c for c in COLUMNS if c not in names]
     if missing:
         raise LogFormatError(f"{path}: line 1: missing column(s) {', '.join(missing)}; expected a header "
@@ -121,7 +138,7 @@ def read_csv_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "a
     wanted = COLUMNS + ((VOLTAGE_TIME,) if VOLTAGE_TIME in names else ())
     parsed = _parse_fast(path, names, delim, first_data_line, wanted)
     if parsed is None:  # something is off: the slow parser names the line and cell
-        parsed = _parse_located(path, delim, first_data_line, wanted)
+        parsed = _parse_located(path, delim, first_data_line, wanted, names)
     cols = [parsed[c] * scale[c] if scale[c] != 1.0 else parsed[c] for c in COLUMNS]
     t = cols[0]
     t_u = parsed.get(VOLTAGE_TIME)
@@ -169,7 +186,8 @@ def _to_numpy(column) -> np.ndarray:
     return np.concatenate(parts) if len(parts) != 1 else parts[0].copy()
 
 
-def _parse_located(path: Path, delim: str, first_data_line: int, wanted: tuple = COLUMNS) -> dict:
+def _parse_located(path: Path, delim: str, first_data_line: int, wanted: tuple = COLUMNS,
+                   names: list[str] | None = None) -> dict:
     """pandas, cell by cell when needed: slow, but it names the first bad line and cell."""
     import pandas as pd
 
@@ -185,7 +203,7 @@ def _parse_located(path: Path, delim: str, first_data_line: int, wanted: tuple =
         frame = None
     if frame is None:
         frame = pd.read_csv(io.BytesIO(raw), dtype=str, keep_default_na=False, **opts)
-        frame.columns = [c.strip().lower() for c in frame.columns]
+        frame.columns = names or [c.strip().lower() for c in frame.columns]
         for c in wanted:
             cells = frame[c].str.strip()
             num = pd.to_numeric(cells, errors="coerce")
@@ -196,7 +214,7 @@ def _parse_located(path: Path, delim: str, first_data_line: int, wanted: tuple =
                 raise LogFormatError(f"{path}: line {i + first_data_line}: column {c} holds "
                                      f"{cells.iloc[i]!r}; expected a number")
         raise LogFormatError(f"{path}: cannot parse as numbers; expected numeric columns {','.join(COLUMNS)}")
-    frame.columns = [c.strip().lower() for c in frame.columns]
+    frame.columns = names or [c.strip().lower() for c in frame.columns]
     blank = np.flatnonzero(frame[list(COLUMNS)].isna().all(axis=1).to_numpy())
     if blank.size:
         raise LogFormatError(f"{path}: line {int(blank[0]) + first_data_line} is empty; expected "

@@ -30,10 +30,8 @@ def read_log(path: str | Path, angle_unit: str = "auto", signals: list[str] | No
 
     if rate_hz is not None:
         raise SettingsError(f"--rate applies to MATLAB logs without a time vector; {path} has its own stamps")
-    if signals:
-        raise SettingsError(f"--signal applies to MCAP and MATLAB logs; {path} is a CSV file with fixed column names")
     if suffix in (".csv", ".txt", ".tsv"):
-        return read_csv_log(path, angle_unit=angle_unit, time_unit=time_unit)
+        return read_csv_log(path, angle_unit=angle_unit, time_unit=time_unit, signals=signals)
     check_readable(path)  # a missing file is reported as missing, not as a format problem
     raise LogFormatError(f"{path}: unknown log type {suffix or '(no suffix)'!r}; expected .csv, .mcap or .mat")
 
