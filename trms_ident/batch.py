@@ -164,17 +164,21 @@ def write_summary(out_dir: Path, rows: list[dict]) -> list[Path]:
         rel = os.path.relpath(r["report"], out_dir) if r.get("report") else None
         link = f'<a href="{html.escape(rel)}">{html.escape(r["path"])}</a>' if rel else html.escape(r["path"])
         est = r["estimates"] or {}
-        cells = "".join(f"<td>{'' if est.get(k) is None else f'{est[k]:.6g}'}</td>" for k in names)
+        cond = ' class="cond" title="conditional on a model that does not fit this log"' if r["adequate"] is False else ""
+        cells = "".join(f"<td{cond}>{'' if est.get(k) is None else f'{est[k]:.6g}'}</td>" for k in names)
         fits = {None: "", True: '<td class="ok">yes</td>', False: '<td class="failed">NO: model does not fit</td>'}
         items.append(f'<tr><td>{link}</td><td class="{r["status"]}">{r["status"]}</td>'
                      f'{fits[r["adequate"]] or "<td></td>"}{cells}'
                      f'<td>{html.escape(r["error"] or "")}</td></tr>')
     page = f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident batch</title>
 <style>body{{font-family:system-ui,sans-serif;margin:2em}}table{{border-collapse:collapse}}
-td,th{{border:1px solid #ccc;padding:3px 8px}}.failed{{color:#b00}}.ok{{color:#070}}</style></head><body>
+td,th{{border:1px solid #ccc;padding:3px 8px}}.failed{{color:#b00}}.ok{{color:#070}}
+.cond{{color:#888;font-style:italic}}</style></head><body>
 <h1>trms-ident batch: {doc['ok']} ok, {doc['failed']} failed; the model does not fit {doc['inadequate']}</h1>
 <table><tr><th>log</th><th>status</th><th>model fits</th><th>J1 [kg m^2]</th><th>B1 [N m s/rad]</th><th>J2 [kg m^2]</th>
-<th>B2 [N m s/rad]</th><th>reason</th></tr>{''.join(items)}</table></body></html>
+<th>B2 [N m s/rad]</th><th>reason</th></tr>{''.join(items)}</table>
+<p><i>Grey, italic numbers come from a model that does not fit that log: conditional on it, not to be trusted as
+they stand (open its report).</i></p></body></html>
 """
     write_text(out_dir / "index.html", page)
     return [out_dir / "summary.json", out_dir / "summary.csv", out_dir / "index.html"]
