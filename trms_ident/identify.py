@@ -259,8 +259,6 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
         return None, (f"refinement skipped: the log needs {steps:,} integration steps, more than the automatic "
                       f"limit of {REFINE_AUTO_MAX_STEPS:,} (use --refine on to force it); DREM's offline "
                       "optimum is the estimate"), False
-    if not all(math.isfinite(offline[k]) and offline[k] > 0 for k in ESTIMATED):
-        return None, "refinement skipped: DREM's offline optimum is not a usable start (a value is not positive)", False
     noise = _noise(log, len(log))
     def run(start: dict) -> Refined:
         return refine(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, dt, params, settings.thrust_law, start, noise,
@@ -269,15 +267,22 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
     def worst_ratio(r: Refined) -> float:
         return max(r.rms_rad[ax] / noise[ax] if noise[ax] > 0 else math.inf for ax in ("alpha", "beta"))
 
-    origin = "DREM's offline optimum"
+    # starts in turn until one converges at the noise level: DREM's offline optimum, then the table's J/B. DREM's
+    # numbers can be no start at all (a value not positive: a log cut mid-run starts its filters off their steady
+    # state) or start Gauss-Newton in another basin (a wrong known value made J1 3x too large)
+    usable = all(math.isfinite(offline[k]) and offline[k] > 0 for k in ESTIMATED)
+    starts = ([("DREM's offline optimum", offline)] if usable else []) + [
+        ("the table's J/B" + (" (DREM's optimum led to a worse fit)" if usable else
+                              " (DREM's offline optimum is no start: a value is not positive)"),
+         {k: params[k] for k in ESTIMATED})]
+    r, origin = None, ""
     try:
-        r = run(offline)
-        if worst_ratio(r) > ADEQUATE_RMS_OVER_NOISE:
-            # DREM's numbers come from the same (possibly wrong) known values and can start Gauss-Newton in
-            # another basin (a wrong Mg made J1 3x too large): try the table's J/B too, keep the better fit
-            other = run({k: params[k] for k in ESTIMATED})
-            if other.cost < r.cost:
-                r, origin = other, "the table's J/B (DREM's optimum led to a worse fit)"
+        for name, start in starts:
+            cand = run(start)
+            if r is None or cand.cost < r.cost:
+                r, origin = cand, name
+            if r.converged and worst_ratio(r) <= ADEQUATE_RMS_OVER_NOISE:
+                break
     except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as e:
         return None, f"refinement failed ({e}); DREM's offline optimum is the estimate", False
     ratio = {ax: r.rms_rad[ax] / noise[ax] if noise[ax] > 0 else math.inf for ax in ("alpha", "beta")}
