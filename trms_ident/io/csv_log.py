@@ -164,9 +164,12 @@ def _parse_fast(path: Path, names: list[str], delim: str, first_data_line: int,
                                               include_columns=list(wanted)))
     except (pa.ArrowInvalid, pa.ArrowKeyError, UnicodeDecodeError):
         return None
-    cols = {c: _to_numpy(table.column(c)) for c in wanted}
+    cols = {}
+    for c in wanted:  # one column at a time, each dropped from the table once copied: the parse buffers of
+        cols[c] = _to_numpy(table.column(c))  # the columns already copied are freed before the next copy
+        table = table.drop_columns([c])
+        pa.default_memory_pool().release_unused()
     del table
-    pa.default_memory_pool().release_unused()  # hand the parse buffers back before identification
     return cols
 
 
