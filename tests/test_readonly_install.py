@@ -60,3 +60,13 @@ def test_cache_folder_choice(tmp_path, monkeypatch):
     note = _cache.configure(ROOT)
     assert os.environ["NUMBA_CACHE_DIR"] == str(tmp_path / "trms-ident" / "numba")
     assert "read-only" in note
+
+
+def test_first_run_is_announced(tmp_path, monkeypatch):
+    from trms_ident import _cache
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    assert not _cache.kernels_cached(ROOT)
+    (tmp_path / "x").mkdir()
+    (tmp_path / "x" / "fused._axis-40.py311.nbi").write_bytes(b"")
+    assert _cache.kernels_cached(ROOT)

@@ -44,3 +44,10 @@ def configure(root: Path) -> str | None:
         return "no writable cache folder: the compiled kernels are compiled anew on each run (~10 s)"
     os.environ["NUMBA_CACHE_DIR"] = str(folder)
     return f"the installed package is read-only: compiled kernels are cached in {folder}"
+
+
+def kernels_cached(root: Path) -> bool:
+    """Whether numba has cached the core kernel (numerics/fused.py) where this process will look for it."""
+    folder = os.environ.get("NUMBA_CACHE_DIR")
+    places = [Path(folder)] if folder else [root / "trms_ident" / "numerics" / "__pycache__"]
+    return any(any(p.rglob("fused.*.nbi")) for p in places if p.is_dir())

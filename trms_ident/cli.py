@@ -218,9 +218,13 @@ def estimate(
     check_units(angle_unit, time_unit)
     out_dir = out if out is not None else Path(f"{log.name.split('.')[0]}_ident")
     from . import CACHE_NOTE
+    from ._cache import kernels_cached
 
     if CACHE_NOTE:
         say(f"note: {CACHE_NOTE}")
+    if not kernels_cached(Path(__file__).resolve().parent.parent):
+        say("note: first run here: compiling the numerical kernels (measured 6 s for the sample log; more the first "
+            "time a refinement, diagnose or the simulator runs); later runs load them from the cache")
     progress = stage_reporter(str(log))
     res = estimate_file(log, settings, out_dir, angle_unit=angle_unit, time_unit=time_unit, html=not no_report, truth_file=truth,
                         signals=signal, time_source=time_source, voltage_time=voltage_time, rate_hz=rate,
