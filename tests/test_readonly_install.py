@@ -53,7 +53,8 @@ def test_read_only_install_run_by_a_user_without_a_home(tmp_path):
 def test_cache_folder_choice(tmp_path, monkeypatch):
     from trms_ident import _cache
 
-    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setenv("NUMBA_CACHE_DIR", "recorded")  # so that undo removes what configure() sets below
+    monkeypatch.delenv("NUMBA_CACHE_DIR")
     assert _cache.configure(ROOT) is None or not os.access(ROOT / "trms_ident", os.W_OK)
     monkeypatch.setattr(_cache, "_writable", lambda p: p == tmp_path)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))

@@ -35,5 +35,6 @@ def test_odd_logs_never_crash(tmp_path, kind, duration_s):
         res = runner.invoke(app, cmd)
         assert "Traceback" not in res.output and "internal error" not in res.output, res.output
         assert res.exit_code in (0, 4, 6), (cmd[0], res.exit_code, res.output)
-        if res.exit_code:
-            assert len(res.output.strip().splitlines()) == 1 and str(path) in res.output, res.output
+        if res.exit_code:  # one line of error (a note that the kernels compile, on a cold cache, is not part of it)
+            lines = [x for x in res.output.strip().splitlines() if not x.startswith("note: ")]
+            assert len(lines) == 1 and str(path) in lines[0], res.output

@@ -222,13 +222,19 @@ def estimate(
 
     if CACHE_NOTE:
         say(f"note: {CACHE_NOTE}")
-    if not kernels_cached(Path(__file__).resolve().parent.parent):
-        say("note: first run here: compiling the numerical kernels (measured 6 s for the sample log; more the first "
-            "time a refinement, diagnose or the simulator runs); later runs load them from the cache")
+    cold = not kernels_cached(Path(__file__).resolve().parent.parent)
     progress = stage_reporter(str(log))
+
+    def on_stage(stage: str) -> None:
+        if cold and stage == "identifying":  # said once the log is read: bad input still gets one line
+            say("note: first run here: compiling the numerical kernels (measured 6 s for the sample log; more the "
+                "first time a refinement, diagnose or the simulator runs); later runs load them from the cache")
+        if progress:
+            progress(stage)
+
     res = estimate_file(log, settings, out_dir, angle_unit=angle_unit, time_unit=time_unit, html=not no_report, truth_file=truth,
                         signals=signal, time_source=time_source, voltage_time=voltage_time, rate_hz=rate,
-                        on_stage=progress)
+                        on_stage=on_stage)
     if progress:
         sys.stderr.write("\r\033[K")
     s = res.summary
