@@ -355,28 +355,31 @@ class _Problem:
     block: int
     free_idx: list  # positions in the model vector of the freed known values
 
-    def run(self, th, st, out, max_sub=MAX_SUBSTEP_S, extra=None):
+    def vector(self, th):
+        """The kernel's model vector at th: J/B and the freed values over the table/file values."""
         pv = self.base.copy()
         pv[:4] = th[:4]
         for j, i in enumerate(self.free_idx):
             pv[i] = th[NG + j]
+        return pv
+
+    def _pass(self, pv, th, st, out, max_sub, extra):
         ext = np.zeros((self.y.shape[0], 2, 0)) if extra is None else extra
         return gauss_newton_pass(self.u1, self.u2, self.y, self.inv_sig, st, th[4:NG], pv, self.signed, self.h,
                                  self.dsw, max_sub, self.win, self.block, out, ext)
+
+    def run(self, th, st, out, max_sub=MAX_SUBSTEP_S, extra=None):
+        return self._pass(self.vector(th), th, st, out, max_sub, extra)
 
     def columns(self, th, st, pred, idx, max_sub=MAX_SUBSTEP_S):
         """(n, 2, len(idx)) forward-difference sensitivities of alpha, beta to the model values at ``idx``."""
         cols = np.empty((pred.shape[0], 2, len(idx)))
         tmp = np.empty_like(pred)
         for c, i in enumerate(idx):
-            pv = self.base.copy()
-            pv[:4] = th[:4]
-            for j, k in enumerate(self.free_idx):
-                pv[k] = th[NG + j]
+            pv = self.vector(th)
             step = 1e-6 * max(abs(pv[i]), 1e-3)
             pv[i] += step
-            gauss_newton_pass(self.u1, self.u2, self.y, self.inv_sig, st, th[4:NG], pv, self.signed, self.h,
-                              self.dsw, max_sub, self.win, self.block, tmp, np.zeros((pred.shape[0], 2, 0)))
+            self._pass(pv, th, st, tmp, max_sub, None)
             cols[:, :, c] = (tmp - pred) / step
         return cols
 
@@ -516,11 +519,8 @@ def suspect_known_values(r: Refined, candidates: tuple[str, ...] = SUSPECTS) -> 
     pred = np.empty((n, 2))
     prob.run(fit.theta, fit.starts, pred)
     cols = prob.columns(fit.theta, fit.starts, pred, prob.free_idx + [_P.index(k) for k in cand])
-    cost, a, b, _ = prob.run(fit.theta, fit.starts, pred, extra=cols)
-    nf = len(prob.free_idx)
     # order: globals (J/B, start states), freed, candidates, window starts
-    perm = np.r_[0:NG, NU:NU + nf, NU + nf:NU + nf + len(cand), NG:NU]
-    a, b = a[:, perm][:, :, perm], b[:, perm]
+    cost, a, b, _ = _globals_first(prob.run(fit.theta, fit.starts, pred, extra=cols), cols.shape[2])
     s_mat, s_rhs, _ = _schur(a, b, ng + len(cand))
     base = s_rhs[:ng] @ _scaled_inverse(s_mat[:ng, :ng]) @ s_rhs[:ng]
     excess = max(cost - 2.0 * n, 1e-300)
