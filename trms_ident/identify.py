@@ -164,6 +164,23 @@ ADEQUATE_RMS_OVER_NOISE = RMS_OVER_NOISE
 CHECK_MAX_STEPS = REFINE_AUTO_MAX_STEPS // 4
 
 
+def _over_noise(r: Refined, noise: dict) -> dict:
+    """Each angle's error RMS after the fit over its noise floor."""
+    return {ax: r.rms_rad[ax] / noise[ax] if noise[ax] > 0 else math.inf for ax in ("alpha", "beta")}
+
+
+def _usable_start(offline: dict) -> bool:
+    """DREM's offline optimum can start the refinement only when every value is finite and positive."""
+    return all(math.isfinite(offline[k]) and offline[k] > 0 for k in ESTIMATED)
+
+
+def _refine_first(log: Log, n: int, params: dict, settings: Settings, start: dict, noise: dict,
+                  free: tuple = ()) -> Refined:
+    """The refinement on the log's first n samples, with its stamps and voltage switch times."""
+    return refine(log.u1_v[:n], log.u2_v[:n], log.alpha_rad[:n], log.beta_rad[:n], log.sample_time_s, params,
+                  settings.thrust_law, start, noise, free=free, **timing(log, n))
+
+
 def _noise(log: Log, n: int) -> dict:
     """The angles' measurement-noise floor [rad] over the first n samples."""
     t = None if log.uniform else log.t_s[:n]
@@ -180,11 +197,9 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
     n = len(log) if r is not None else min(len(log), max(CHECK_MAX_STEPS // substeps(dt), 10))
     noise = _noise(log, n)
     if r is None:
-        start = offline if all(math.isfinite(offline[k]) and offline[k] > 0 for k in ESTIMATED) else \
-            {k: params[k] for k in ESTIMATED}
+        start = offline if _usable_start(offline) else {k: params[k] for k in ESTIMATED}
         try:
-            r = refine(log.u1_v[:n], log.u2_v[:n], log.alpha_rad[:n], log.beta_rad[:n], dt, params,
-                       settings.thrust_law, start, noise, **timing(log, n))
+            r = _refine_first(log, n, params, settings, start, noise)
         except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as e:
             return {"adequate": False, "axes": {}, "simulation": "none",
                     "sentence": f"The model could not be fitted to this log for the adequacy check ({e}); treat "
@@ -197,9 +212,7 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
     check = model_check(y, r.prediction, u, noise, dt, scope)
     if not check["adequate"] and r.fit is not None:
         def refit(name: str) -> Refined:
-            return refine(log.u1_v[:n], log.u2_v[:n], log.alpha_rad[:n], log.beta_rad[:n], dt, params,
-                          settings.thrust_law, r.estimate, noise, free=tuple(settings.free) + (name,),
-                          **timing(log, n))
+            return _refine_first(log, n, params, settings, r.estimate, noise, tuple(settings.free) + (name,))
 
         _blame(check, r, n * substeps(dt), noise, refit, params)
     return check, r.prediction
@@ -231,7 +244,7 @@ def _blame(check: dict, r: Refined, steps: int, noise: dict, refit, params: dict
             f = refit(name)
         except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
             continue
-        ratio = max(f.rms_rad[a] / noise[a] if noise[a] > 0 else math.inf for a in ("alpha", "beta"))
+        ratio = max(_over_noise(f, noise).values())
         if f.converged and ratio <= ADEQUATE_RMS_OVER_NOISE:
             value = f.freed[name]["estimate"]
             alike = [k for k, v in shares.items() if k != name and v >= SUSPECT_ALIKE * share]
@@ -243,7 +256,6 @@ def _blame(check: dict, r: Refined, steps: int, noise: dict, refit, params: dict
                                   (f"; {', '.join(alike)} would explain the data as well (the log cannot tell them "
                                    "apart)" if alike else "") + f". Check it, or estimate it with --free {name}.")
             return
-    best = next(iter(shares.items()), (None, 0.0))
     check["sentence"] += (" No single known value explains the misfit (freeing the most likely, "
                           f"{', '.join(list(shares)[:SUSPECT_REFITS])}, does not make the model fit): the model "
                           "leaves out physics, or several known values are off.")
@@ -260,17 +272,11 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
                       f"limit of {REFINE_AUTO_MAX_STEPS:,} (use --refine on to force it); DREM's offline "
                       "optimum is the estimate"), False
     noise = _noise(log, len(log))
-    def run(start: dict) -> Refined:
-        return refine(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, dt, params, settings.thrust_law, start, noise,
-                      free=tuple(settings.free), **timing(log))
-
-    def worst_ratio(r: Refined) -> float:
-        return max(r.rms_rad[ax] / noise[ax] if noise[ax] > 0 else math.inf for ax in ("alpha", "beta"))
 
     # starts in turn until one converges at the noise level: DREM's offline optimum, then the table's J/B. DREM's
     # numbers can be no start at all (a value not positive: a log cut mid-run starts its filters off their steady
     # state) or start Gauss-Newton in another basin (a wrong known value made J1 3x too large)
-    usable = all(math.isfinite(offline[k]) and offline[k] > 0 for k in ESTIMATED)
+    usable = _usable_start(offline)
     starts = ([("DREM's offline optimum", offline)] if usable else []) + [
         ("the table's J/B" + (" (DREM's optimum led to a worse fit)" if usable else
                               " (DREM's offline optimum is no start: a value is not positive)"),
@@ -278,14 +284,14 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
     r, origin = None, ""
     try:
         for name, start in starts:
-            cand = run(start)
+            cand = _refine_first(log, len(log), params, settings, start, noise, tuple(settings.free))
             if r is None or cand.cost < r.cost:
                 r, origin = cand, name
-            if r.converged and worst_ratio(r) <= ADEQUATE_RMS_OVER_NOISE:
+            if r.converged and max(_over_noise(r, noise).values()) <= ADEQUATE_RMS_OVER_NOISE:
                 break
     except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as e:
         return None, f"refinement failed ({e}); DREM's offline optimum is the estimate", False
-    ratio = {ax: r.rms_rad[ax] / noise[ax] if noise[ax] > 0 else math.inf for ax in ("alpha", "beta")}
+    ratio = _over_noise(r, noise)
     base = (f"prediction-error refinement from {origin}: {r.iterations} Gauss-Newton iteration(s), "
             f"{r.windows} window(s) of {len(log) * dt / r.windows:.3g} s, start states estimated, angle error RMS "
             f"alpha {r.rms_rad['alpha']:.3g} rad, beta {r.rms_rad['beta']:.3g} rad (noise {noise['alpha']:.3g}, "
