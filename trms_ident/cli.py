@@ -159,8 +159,9 @@ def check_units(angle_unit: str, time_unit: str) -> None:
 
 
 def build_settings(a: str, b: str, gain_convention: str, gamma: str, settle: float, thrust_law: str, headline: str,
-                   params: Path | None, angle_unit: str, refine: str = "auto", free: str = "") -> Settings:
-    check_units(angle_unit, "auto")
+                   params: Path | None, angle_unit: str, refine: str = "auto", free: str = "",
+                   time_unit: str = "auto") -> Settings:
+    check_units(angle_unit, time_unit)
     settings = Settings(filter_a_rad_s=parse_auto("--a", a), filter_b_rad_s=parse_auto("--b", b),
                         gain_convention=gain_convention, gamma=parse_gamma(gamma), settle_time_s=settle,
                         thrust_law=thrust_law, headline=headline, refine=refine,
@@ -214,8 +215,7 @@ def estimate(
     from .commands import estimate_file
 
     settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit, refine,
-                              free)
-    check_units(angle_unit, time_unit)
+                              free, time_unit)
     out_dir = out if out is not None else Path(f"{log.name.split('.')[0]}_ident")
     from . import CACHE_NOTE
     from ._cache import kernels_cached
@@ -319,11 +319,10 @@ def batch(
     if jobs < 1:
         raise SettingsError(f"--jobs {jobs}: expected 1 or more")
     settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit, refine,
-                              free)
+                              free, time_unit)
     paths = batch_mod.discover(inputs, out)
     if not paths:
         raise SettingsError(f"no .csv or .mcap logs found in {' '.join(inputs)}")
-    check_units(angle_unit, time_unit)
     options = {"html": not no_report, "signals": signal, "time_source": time_source, "angle_unit": angle_unit,
                "time_unit": time_unit, "voltage_time": voltage_time, "rate_hz": rate}
     if force:
