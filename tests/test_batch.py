@@ -72,7 +72,7 @@ def test_all_failed_and_nothing_found(folder, tmp_path):
     empty = tmp_path / "empty"
     empty.mkdir()
     res = _batch([empty], tmp_path / "o2")
-    assert res.exit_code == EXIT_USAGE and "no .csv or .mcap logs found" in res.output
+    assert res.exit_code == EXIT_USAGE and "no .csv, .mcap or .mat logs found" in res.output
     res = _batch([tmp_path / "nope*.csv"], tmp_path / "o3")
     assert res.exit_code == EXIT_USAGE and "no such file, folder or matching pattern" in res.output
 

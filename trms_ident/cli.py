@@ -322,7 +322,7 @@ def batch(
                               free, time_unit)
     paths = batch_mod.discover(inputs, out)
     if not paths:
-        raise SettingsError(f"no .csv or .mcap logs found in {' '.join(inputs)}")
+        raise SettingsError(f"no .csv, .mcap or .mat logs found in {' '.join(inputs)}")
     options = {"html": not no_report, "signals": signal, "time_source": time_source, "angle_unit": angle_unit,
                "time_unit": time_unit, "voltage_time": voltage_time, "rate_hz": rate}
     if force:
