@@ -103,22 +103,9 @@ class Estimate:
 
     def plot(self):
         """Measured against simulated angles with the fit in % (as ``compare``); a matplotlib Figure."""
-        import matplotlib.pyplot as plt
+        from .report.figures import compare_plot
 
-        sim = self.result.simulated
-        m = 0 if sim is None else sim.shape[0]
-        fig, ax = plt.subplots(2, 1, figsize=(10, 5.5), sharex=True)
-        for j, (axis, y) in enumerate((("pitch", self.log.alpha_rad), ("yaw", self.log.beta_rad))):
-            ax[j].plot(self.log.t_s, y, color="0.35", lw=1.0, label="measured")
-            if m:
-                fit = self.model_check["axes"][axis]["fit_percent"]
-                ax[j].plot(self.log.t_s[:m], sim[:, j], "--", lw=0.9, label=f"model: fit {fit:.2f} %")
-            ax[j].set_ylabel(f"{'alpha' if axis == 'pitch' else 'beta'} [rad]")
-            ax[j].legend(fontsize=8)
-            ax[j].grid(alpha=0.3)
-        ax[1].set_xlabel("t [s]")
-        fig.suptitle("the model fits" if self.adequate else "the model does NOT fit")
-        return fig
+        return compare_plot(self.log, self.result.simulated, self.model_check)
 
     def __repr__(self) -> str:
         head = "model fits" if self.adequate else "MODEL DOES NOT FIT"

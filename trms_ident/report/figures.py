@@ -65,9 +65,10 @@ def _limits(result: Result, name: str, truth: dict | None) -> tuple[float, float
     return lo - pad, hi + pad
 
 
-def compare_figure(log: Log, simulated: np.ndarray, check: dict) -> str:
-    """Measured against model-simulated angles, with the fit in %, as MATLAB's ``compare`` draws them."""
-    m = simulated.shape[0]
+def compare_plot(log: Log, simulated: np.ndarray | None, check: dict):
+    """Measured against model-simulated angles, with the fit in %, as MATLAB's ``compare`` draws them (a
+    matplotlib Figure; measured only where there is no simulation)."""
+    m = len(log) if simulated is None else simulated.shape[0]
     s = _stride(m)
     t = log.t_s[:m][s]
     fig, ax = plt.subplots(2, 1, figsize=(10, 5.5), sharex=True)
@@ -75,16 +76,22 @@ def compare_figure(log: Log, simulated: np.ndarray, check: dict) -> str:
                                              (ax[1], log.beta_rad, "yaw", "beta [rad]"))):
         c = check["axes"].get(axis, {})
         a.plot(t, y[:m][s], color="0.35", lw=1.0, label="measured")
-        a.plot(t, simulated[s, j], color="tab:blue", lw=0.9, ls="--",
-               label=f"model: fit {c.get('fit_percent', float('nan')):.2f} % (noise floor allows "
-                     f"{c.get('noise_floor_fit_percent', float('nan')):.2f} %)")
+        if simulated is not None:
+            a.plot(t, simulated[s, j], color="tab:blue", lw=0.9, ls="--",
+                   label=f"model: fit {c.get('fit_percent', float('nan')):.2f} % (noise floor allows "
+                         f"{c.get('noise_floor_fit_percent', float('nan')):.2f} %)")
         a.set_ylabel(label)
         a.grid(alpha=0.3)
         a.legend(fontsize=8, loc="upper right")
     ax[1].set_xlabel("t [s]")
     fig.suptitle("Measured and simulated angles (" + ("the model fits" if check["adequate"] else
                                                       "the model does NOT fit") + ")")
-    return png_data_uri(fig)
+    return fig
+
+
+def compare_figure(log: Log, simulated: np.ndarray, check: dict) -> str:
+    """compare_plot as an embedded PNG for the report."""
+    return png_data_uri(compare_plot(log, simulated, check))
 
 
 def residual_figure(log: Log, simulated: np.ndarray, dt_s: float) -> str:

@@ -33,8 +33,9 @@ def _timing(inp: dict) -> str:
         f"Jittered stamps: steps {s['min_step_over_median']:.3g}-{s['max_step_over_median']:.3g} x the median "
         f"({s['median_step_s']:.6g} s), jitter RMS {s['jitter_rms_percent']:.3g} %, {s['dropped_samples']} dropped "
         "sample(s); voltages held over each actual interval."]
-    if voltage_timing_text(inp):
-        lines.append(voltage_timing_text(inp).capitalize() + ".")
+    timing = voltage_timing_text(inp)
+    if timing:
+        lines.append(timing.capitalize() + ".")
     return "".join(f'<br><span class="note">{html.escape(x)}</span>' for x in lines)
 
 
