@@ -5,7 +5,7 @@ import math
 from dataclasses import dataclass, field
 
 from .errors import SettingsError
-from .params import ESTIMATED, KNOWN, THRUST_LAWS
+from .params import ESTIMATED, THRUST_LAWS
 
 AXES = {"pitch": ("J1", "B1"), "yaw": ("J2", "B2")}
 #: traces of longer logs keep every k-th sample (Result.trace_step = k); plenty for plots
