@@ -3,14 +3,17 @@
 scipy.signal.cont2discrete computes the same numbers (the tests check it to 1e-12) but
 importing scipy.signal costs about 1 s, a third of the time budget for a one-hour log, so
 the hot path uses these formulas.  Conventions: b, a of length 3, a[0] = 1, lfilter form.
+The motor/lag transition is compiled (numba) so that hold.py's per-interval exact hold calls the same code.
 """
 from __future__ import annotations
 
 import math
 
 import numpy as np
+from numba import njit
 
 
+@njit(cache=True, nogil=True)
 def _phi1(x: float) -> float:
     """(e^x - 1)/x, exact near 0."""
     return math.expm1(x) / x if x != 0.0 else 1.0
@@ -24,6 +27,7 @@ def zoh_first_order(k: float, t1: float, t0: float, dt: float) -> tuple[np.ndarr
     return np.array([0.0, gain_step, 0.0]), np.array([1.0, -e, 0.0])
 
 
+@njit(cache=True, nogil=True)
 def zoh_motor_lag_states(k1: float, tp: float, t11: float, t10: float, dt: float
                          ) -> tuple[float, float, float, float, float]:
     """Exact one-sample transition of tau = k1/(t11 s + t10) u and zeta = tau/(tp s + 1), u held:
@@ -62,6 +66,7 @@ def zoh_reaction(kc: float, k1: float, t0: float, tp: float, t11: float, t10: fl
     return np.array([0.0, b1, b2]), np.array([1.0, a1, a2])
 
 
+@njit(cache=True, nogil=True)
 def _dd_int(p: float, dt: float) -> float:
     """Limit of (i1 - i2)/(p2 - p1) as p2 -> p1 = p: int_0^dt s e^{-p s} ds."""
     if p * dt < 1e-8:

@@ -8,31 +8,17 @@ filters run on) with every switch at its real time.  Tested against a fine-step 
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 
-
-@njit(cache=True, nogil=True, inline="always")
-def _phi1(x):
-    return math.expm1(x) / x if x != 0.0 else 1.0
+from .coefficients import zoh_motor_lag_states
 
 
 @njit(cache=True, nogil=True, inline="always")
 def _advance(tau, zeta, u, h, k, t1, t0, tp):
-    """tau, zeta after h [s] with u held: the exact transition of (tau, zeta) (cf. coefficients.zoh_motor_lag_states)."""
-    p1, p2 = t0 / t1, 1.0 / tp
-    e1, e2 = math.exp(-p1 * h), math.exp(-p2 * h)
-    g1 = k / t1 * h * _phi1(-p1 * h)
-    if abs(p2 - p1) * h > 1e-6:
-        dd = (e1 - e2) / (p2 - p1)
-        ig = (h * _phi1(-p1 * h) - h * _phi1(-p2 * h)) / (p2 - p1)
-    else:
-        dd = h * e2
-        ig = h * h / 2.0 if p1 * h < 1e-8 else (1.0 - math.exp(-p1 * h) * (1.0 + p1 * h)) / (p1 * p1)
-    z_new = dd / tp * tau + e2 * zeta + k / t1 / tp * ig * u
-    return e1 * tau + g1 * u, z_new
+    """tau, zeta after h [s] with u held: the exact transition of (tau, zeta) (coefficients.zoh_motor_lag_states)."""
+    e1, e2, phi21, g1, g2 = zoh_motor_lag_states(k, tp, t1, t0, h)
+    return e1 * tau + g1 * u, phi21 * tau + e2 * zeta + g2 * u
 
 
 @njit(cache=True, nogil=True)
