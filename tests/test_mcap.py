@@ -243,3 +243,38 @@ def test_missing_mcap_file_is_an_input_error(tmp_path):
 
     with pytest.raises(InputNotFoundError, match="no such file"):
         read_mcap_log(tmp_path / "x.mcap")
+
+
+@pytest.mark.parametrize("chunking", ["none", "small"])
+def test_unchunked_and_many_small_chunks_read_alike(logs, tmp_path, chunking):
+    """The chunk pipeline (worker threads, records grouped by channel, channels met inside chunks) gives the
+    same log as the reference layout, for unchunked files and for chunks holding a few messages each."""
+    from mcap.writer import Writer
+
+    from trms_ident.io.cdr import float64_multiarray_encoder, joint_state_encoder
+
+    ref = read_mcap_log(logs / "log.mcap")
+    n = 3000
+    t_ns = np.round(ref.t_s[:n] * 1e9).astype(np.int64) + 10**9
+    p = tmp_path / f"{chunking}.mcap"
+    with open(p, "wb") as f:
+        w = Writer(f, use_chunking=chunking != "none", chunk_size=700)
+        w.start(profile="ros2", library="test")
+        sj = w.register_schema("sensor_msgs/msg/JointState", "ros2msg", JOINT_STATE_MSGDEF.encode())
+        sv = w.register_schema("std_msgs/msg/Float64MultiArray", "ros2msg", FLOAT64_MULTIARRAY_MSGDEF.encode())
+        cj = w.register_channel("/trms/joint_states", "cdr", sj)
+        ej, ev = joint_state_encoder(["pitch", "yaw"]), float64_multiarray_encoder(2)
+        cv = None
+        for i in range(n):
+            tn = int(t_ns[i])
+            if cv is None and i == 5:  # a channel that first appears after some chunks
+                cv = w.register_channel("/trms/voltage", "cdr", sv)
+            if cv is not None:
+                w.add_message(cv, tn, ev((ref.u1_v[i], ref.u2_v[i])), tn, i)
+            w.add_message(cj, tn, ej(tn, (ref.alpha_rad[i], ref.beta_rad[i])), tn, i)
+        w.finish()
+    log = read_mcap_log(p)
+    np.testing.assert_array_equal(log.alpha_rad, ref.alpha_rad[5:n])
+    np.testing.assert_array_equal(log.u2_v, ref.u2_v[5:n])
+    np.testing.assert_allclose(log.t_s, ref.t_s[5:n] - ref.t_s[5], atol=1e-9)
+    assert "dropped the first 5 angle samples" in log.meta["warnings"]

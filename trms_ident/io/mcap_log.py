@@ -14,6 +14,8 @@ from __future__ import annotations
 import json
 import math
 import struct
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -26,6 +28,7 @@ from .cdr import (BIG_ENDIAN, FLOAT64_MULTIARRAY_MSGDEF, INDEX_OUT_OF_RANGE, JOI
                   SHORT, decode_float64_multiarray, decode_joint_state, float64_multiarray_encoder,
                   joint_state_encoder, scan_chunk)
 from .csv_log import Sha256Thread, check_readable
+from .merge import lead_after_grid, place
 from .signals import DEFAULT_JSON, DEFAULT_ROS2, SIGNALS, SignalSource, extract, mapping
 
 TIME_SOURCES = ("auto", "header", "log", "publish")
@@ -55,7 +58,7 @@ class Series:
     """Decoded values of the wanted fields of one topic."""
 
     time_ns: list = field(default_factory=list)
-    values: list = field(default_factory=list)  # arrays (n, k)
+    values: list = field(default_factory=list)  # arrays (n, k), views of field-major (k, n) memory
     clock: str = ""  # which time was used: header, log or publish
 
 
@@ -135,7 +138,6 @@ def scan(path: Path, wanted: dict[str, list[SignalSource]] | None, time_source: 
     from mcap.records import Channel as ChannelRecord
     from mcap.records import Chunk, Message, Schema
     from mcap.data_stream import ReadDataStream
-    from mcap.stream_reader import get_chunk_data_stream
     import io
 
     check_readable(path)
@@ -164,59 +166,108 @@ def scan(path: Path, wanted: dict[str, list[SignalSource]] | None, time_source: 
             channels[c.id] = Channel(c.id, c.topic, c.message_encoding, s.name if s else "", s.encoding if s else "",
                                      s.data if s else b"")
 
-        def count(chan, logt):
-            for cid in np.unique(chan):
-                sel = logt[chan == cid]
-                counts[int(cid)] = counts.get(int(cid), 0) + sel.size
-                first[int(cid)] = min(first.get(int(cid), int(sel.min())), int(sel.min()))
-                last[int(cid)] = max(last.get(int(cid), int(sel.max())), int(sel.max()))
+        def count(ids, cnt, lo, hi) -> np.ndarray:
+            """Add a chunk's per-channel statistics (from scan_chunk) to the file's."""
+            for cid, k, a, b in zip(ids.tolist(), cnt.tolist(), lo.tolist(), hi.tolist()):
+                counts[cid] = counts.get(cid, 0) + k
+                first[cid] = min(first.get(cid, a), a)
+                last[cid] = max(last.get(cid, b), b)
+            return ids
 
-        for rec in _records(path, fh, warnings):
-            if isinstance(rec, Schema):
-                add_schema(rec)
-            elif isinstance(rec, ChannelRecord):
-                add_channel(rec)
-            elif isinstance(rec, Chunk):
-                compression.add(rec.compression or "none")
-                try:
-                    stream, size = get_chunk_data_stream(rec, validate_crc=True)
-                except Exception as exc:  # noqa: BLE001 - CRC or decompression failure: the file is corrupt
-                    raise LogFormatError(f"{path}: chunk starting at log time {rec.message_start_time} ns cannot "
-                                         f"be read ({type(exc).__name__}: {exc}); the file is corrupt") from None
-                data = stream.read(size)
-                buf = np.frombuffer(data, dtype=np.uint8)
-                chan, logt, pubt, start, length, other, complete = scan_chunk(buf)
-                if not complete:
-                    warnings.append("a chunk ends inside a record; using the complete records before it")
-                for off in other:  # schemas and channels stored inside the chunk
-                    op, ln = buf[off], int.from_bytes(data[off + 1:off + 9], "little")
-                    rs = ReadDataStream(io.BytesIO(data[off + 9:off + 9 + ln]))
-                    if op == 0x03:
-                        add_schema(Schema.read(rs))
-                    elif op == 0x04:
-                        add_channel(ChannelRecord.read(rs))
-                if chan.size:
-                    count(chan, logt)
-                    _decode(path, buf, data, chan, logt, pubt, start, length, channels, wanted, series, decoders,
-                            time_source)
-            elif isinstance(rec, Message):  # unchunked file
-                count(np.array([rec.channel_id]), np.array([rec.log_time]))
-                data = rec.data
-                buf = np.frombuffer(data, dtype=np.uint8)
-                _decode(path, buf, data, np.array([rec.channel_id]), np.array([rec.log_time]),
-                        np.array([rec.publish_time]), np.array([0]), np.array([len(data)]), channels, wanted, series,
-                        decoders, time_source)
+        def add(decoded: dict) -> None:
+            for topic, clock, t, vals in decoded.values():
+                series[topic].clock = clock
+                series[topic].time_ns.append(t)
+                series[topic].values.append(vals)
+
+        def take(pending_chunk) -> None:
+            rec, fut = pending_chunk
+            try:
+                data, scanned, decoded = fut.result()
+            except LogFormatError:
+                raise
+            except Exception as exc:  # noqa: BLE001 - CRC or decompression failure: the file is corrupt
+                raise LogFormatError(f"{path}: chunk starting at log time {rec.message_start_time} ns cannot "
+                                     f"be read ({type(exc).__name__}: {exc}); the file is corrupt") from None
+            buf = np.frombuffer(data, dtype=np.uint8)
+            ids, other, complete = scanned[0], scanned[9], scanned[10]
+            if not complete:
+                warnings.append("a chunk ends inside a record; using the complete records before it")
+            for off in other:  # schemas and channels stored inside the chunk
+                op, ln = buf[off], int.from_bytes(data[off + 1:off + 9], "little")
+                rs = ReadDataStream(io.BytesIO(data[off + 9:off + 9 + ln]))
+                if op == 0x03:
+                    add_schema(Schema.read(rs))
+                elif op == 0x04:
+                    add_channel(ChannelRecord.read(rs))
+            if ids.size:
+                count(ids, *scanned[2:5])
+                late = [c for c in ids.tolist() if c not in decoded]  # channels the worker did not know yet
+                if late:
+                    decoded.update(_decode(path, buf, data, scanned, channels, wanted, decoders, time_source, late))
+                add({c: decoded[c] for c in ids.tolist() if c in decoded})
+
+        # Chunks are decompressed, CRC-checked, framed and decoded (for the channels known when the chunk is
+        # met) by worker threads: zstd, zlib and the compiled scan and decoders release the GIL.  This thread
+        # reads the file and collects the results in file order, a few chunks behind at most, so memory
+        # stays bounded.
+        pending: deque = deque()
+        with ThreadPoolExecutor(max_workers=2) as pool:
+            for rec in _records(path, fh, warnings):
+                if isinstance(rec, Chunk):
+                    compression.add(rec.compression or "none")
+                    pending.append((rec, pool.submit(_open_chunk, rec, path, dict(channels), wanted, decoders,
+                                                     time_source)))
+                    if len(pending) > 4:
+                        take(pending.popleft())
+                    continue
+                while pending:  # records outside chunks apply after the chunks before them
+                    take(pending.popleft())
+                if isinstance(rec, Schema):
+                    add_schema(rec)
+                elif isinstance(rec, ChannelRecord):
+                    add_channel(rec)
+                elif isinstance(rec, Message):  # unchunked file
+                    one = lambda x: np.array([x], np.int64)  # noqa: E731
+                    scanned = (one(rec.channel_id), one(0), one(1), one(rec.log_time), one(rec.log_time),
+                               one(rec.log_time), one(rec.publish_time), one(0), one(len(rec.data)))
+                    count(scanned[0], *scanned[2:5])
+                    data = rec.data
+                    add(_decode(path, np.frombuffer(data, dtype=np.uint8), data, scanned, channels, wanted, decoders,
+                                time_source, [rec.channel_id]))
+            while pending:
+                take(pending.popleft())
     return Scan(channels, counts, first, last, series, warnings, compression)
 
 
-def _decode(path, buf, data, chan, logt, pubt, start, length, channels, wanted, series, decoders, time_source):
+def _open_chunk(rec, path, channels, wanted, decoders, time_source):
+    """Decompressed bytes of a chunk (CRC checked), its record framing, per-channel statistics and the decoded
+    wanted fields of the channels in ``channels`` (those known before the chunk)."""
+    from mcap.stream_reader import get_chunk_data_stream
+
+    stream, size = get_chunk_data_stream(rec, validate_crc=True)
+    data = stream.read(size)
+    buf = np.frombuffer(data, dtype=np.uint8)
+    scanned = scan_chunk(buf)
+    known = [c for c in scanned[0].tolist() if c in channels]
+    decoded = _decode(path, buf, data, scanned, channels, wanted, decoders, time_source, known) if known else {}
+    return data, scanned, decoded
+
+
+def _decode(path, buf, data, scanned, channels, wanted, decoders, time_source, which) -> dict:
+    """channel id -> (topic, clock used, time [ns], values (n, k)) for the wanted channels among ``which``
+    (``scanned``: the chunk's records grouped by channel, as scan_chunk returns them)."""
+    out: dict = {}
     if not wanted:
-        return
-    for cid in np.unique(chan):
-        ch = channels.get(int(cid))
+        return out
+    ids, first, cnt = scanned[0].tolist(), scanned[1], scanned[2]
+    logt, pubt, start, length = scanned[5:9]
+    for cid in which:
+        ch = channels.get(cid)
         if ch is None or ch.topic not in wanted:
             continue
-        sel = chan == cid
+        c = ids.index(cid)
+        sel = slice(first[c], first[c] + cnt[c])
         srcs = wanted[ch.topic]
         if ch.message_encoding not in ENCODINGS:
             raise LogFormatError(f"{path}: topic {ch.topic}: message encoding {ch.message_encoding!r} is not one this "
@@ -233,9 +284,8 @@ def _decode(path, buf, data, chan, logt, pubt, start, length, channels, wanted, 
         if tsrc in ("auto", "header"):  # header.stamp where the message has one, else log time
             tsrc = "header" if stamp is not None else "log"
         t = stamp if tsrc == "header" else (lt if tsrc == "log" else pt)
-        series[ch.topic].clock = tsrc
-        series[ch.topic].time_ns.append(np.asarray(t, dtype=np.int64))
-        series[ch.topic].values.append(vals)
+        out[cid] = (ch.topic, tsrc, np.asarray(t, dtype=np.int64), vals)
+    return out
 
 
 _STATUS_TEXT = {SHORT: "is shorter than its layout", BIG_ENDIAN: "is big-endian CDR",
@@ -244,7 +294,7 @@ _STATUS_TEXT = {SHORT: "is shorter than its layout", BIG_ENDIAN: "is big-endian 
 
 def _decode_fast(path, ch, buf, st, ln, srcs):
     n, k = st.size, len(srcs)
-    vals = np.full((n, k), np.nan)
+    vals = np.full((k, n), np.nan).T  # (n, k) indexing over field-major memory: each field one block
     status = np.zeros(n, np.int64)
     if ch.schema_name == JOINT_STATE:
         steps = [s.steps for s in srcs]
@@ -291,7 +341,7 @@ def _decode_general(path, ch, data, st, ln, srcs, decoders):
                     from None
             decoders[ch.id] = decode
     n, k = st.size, len(srcs)
-    vals = np.empty((n, k))
+    vals = np.empty((k, n)).T
     stamp = np.empty(n, np.int64)
     has_stamp = True
     steps = [s.steps for s in srcs]  # each field path parsed once, not per message
@@ -370,12 +420,12 @@ def read_mcap_log(path: str | Path, angle_unit: str = "auto", signals: list[str]
     per_signal = {}
     for topic, srcs in wanted.items():
         t = np.concatenate(s.series[topic].time_ns)
-        v = np.concatenate(s.series[topic].values)
+        v = np.concatenate([x.T for x in s.series[topic].values], axis=1)  # (k, n): each field contiguous
         if t.size > 1 and np.any(t[1:] < t[:-1]):  # messages logged out of order: sort them (rare)
             order = np.argsort(t, kind="stable")
-            t, v = t[order], v[order]
+            t, v = t[order], v[:, order]
         for j, src in enumerate(srcs):
-            per_signal[src.signal] = (topic, t, v[:, j])
+            per_signal[src.signal] = (topic, t, v[j])
     clocks = {topic: s.series[topic].clock for topic in wanted}
     return align(path, per_signal, angle_unit, hasher.result(), s.warnings, voltage_time, clocks)
 
@@ -397,17 +447,19 @@ def align(path: Path, per_signal: dict, angle_unit: str, sha: str, warnings: lis
     def where(i: int) -> str:
         return f"{topic_a} message {i} (t = {(t_grid[i] - t_grid[0]) * 1e-9:.6g} s)"
 
-    dup = np.flatnonzero(np.diff(t_grid) <= 0)
+    steps = np.diff(t_grid)
+    dup = np.flatnonzero(steps <= 0)
     if dup.size:
         i = int(dup[0]) + 1
         raise LogFormatError(f"{path}: {where(i)}: time does not increase (repeats or goes back); expected strictly "
                              "increasing stamps")
+    step_ns = float(np.median(steps)) if t_grid.size > 1 else 1.0
+    del steps
     out = {}
     first_valid = 0
-    switch = np.repeat(t_grid[:, None].astype(np.float64), 2, axis=1)
+    switch = None  # voltage switch times [ns], made only when some voltage falls between two angle stamps
     offsets, merged = {}, 0
-    step_ns = float(np.median(np.diff(t_grid))) if t_grid.size > 1 else 1.0
-    placed: dict = {}  # per topic: (index in force at each grid time, index of the value used, switch times)
+    placed: dict = {}  # per (topic, at_stamp): (index of the value each grid sample uses, switch rows or None)
     for name in SIGNALS:
         topic, t, v = per_signal[name]
         if topic == topic_a and np.array_equal(t, t_grid):
@@ -416,32 +468,27 @@ def align(path: Path, per_signal: dict, angle_unit: str, sha: str, warnings: lis
         voltage = name in ("u1", "u2")
         key = (topic, voltage and voltage_time == "stamp")
         if key not in placed:  # once per topic: u1 and u2 usually share one
-            idx = np.searchsorted(t, t_grid, side="right") - 1  # last message at or before each grid time
-            np.maximum(idx, -1, out=idx)
-            if voltage:
-                lead = t - t_grid[np.maximum(np.searchsorted(t_grid, t, side="right") - 1, 0)]
-                offsets[topic] = lead[(t >= t_grid[0]) & (t <= t_grid[-1])]
-            used, sw = idx, None
-            if key[1]:
-                # the last message before the next angle stamp, switching at its own time inside the interval
-                nxt = np.append(t_grid[1:], np.iinfo(np.int64).max)
-                used = np.searchsorted(t, nxt, side="left") - 1
-                inside = (used >= 0) & (t[np.maximum(used, 0)] > t_grid)
-                sw = (inside, t[used[inside]])
-                merged = max(merged, int(np.sum(np.diff(used[used >= 0]) > 1)))
-            first_valid = max(first_valid, int(np.searchsorted(idx, 0)))
             period = float(np.median(np.diff(t))) if t.size > 1 else math.inf
-            age = t_grid - t[np.maximum(idx, 0)]
-            stale = np.flatnonzero((idx >= 0) & (age > STALE_PERIODS * period))
-            if stale.size:
-                i = int(stale[0])
+            take, fv, stale_i, stale_age, n_inside, n_merged = place(t_grid, t, key[1], STALE_PERIODS * period)
+            if voltage:
+                offsets[topic] = lead_after_grid(t_grid, t)
+            if stale_i >= 0:
                 raise LogFormatError(
-                    f"{path}: {where(i)}: {name} from {topic} is stale: its last message is {age[i] * 1e-9:.6g} s "
-                    f"old (its period is {period * 1e-9:.6g} s); a gap in {topic} is not interpolated over")
-            placed[key] = (np.maximum(used, 0), sw)
-        take, sw = placed[key]
-        if sw is not None:
-            switch[sw[0], 0 if name == "u1" else 1] = sw[1]
+                    f"{path}: {where(stale_i)}: {name} from {topic} is stale: its last message is "
+                    f"{stale_age * 1e-9:.6g} s old (its period is {period * 1e-9:.6g} s); a gap in {topic} is not "
+                    "interpolated over")
+            first_valid = max(first_valid, fv)
+            merged = max(merged, n_merged)
+            rows = None
+            if n_inside:  # the voltage switches at its own time inside these angle intervals
+                rows = np.flatnonzero(t[take] > t_grid)
+                rows = rows[rows >= fv]
+            placed[key] = (take, rows)
+        take, rows = placed[key]
+        if rows is not None and rows.size:
+            if switch is None:
+                switch = np.repeat(t_grid[:, None].astype(np.float64), 2, axis=1)
+            switch[rows, 0 if name == "u1" else 1] = t[take[rows]]
         out[name] = v[take]
     if first_valid >= t_grid.size:
         raise LogFormatError(f"{path}: no voltage message precedes any angle sample; expected voltages while the "
@@ -453,7 +500,7 @@ def align(path: Path, per_signal: dict, angle_unit: str, sha: str, warnings: lis
                         "angles): the last of each interval is used")
     t0 = int(t_grid[first_valid])
     t_s = (t_grid[first_valid:] - t0) * 1e-9
-    sw = (switch[first_valid:] - t0) * 1e-9
+    sw = None if switch is None else (switch[first_valid:] - t0) * 1e-9
     cols = {k: v[first_valid:] for k, v in out.items()}
     if angle_unit == "deg":
         cols["alpha"] = cols["alpha"] * (math.pi / 180)
