@@ -36,6 +36,9 @@ EFFECTS = [  # (effect, axis, magnitudes small -> large)
     ("input_delay", "both", (0.005, 0.01, 0.03)),
     ("motor_lag", "pitch", (1.21, 1.32, 1.54)),  # table 1.1 s: +10 %, +20 %, +40 %
     ("motor_lag", "yaw", (1.1, 1.2, 1.4)),  # table 1.0 s
+    ("thrust_asymmetry", "pitch", (0.1, 0.2, 0.4)),
+    ("thrust_asymmetry", "yaw", (0.1, 0.2, 0.4)),
+    ("yaw_inertia_pitch", "yaw", (0.002, 0.004, 0.006)),  # J2 = 0.02 kg m^2
 ]
 REFS = ("multisine", "steps", "square", "sine")
 RATES = (200.0, 1000.0, 100.0)

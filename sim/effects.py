@@ -29,6 +29,11 @@ EFFECTS: dict[str, Effect] = {
         Effect("input_saturation", ("pitch", "yaw"), "U", "V", "plant sees clip(u, -U, U)"),
         Effect("input_delay", ("both",), "d", "s", "plant sees u(t - d)"),
         Effect("motor_lag", ("pitch", "yaw"), "T", "s", "true motor time constant T11 or T21"),
+        Effect("thrust_asymmetry", ("pitch", "yaw"), "s", "1",
+               "a reversed rotor (tau < 0) gives (1 + s) times the table's thrust law"),
+        Effect("yaw_inertia_pitch", ("yaw",), "dJ", "kg m^2",
+               "yaw inertia J2 - dJ sin^2(alpha): the beam's inertia about the vertical falls as it tilts "
+               "(with its centrifugal and Coriolis terms)"),
     )
 }
 
@@ -41,7 +46,9 @@ I_SENSOR = (6, 7)
 I_DEADZONE = (8, 9)
 I_SAT = (10, 11)
 I_DELAY = 12
-N_EFFECT_SLOTS = 13
+I_ASYM = (13, 14)
+I_YAW_INERTIA = 15
+N_EFFECT_SLOTS = 16
 AXIS_INDEX = {"pitch": 0, "yaw": 1}
 
 
@@ -67,6 +74,7 @@ def pack(effects: list[dict]) -> list[float]:
             "sensor_offset": I_SENSOR,
             "dead_zone": I_DEADZONE,
             "input_saturation": I_SAT,
+            "thrust_asymmetry": I_ASYM,
         }.get(name)
         if slot is not None:
             vec[slot[AXIS_INDEX[axis]]] = value
@@ -74,6 +82,8 @@ def pack(effects: list[dict]) -> list[float]:
             vec[I_CABLE] = value
         elif name == "com_offset":
             vec[I_COM] = value
+        elif name == "yaw_inertia_pitch":
+            vec[I_YAW_INERTIA] = value
         elif name == "input_delay":
             if value < 0:
                 raise ValueError("input_delay must be >= 0 s")

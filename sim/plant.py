@@ -44,13 +44,22 @@ def _deriv(x, u1, u2, p, law, fx, dx):
     al, dal, be, dbe, tau1, tau2, zeta = x[0], x[1], x[2], x[3], x[4], x[5], x[6]
     M1 = _thrust(tau1, a1, b1, law)
     M2 = _thrust(tau2, a2, b2, law)
+    if tau1 < 0.0:  # thrust asymmetry: a reversed rotor pushes (1 + s) times the law
+        M1 *= 1.0 + fx[13]
+    if tau2 < 0.0:
+        M2 *= 1.0 + fx[14]
     MR = kc * (T0 / Tp * tau1 + (1.0 - T0 / Tp) * zeta)
     extra1 = -fx[0] * math.tanh(dal / OMEGA_SMOOTH) - fx[2] * dal * abs(dal)
     extra2 = -fx[1] * math.tanh(dbe / OMEGA_SMOOTH) - fx[3] * dbe * abs(dbe) - fx[4] * be
+    # pitch-dependent yaw inertia J(alpha) = J2 - dJ sin^2(alpha) (Lagrange: kinetic energy J(alpha) beta'^2 / 2):
+    # pitch gains J'(alpha) beta'^2 / 2 = -dJ sin cos beta'^2, yaw d/dt(J beta') = J beta'' + J'(alpha) alpha' beta'
+    dj = fx[15]
+    sc = math.sin(al) * math.cos(al)
     dx[0] = dal
-    dx[1] = (M1 - B1 * dal - Mg * math.sin(al + fx[5]) - Kg * M1 * dbe * math.cos(al) + extra1) / J1
+    dx[1] = (M1 - B1 * dal - Mg * math.sin(al + fx[5]) - Kg * M1 * dbe * math.cos(al) + extra1
+             - dj * sc * dbe * dbe) / J1
     dx[2] = dbe
-    dx[3] = (M2 - B2 * dbe - MR + extra2) / J2
+    dx[3] = (M2 - B2 * dbe - MR + extra2 + 2.0 * dj * sc * dal * dbe) / (J2 - dj * math.sin(al) ** 2)
     dx[4] = (k1 * u1 - T10 * tau1) / T11
     dx[5] = (k2 * u2 - T20 * tau2) / T21
     dx[6] = (tau1 - zeta) / Tp

@@ -30,6 +30,9 @@ def _diag(ref, rate, duration, effects=(), noise=0.0, q=Q12, seed=3):
     ("input_delay", "both", 0.02, "multisine"),
     ("dead_zone", "yaw", 0.1, "multisine"),
     ("motor_lag", "pitch", 1.32, "steps"),
+    ("thrust_asymmetry", "yaw", 0.3, "square"),
+    ("thrust_asymmetry", "pitch", -0.2, "multisine"),
+    ("yaw_inertia_pitch", "yaw", 0.005, "multisine"),
 ])
 def test_concealed_effect_is_named_fitted_and_improves_the_fit(effect, axis, value, ref):
     d, r = _diag(ref, 100.0, 90.0, [dict(effect=effect, axis=axis, value=value)])
@@ -103,15 +106,16 @@ def test_prediction_windows_start_from_the_state_that_fits_them():
     t = np.arange(n) * dt
     tau, other = 0.5 + 0.3 * np.sin(t), 0.02 * np.cos(0.5 * t)
     th = np.array([0.02, 0.1, 0.02, 0.09, 0.0, 0.0, 0.0])
-    fx = np.zeros(5)
+    fx = np.zeros(7)
+    zero = np.zeros(n)
     rng = np.random.default_rng(1)
     x_true_start = np.repeat(rng.normal(0, 1, n // horizon), horizon)
     v_true_start = np.repeat(rng.normal(0, 1, n // horizon), horizon)
-    y = predict(False, x_true_start, v_true_start, tau, other, dt, horizon, th, fx)
+    y = predict(False, x_true_start, v_true_start, tau, other, zero, zero, dt, horizon, th, fx)
     guess = v_true_start + 0.3
-    fitted = predict_fitted_start(False, y, guess, tau, other, dt, horizon, th, fx)
+    fitted = predict_fitted_start(False, y, guess, tau, other, zero, zero, dt, horizon, th, fx)
     np.testing.assert_allclose(fitted, y, atol=1e-8)
-    assert np.max(np.abs(predict(False, y, guess, tau, other, dt, horizon, th, fx) - y)) > 0.01
+    assert np.max(np.abs(predict(False, y, guess, tau, other, zero, zero, dt, horizon, th, fx) - y)) > 0.01
 
 
 def test_fractional_delay_of_a_held_signal():

@@ -46,6 +46,15 @@ CANDIDATES: tuple[Candidate, ...] = (
                        "Mg sin(alpha + delta)"),
     Candidate("sensor_offset", "pitch", "delta", "rad", "linear",
               sentence="the pitch encoder reads {value:.3g} {unit} more than the true angle (zero offset)"),
+    Candidate("thrust_asymmetry", "pitch", "s", "1", "linear",
+              sentence="the main rotor turning backwards (tau1 < 0) pushes {value:+.2%} relative to the table's "
+                       "thrust law (thrust asymmetry of a reversed rotor)"),
+    Candidate("thrust_asymmetry", "yaw", "s", "1", "linear",
+              sentence="the tail rotor turning backwards (tau2 < 0) pushes {value:+.2%} relative to the table's "
+                       "thrust law (thrust asymmetry of a reversed rotor)"),
+    Candidate("yaw_inertia_pitch", "yaw", "dJ", "kg m^2", "linear",
+              sentence="the yaw inertia depends on the pitch angle: J2 - {value:.3g} {unit} x sin^2(alpha) (the "
+                       "beam's inertia about the vertical falls as it tilts)"),
     Candidate("dead_zone", "pitch", "w", "V", "grid", _geom(0.02, 0.6, 16),
               sentence="main-motor voltages below {value:.3g} {unit} in magnitude move nothing (dead zone)"),
     Candidate("dead_zone", "yaw", "w", "V", "grid", _geom(0.02, 0.6, 16),

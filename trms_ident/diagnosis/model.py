@@ -91,6 +91,9 @@ def _delay(u: np.ndarray, samples: float) -> np.ndarray:
     return (1 - r) * pad(m) + r * pad(m + 1)
 
 
+#: extra regressors made from the motor states, which the input modifications change
+NEEDS_PLANT = ("sensor_offset:pitch", "thrust_asymmetry:pitch", "thrust_asymmetry:yaw")
+
 #: input modifications that change each axis' right-hand side (pitch sees u1 and T11 only; yaw sees
 #: u2, T21 and, through the reaction moment M_R, u1 and T11 too)
 _PITCH_MODS = ("dead_zone:pitch", "input_saturation:pitch", "input_delay:both", "motor_lag:pitch",
@@ -108,7 +111,7 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
         f = cache[("F", a_rad_s)] = discretize(num, den, dt, "bilinear")
     keys = {"pitch": ("g", "pitch", a_rad_s, tuple(sorted((k, v) for k, v in mods.items() if k in _PITCH_MODS))),
             "yaw": ("g", "yaw", a_rad_s, tuple(sorted(mods.items())))}
-    need_ps = any(keys[ax] not in cache for ax in keys) or "sensor_offset:pitch" in model.linear
+    need_ps = any(keys[ax] not in cache for ax in keys) or any(k in model.linear for k in NEEDS_PLANT)
     ps = pp = None
     if need_ps:
         u1, u2, changes = modified_inputs(log, mods)
@@ -132,11 +135,21 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
         cols, names = [m[:, 0], m[:, 1]], ["J", "B"]
         for key in model.linear:
             effect, ax = key.split(":")
-            if ax != axis:
+            if ax != axis and not (effect == "yaw_inertia_pitch" and axis == "pitch"):
                 continue
-            ck = ("phi", key, a_rad_s)
-            if effect == "sensor_offset":
+            ck = ("phi", key, axis, a_rad_s)
+            if key in NEEDS_PLANT:  # depends on the input modifications: not cached
                 col = -f.apply(phi(effect, axis, log, pp, ps, cache))
+            elif effect == "yaw_inertia_pitch" and axis == "pitch":  # its centrifugal torque on pitch
+                if ck not in cache:
+                    cache[ck] = -f.apply(phi(effect, axis, log, p, None, cache))
+                col = cache[ck]
+            elif effect == "yaw_inertia_pitch":  # a derivative: F s[sin^2(alpha) beta'], exact through F s
+                if ck not in cache:
+                    _, ms = filtered_regression(np.zeros_like(x), phi(effect, axis, log, p, None, cache), dt,
+                                                a_rad_s, a_rad_s * a_rad_s)
+                    cache[ck] = -ms[:, 1]
+                col = cache[ck]
             elif ck in cache:
                 col = cache[ck]
             else:
@@ -170,4 +183,19 @@ def phi(effect: str, axis: str, log: Log, p: dict, ps, cache: dict) -> np.ndarra
         if bkey not in cache:
             cache[bkey] = smoothed_velocity(log.beta_rad, dt)
         return p["Mg"] * np.cos(x) - p["Kg"] * ps.M1_nm * cache[bkey] * np.sin(x)
+    if effect == "thrust_asymmetry":  # (1 + s) M(tau) for tau < 0: s M per unit s, through the gyroscopic term too
+        if axis == "yaw":
+            return np.where(ps.tau2 < 0, ps.M2_nm, 0.0)
+        bkey = ("velocity", "yaw")
+        if bkey not in cache:
+            cache[bkey] = smoothed_velocity(log.beta_rad, dt)
+        return np.where(ps.tau1 < 0, ps.M1_nm, 0.0) * (1.0 - p["Kg"] * cache[bkey] * np.cos(x))
+    if effect == "yaw_inertia_pitch":
+        bkey = ("velocity", "yaw")
+        if bkey not in cache:
+            cache[bkey] = smoothed_velocity(log.beta_rad, dt)
+        if axis == "pitch":  # Lagrange: J'(alpha) beta'^2 / 2 = -dJ sin(alpha) cos(alpha) beta'^2
+            return -np.sin(x) * np.cos(x) * cache[bkey] ** 2
+        # yaw: d/dt[(J2 - dJ sin^2 alpha) beta'] = J2 beta'' - dJ d/dt[sin^2(alpha) beta']
+        return np.sin(log.alpha_rad) ** 2 * w  # the caller differentiates it with F s
     raise ValueError(f"no regressor for {effect}")

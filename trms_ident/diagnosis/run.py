@@ -12,7 +12,7 @@ from ..numerics.design import design_filters
 from ..numerics.stats import block_length
 from ..params import merge
 from .discriminate import PAIR, tell_offsets_apart
-from .effects import BY_KEY, CANDIDATES, UNOBSERVABLE, Candidate
+from .effects import CANDIDATES, UNOBSERVABLE, Candidate
 from .locate import lag_profile, regimes, segments
 from .model import AXIS_ANGLE, Model, modified_inputs, regression, restart_velocity, smoothed_velocity
 from .predict import HORIZON_S, nrmse_fit, predict_fitted_start
@@ -346,8 +346,11 @@ def _offsets_by_output_error(best, alts, ok, log, p, law, current):
 
 
 def _plausible(c: Candidate, v: float) -> bool:
-    if c.effect in ("coulomb_friction", "quadratic_drag", "cable_stiffness", "dead_zone", "input_delay"):
+    if c.effect in ("coulomb_friction", "quadratic_drag", "cable_stiffness", "dead_zone", "input_delay",
+                    "yaw_inertia_pitch"):  # a tilted beam's inertia about the vertical can only fall
         return v > 0
+    if c.effect == "thrust_asymmetry":  # a reversed rotor still pushes the way it turns
+        return -1.0 < v < 10.0
     return math.isfinite(v)
 
 
@@ -395,12 +398,18 @@ def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict):
     ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, dt, pp, law)
     horizon = max(int(round(HORIZON_S / dt)), 1)
     fits, preds = {}, {}
+    a_meas = log.alpha_rad
+    s2 = np.sin(a_meas) ** 2
+    scw = np.sin(a_meas) * np.cos(a_meas) * smoothed_velocity(a_meas, dt)
+    zeros = np.zeros_like(s2)
     for axis in ("pitch", "yaw"):
         x = getattr(log, AXIS_ANGLE[axis])
         v = restart_velocity(x, dt)
-        fx = np.zeros(5)
+        fx = np.zeros(7)
         fx[0] = values.get(f"coulomb_friction:{axis}", 0.0)
         fx[1] = values.get(f"quadratic_drag:{axis}", 0.0)
+        fx[5] = values.get(f"thrust_asymmetry:{axis}", 0.0)
+        fx[6] = values.get("yaw_inertia_pitch:yaw", 0.0)  # also on pitch: its centrifugal term
         if axis == "yaw":
             fx[2] = values.get("cable_stiffness:yaw", 0.0)
             th = np.array([est["J2"], est["B2"], pp["a2"], pp["b2"], 0.0, 0.0, law == "signed"], dtype=float)
@@ -411,7 +420,8 @@ def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict):
             th = np.array([est["J1"], est["B1"], pp["a1"], pp["b1"], pp["Mg"], pp["Kg"], law == "signed"], dtype=float)
             drive, other = ps.tau1, ps.dbeta_rad_s
         if all(math.isfinite(q) and q > 0 for q in th[:2]):
-            y = predict_fitted_start(axis == "pitch", x, v, drive, other, dt, horizon, th, fx)
+            aux = (zeros, zeros) if axis == "pitch" else (s2, scw)
+            y = predict_fitted_start(axis == "pitch", x, v, drive, other, *aux, dt, horizon, th, fx)
         else:  # J or B not physical: nothing to predict with, nothing to score
             y = np.full_like(x, np.nan)
         fits[axis] = nrmse_fit(x, y)
