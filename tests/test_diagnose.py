@@ -111,11 +111,11 @@ def test_prediction_windows_start_from_the_state_that_fits_them():
     rng = np.random.default_rng(1)
     x_true_start = np.repeat(rng.normal(0, 1, n // horizon), horizon)
     v_true_start = np.repeat(rng.normal(0, 1, n // horizon), horizon)
-    y = predict(False, x_true_start, v_true_start, tau, other, zero, zero, dt, horizon, th, fx)
+    y = predict(False, x_true_start, v_true_start, tau, other, zero, zero, zero, dt, horizon, th, fx)
     guess = v_true_start + 0.3
-    fitted = predict_fitted_start(False, y, guess, tau, other, zero, zero, dt, horizon, th, fx)
+    fitted = predict_fitted_start(False, y, guess, tau, other, zero, zero, zero, dt, horizon, th, fx)
     np.testing.assert_allclose(fitted, y, atol=1e-8)
-    assert np.max(np.abs(predict(False, y, guess, tau, other, zero, zero, dt, horizon, th, fx) - y)) > 0.01
+    assert np.max(np.abs(predict(False, y, guess, tau, other, zero, zero, zero, dt, horizon, th, fx) - y)) > 0.01
 
 
 def test_fractional_delay_of_a_held_signal():

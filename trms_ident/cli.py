@@ -412,6 +412,11 @@ def diagnose(
         say("  estimates  " + "  ".join(f"{k} {d.nominal[k]:.5g} -> {d.augmented[k]:.5g}" for k in ESTIMATED))
     for r in d.refused:
         say(f"  refused: {r['effect']} on {r['axis']}: {r['reason']}")
+    for c in d.corrections:
+        say(f"  outside the library, {c.axis}: {c.sentence}")
+        say(f"     data-driven correction (not a named effect): prediction fit {_fit_text(c.fit_before)} -> "
+            f"{_fit_text(c.fit_after)}; terms " + ", ".join(f"{t['term']} = {t['coefficient']:.4g} {t['unit']}"
+                                                           for t in c.terms))
     if report is not None:
         write_text(report / "diagnosis.json", to_json(doc))
         write_text(report / "report.html", render(doc, d, data))

@@ -61,6 +61,7 @@ class Diagnosis:
     verdict_sentence: str = ""
     refused: list = field(default_factory=list)  # findings the equation error chose but the checks refused
     seed_check: dict = field(default_factory=dict)  # identify's model_check of the seed model
+    corrections: list = field(default_factory=list)  # sparse.Correction per axis left above its noise level
 
 
 VERDICTS = {
@@ -224,11 +225,67 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None)
     lag = lag_profile([delay["parameter"]], [delay["held_out_gain"]]) if delay else {}
     overlay = {axis: (log.t_s, getattr(log, AXIS_ANGLE[axis]), over_before[axis], over_after[axis]) for axis in axes}
     verdict, sentence = _verdict(log, seed, out, fit_after, seg)
+    corrections = []
+    if verdict in ("partly_explained", "unexplained"):
+        corrections = _corrections(log, p, law, a, current, values, augmented, reg_now, score_now, ids, cache,
+                                   seed, fit_after, n_tests)
+        for c in corrections:
+            overlay[c.axis] = overlay[c.axis] + (c.prediction,)
+            before = f"{c.fit_before:.2f} %" if math.isfinite(c.fit_before) else "none (J or B not physical)"
+            sentence += (f" Outside the library, the {c.axis} residual torque is described by: {c.sentence}; with "
+                         f"this correction the {c.axis} prediction fit goes from {before} to {c.fit_after:.2f} %.")
     return Diagnosis(bool(out) or verdict != "consistent", out, nominal, augmented, fit_before, fit_after, seg, reg_stats, lag, tested,
                      {"a_rad_s": a, "block_s": block * dt, "horizon_s": HORIZON_S, "thrust_law": law,
                       "alpha_family": FAMILY_ALPHA, "candidates": len(cands),
                       "unobservable": UNOBSERVABLE}, residual, overlay,
-                     {axis: cache[("velocity", axis)] for axis in axes}, verdict, sentence, refused, seed)
+                     {axis: cache[("velocity", axis)] for axis in axes}, verdict, sentence, refused, seed,
+                     corrections)
+
+
+def _over_noise(log: Log, seed: dict, fits: dict) -> dict:
+    """Per axis: the prediction error's RMS over the seed check's noise floor."""
+    out = {}
+    for axis in ("pitch", "yaw"):
+        y = getattr(log, AXIS_ANGLE[axis])
+        floor = seed.get("axes", {}).get(axis, {}).get("noise_floor_rad", 0.0)
+        rms = (100.0 - fits.get(axis, -math.inf)) / 100.0 * float(np.std(y))
+        out[axis] = rms / floor if floor > 0 else math.inf
+    return out
+
+
+def _corrections(log, p, law, a, current, values, augmented, reg_now, score_now, ids, cache, seed, fit_after,
+                 n_tests) -> list:
+    """A sparse data-driven correction (sparse.py) for each axis still above its noise level; kept only when
+    it passes the held-out block test and raises the axis' prediction fit."""
+    from ..numerics.regressors import plant_signals
+    from . import sparse
+
+    u1, u2, changes = modified_inputs(log, dict(current.mods))
+    pp = {**p, **changes}
+    ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, log.sample_time_s, pp, law)
+    sig = sparse.signals(log, ps, pp, cache)
+    ctx = {**pp, **augmented}
+    out = []
+    for axis, ratio in _over_noise(log, seed, fit_after).items():
+        if ratio <= EXPLAINED_RMS_OVER_NOISE:
+            continue
+        found = sparse.fit_correction(axis, reg_now, score_now, ids, sig, cache[("F", a)], n_tests, ctx)
+        if found is None:
+            continue
+        terms, coef, sc, test, _ = found
+        est = dict(augmented)
+        jb = ("J1", "B1") if axis == "pitch" else ("J2", "B2")
+        est[jb[0]], est[jb[1]] = float(sc.theta[axis][0]), float(sc.theta[axis][1])
+        torque = sparse.torque(terms, coef, sig)
+        fits, preds = _fits(log, p, law, current, values, est, extra={axis: torque})
+        before = fit_after[axis]
+        if not (math.isfinite(fits[axis]) and (not math.isfinite(before) or fits[axis] > before)):
+            continue  # it must raise the prediction fit (or give one where the model had no physical J, B)
+        described = sparse.describe(axis, terms, coef, ctx)
+        out.append(sparse.Correction(axis, described, "; ".join(d["sentence"] for d in described), test.gain,
+                                     test.t, test.p, fit_after[axis], fits[axis], {k: est[k] for k in jb}, torque,
+                                     preds[axis]))
+    return out
 
 
 def _refusal(c: Candidate, nominal: dict, augmented: dict, fit_before: dict, fit_after: dict) -> str | None:
@@ -257,12 +314,7 @@ def _verdict(log: Log, seed: dict, findings: list, fit_after: dict, seg: dict) -
     if seed.get("adequate"):
         return "consistent", VERDICTS["consistent"] + "."
     if findings:
-        ratios = {}
-        for axis in ("pitch", "yaw"):
-            y = getattr(log, AXIS_ANGLE[axis])
-            floor = seed.get("axes", {}).get(axis, {}).get("noise_floor_rad", 0.0)
-            rms = (100.0 - fit_after.get(axis, -math.inf)) / 100.0 * float(np.std(y))
-            ratios[axis] = rms / floor if floor > 0 else math.inf
+        ratios = _over_noise(log, seed, fit_after)
         if all(r <= EXPLAINED_RMS_OVER_NOISE for r in ratios.values()):
             return "explained", VERDICTS["explained"] + "."
         worst = max(ratios, key=ratios.get)
@@ -389,7 +441,8 @@ def _effect_values(model: Model, sc, reg) -> dict:
     return vals
 
 
-def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict):
+def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, extra: dict | None = None):
+    """Prediction fit [%] and predictions per axis; ``extra``: axis -> extra torque [N m] per sample."""
     from ..numerics.regressors import plant_signals
 
     dt = log.sample_time_s
@@ -421,7 +474,8 @@ def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict):
             drive, other = ps.tau1, ps.dbeta_rad_s
         if all(math.isfinite(q) and q > 0 for q in th[:2]):
             aux = (zeros, zeros) if axis == "pitch" else (s2, scw)
-            y = predict_fitted_start(axis == "pitch", x, v, drive, other, *aux, dt, horizon, th, fx)
+            ext = (extra or {}).get(axis, zeros)
+            y = predict_fitted_start(axis == "pitch", x, v, drive, other, *aux, ext, dt, horizon, th, fx)
         else:  # J or B not physical: nothing to predict with, nothing to score
             y = np.full_like(x, np.nan)
         fits[axis] = nrmse_fit(x, y)

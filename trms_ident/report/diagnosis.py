@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import html
-from dataclasses import asdict
 
 from ..diagnosis.run import Diagnosis
 from ..log import Log
@@ -19,6 +18,9 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
         "findings": [{"effect": f.effect, "axis": f.axis, "parameter": f.parameter, "fit_before": f.fit_before,
                       "fit_after": f.fit_after, "evidence": f.evidence, "explanation": f.explanation,
                       "alternatives": f.alternatives, "estimate_shift_percent": f.shift} for f in d.findings],
+        "corrections": [{"axis": c.axis, "terms": c.terms, "sentence": c.sentence, "held_out_gain": c.held_out_gain,
+                         "t": c.t, "p": c.p, "fit_before": c.fit_before, "fit_after": c.fit_after,
+                         "estimates": c.estimates} for c in d.corrections],
         "estimates": {"nominal": d.nominal, "augmented": d.augmented},
         "fit": {"measure": f"NRMSE fit [%] of {d.settings['horizon_s']:g} s multi-step predictions, each window "
                            "started from the angle and velocity fitted to it (a free run drifts on yaw, which has "
@@ -33,8 +35,15 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
             "estimates.nominal": "J, B by least squares on the filtered regression (3) of the seed model",
             "estimates.augmented": "the same with the findings' terms added and refitted together",
             "estimate_shift_percent": "how far leaving the effect out had moved each estimate (nominal vs augmented)",
+            "corrections": "physics outside the library: a sparse data-driven correction of an axis' residual torque "
+                           "(terms from a small library, pysindy STLSQ, kept only when it lowers the held-out "
+                           "residual beyond chance and raises the prediction fit); a description, not a named effect",
         },
     }
+
+
+def _fit(x: float) -> str:
+    return f"{x:.2f} %" if x == x else "none (J or B not physical)"
 
 
 def render(doc: dict, d: Diagnosis, log: Log) -> str:
@@ -74,24 +83,52 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
     figs.append(("Residual against the regime", png_data_uri(fig)))
     # 3. fit overlay
     fig, ax = plt.subplots(2, 1, figsize=(10, 5), sharex=True)
+    corr = {c.axis: c for c in d.corrections}
     for a, axis in zip(ax, ("pitch", "yaw")):
-        t, y, p0, p1 = d.overlay[axis]
+        t, y, p0, p1 = d.overlay[axis][:4]
         a.plot(t[::stride], y[::stride], "k", lw=0.8, label="measured")
         a.plot(t[::stride], p0[::stride], lw=0.8, label=f"seed model ({d.fit_before[axis]:.2f} %)")
         a.plot(t[::stride], p1[::stride], lw=0.8, ls="--", label=f"with findings ({d.fit_after[axis]:.2f} %)")
+        if axis in corr:
+            a.plot(t[::stride], d.overlay[axis][4][::stride], lw=0.8, ls=":",
+                   label=f"with the data-driven correction ({corr[axis].fit_after:.2f} %)")
         a.set_ylabel(f"{axis} [rad]")
         a.legend(fontsize=8)
         a.grid(alpha=0.3)
     ax[1].set_xlabel("t [s]")
     fig.suptitle(f"{d.settings['horizon_s']:g} s multi-step predictions against the measurement")
     figs.append(("Fit overlay", png_data_uri(fig)))
+    # 4. the shape of each data-driven correction: its torque against the axis' velocity and against time
+    for c in d.corrections:
+        fig, ax = plt.subplots(1, 2, figsize=(10, 3.5))
+        v = d.velocity[c.axis]
+        ax[0].plot(v[::stride], c.torque_nm[::stride], ".", ms=1.5, alpha=0.5)
+        ax[0].set_xlabel(f"{c.axis} velocity [rad/s]")
+        ax[0].set_ylabel("correction torque [N m]")
+        ax[1].plot(log.t_s[::stride], c.torque_nm[::stride], lw=0.7)
+        ax[1].set_xlabel("t [s]")
+        for a in ax:
+            a.grid(alpha=0.3)
+        fig.suptitle(f"{c.axis}: the fitted correction (outside the library)")
+        fig.tight_layout()
+        figs.append((f"Correction of the {c.axis} torque", png_data_uri(fig)))
     items = "".join(
         f"<li><b>{html.escape(f['effect'])}</b> on {f['axis']}: {html.escape(f['parameter']['name'])} = "
         f"{f['parameter']['value']:.4g} {html.escape(f['parameter']['unit'])}. {html.escape(f['explanation'])}.<br>"
         f"Fit {f['fit_before']:.2f} % &rarr; {f['fit_after']:.2f} %. <span class='note'>{html.escape(f['evidence'])}"
         "</span></li>" for f in doc["findings"])
+    corrections = "".join(
+        f"<li><b>outside the library</b>, {c['axis']}: {html.escape(c['sentence'])}. Prediction fit "
+        f"{_fit(c['fit_before'])} &rarr; {_fit(c['fit_after'])}. <span class='note'>held-out equation-error RSS "
+        f"{-100 * c['held_out_gain']:+.1f} % (t = {c['t']:.1f}, p = {c['p']:.1e}); terms: "
+        + html.escape(", ".join(f"{t['term']} = {t['coefficient']:.4g} {t['unit']}" for t in c["terms"]))
+        + "</span></li>" for c in doc["corrections"])
+    corrected = {k: v for c in doc["corrections"] for k, v in c["estimates"].items()}
     est = "".join(f"<tr><td>{k}</td><td>{doc['estimates']['nominal'][k]:.6g}</td>"
-                  f"<td>{doc['estimates']['augmented'][k]:.6g}</td></tr>" for k in ("J1", "B1", "J2", "B2"))
+                  f"<td>{doc['estimates']['augmented'][k]:.6g}</td>"
+                  + (f"<td>{corrected[k]:.6g}</td>" if k in corrected else ("<td></td>" if corrected else ""))
+                  + "</tr>" for k in ("J1", "B1", "J2", "B2"))
+    est_head = "<th>with the correction</th>" if corrected else ""
     imgs = "".join(f"<h2>{html.escape(title)}</h2><img alt='{html.escape(title)}' src='{uri}'>" for title, uri in figs)
     colour = {"consistent": "#e8f5e9", "explained": "#e8f5e9", "partly_explained": "#fff4e0"}.get(doc["verdict"],
                                                                                                    "#fdecea")
@@ -102,7 +139,7 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
 <style>body{{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto}}img{{max-width:100%}}
 table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px}}.note{{color:#555;font-size:.9em}}</style>
 </head><body><h1>Diagnosis of {html.escape(log.source)}</h1><p><b>{verdict}</b>.
-Fit measure: {html.escape(doc['fit']['measure'])}.</p><ol>{items}</ol>
-<table><tr><th>parameter</th><th>seed model</th><th>with findings</th></tr>{est}</table>{imgs}
+Fit measure: {html.escape(doc['fit']['measure'])}.</p><ol>{items}{corrections}</ol>
+<table><tr><th>parameter</th><th>seed model</th><th>with findings</th>{est_head}</tr>{est}</table>{imgs}
 <p class="note">sha256 {log.sha256}; versions {html.escape(str(doc['versions']))}</p></body></html>
 """

@@ -1,0 +1,224 @@
+"""Physics outside the library: a sparse, data-driven correction of an axis' residual torque.
+
+When the named effects leave an axis above its noise level, its remaining equation error
+
+    r = F[y] - J F[s^2 x] - B F[s x] - sum_j theta_j F[phi_j]            (eq. 3 with the accepted effects)
+
+is explained by a few terms of a small library of candidate torques phi_k(angles, rates, motor states),
+filtered alike: a SINDy-style sparse regression (Brunton, Proctor & Kutz 2016), with
+``pysindy.optimizers.STLSQ`` (sequentially thresholded least squares) choosing the terms.  J, B and the
+accepted effects are refitted with them and never thresholded: the library columns are first made
+orthogonal to them (Frisch-Waugh-Lovell), so STLSQ's coefficients are those of the joint fit.  The library
+leaves out the forward thrust: with it, the terms could rebuild the whole right-hand side of eq. (1) and
+"explain" everything with J = B = 0; the forward thrust is the yardstick the other terms are measured by
+(a thrust scale common to both directions is J and B scaled alike, which no log can tell apart).
+
+Each distinct set of terms STLSQ picks over a range of thresholds is then scored like a candidate
+effect: cross-fitted on even/odd blocks (select.score) and kept only when its held-out residual drops
+beyond chance at the family level (select.compare, Bonferroni over the candidates and the term sets
+tried).  The kept terms are said in words ("the yaw torque is short by about 40 % when the tail rotor runs
+backwards (u2 < 0)") and the axis' prediction fit is shown with the correction added as a torque.  A
+correction describes what the log shows; it is not a named physical effect, so it never makes the
+verdict "explained".
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from .model import AXIS_ANGLE, Regression, smoothed_velocity
+from .select import FAMILY_ALPHA, compare, score
+
+#: STLSQ thresholds tried, on columns and target scaled to unit norm (a term must carry about this share
+#: of the residual to stay)
+THRESHOLDS = (0.01, 0.02, 0.05, 0.1, 0.2, 0.4)
+MAX_TERMS = 4
+#: a term stays only if leaving it out would cost at least this share of the held-out gain (collinear terms,
+#: e.g. a constant and cos(alpha) near alpha = 0, otherwise come in cancelling pairs)
+PRUNE_GAIN = 0.01
+
+
+@dataclass(frozen=True)
+class Term:
+    name: str
+    axis: str
+    unit: str  # of the coefficient
+    torque: Callable  # (signals dict) -> torque [N m] per unit coefficient, added to the axis' right-hand side
+    words: Callable  # (coefficient, context dict) -> one sentence
+
+
+def _pct(x: float) -> str:
+    return f"{abs(x):.0%}"
+
+
+def _thrust_words(rotor: str, sign: str, axis: str, direction: str):
+    def words(c, ctx):
+        return (f"the {axis} torque is {'short' if c < 0 else 'larger'} by about {_pct(c)} when the {rotor} rotor "
+                f"runs {direction} ({sign})")
+    return words
+
+
+LIBRARY: tuple[Term, ...] = (
+    Term("constant", "pitch", "N m", lambda s: np.ones_like(s["alpha"]),
+         lambda c, ctx: f"a constant pitch torque of {c:+.3g} N m"),
+    Term("sin_alpha", "pitch", "N m", lambda s: np.sin(s["alpha"]),
+         lambda c, ctx: f"the gravity moment is about {_pct(c / ctx['Mg'])} {'weaker' if c > 0 else 'stronger'} "
+                        "than the table's Mg sin(alpha)"),
+    Term("cos_alpha", "pitch", "N m", lambda s: np.cos(s["alpha"]),
+         lambda c, ctx: f"a pitch torque of {c:+.3g} N m x cos(alpha), as a centre-of-mass offset of "
+                        f"{-c / ctx['Mg']:+.3g} rad would give"),
+    Term("rate", "pitch", "N m s/rad", lambda s: s["dalpha"],
+         lambda c, ctx: f"the pitch damping is {_pct(c / ctx['B1'])} {'lower' if c > 0 else 'higher'} than B1 "
+                        f"({-c:+.3g} N m s/rad)"),
+    Term("drag", "pitch", "N m s^2/rad^2", lambda s: s["dalpha"] * np.abs(s["dalpha"]),
+         lambda c, ctx: f"a pitch torque of {c:+.3g} N m s^2/rad^2 x alpha'|alpha'| (drag if negative)"),
+    Term("sign", "pitch", "N m", lambda s: np.tanh(s["dalpha"] / s["scale_alpha"]),
+         lambda c, ctx: f"a torque of {abs(c):.3g} N m {'against' if c < 0 else 'along'} the pitch motion that "
+                        "flips with its direction"),
+    Term("thrust_reverse", "pitch", "1", lambda s: np.where(s["tau1"] < 0, s["M1"], 0.0) * s["gyro_factor"],
+         _thrust_words("main", "u1 < 0", "pitch", "backwards")),
+    Term("gyroscopic", "pitch", "1", lambda s: s["M1"] * s["dbeta"] * np.cos(s["alpha"]),
+         lambda c, ctx: f"the gyroscopic coupling is about {_pct(c / ctx['Kg'])} {'weaker' if c > 0 else 'stronger'}"
+                        " than the table's Kg"),
+    Term("constant", "yaw", "N m", lambda s: np.ones_like(s["beta"]),
+         lambda c, ctx: f"a constant yaw torque of {c:+.3g} N m"),
+    Term("angle", "yaw", "N m/rad", lambda s: s["beta"],
+         lambda c, ctx: f"a yaw torque of {c:+.3g} N m/rad x beta ({'a spring pulling back to beta = 0' if c < 0 else 'pushing away from beta = 0'})"),
+    Term("pitch_angle", "yaw", "N m/rad", lambda s: s["alpha"],
+         lambda c, ctx: f"a yaw torque of {c:+.3g} N m/rad x alpha (the pitch angle pushes the yaw axis)"),
+    Term("rate", "yaw", "N m s/rad", lambda s: s["dbeta"],
+         lambda c, ctx: f"the yaw damping is {_pct(c / ctx['B2'])} {'lower' if c > 0 else 'higher'} than B2 "
+                        f"({-c:+.3g} N m s/rad)"),
+    Term("drag", "yaw", "N m s^2/rad^2", lambda s: s["dbeta"] * np.abs(s["dbeta"]),
+         lambda c, ctx: f"a yaw torque of {c:+.3g} N m s^2/rad^2 x beta'|beta'| (drag if negative)"),
+    Term("sign", "yaw", "N m", lambda s: np.tanh(s["dbeta"] / s["scale_beta"]),
+         lambda c, ctx: f"a torque of {abs(c):.3g} N m {'against' if c < 0 else 'along'} the yaw motion that "
+                        "flips with its direction"),
+    Term("thrust_reverse", "yaw", "1", lambda s: np.where(s["tau2"] < 0, s["M2"], 0.0),
+         _thrust_words("tail", "u2 < 0", "yaw", "backwards")),
+    Term("reaction", "yaw", "1", lambda s: s["MR"],
+         lambda c, ctx: f"the main rotor's reaction torque on yaw is about {_pct(c)} "
+                        f"{'weaker' if c > 0 else 'stronger'} than the table's M_R"),
+)
+
+
+@dataclass
+class Correction:
+    axis: str
+    terms: list[dict]  # name, coefficient, unit, sentence
+    sentence: str
+    held_out_gain: float  # held-out equation-error RSS reduction (fraction)
+    t: float
+    p: float
+    fit_before: float  # prediction fit [%] without and with the correction
+    fit_after: float
+    estimates: dict  # J, B of the axis refitted with the terms
+    torque_nm: np.ndarray  # the correction as a torque per sample [N m]
+    prediction: np.ndarray  # the axis' multi-step predictions with the correction [rad]
+
+
+def signals(log, ps, p: dict, cache: dict) -> dict:
+    """Measured and reconstructed signals the library is made of (rates smoothed as the candidates')."""
+    dt = log.sample_time_s
+    vel = {}
+    for axis in ("pitch", "yaw"):
+        key = ("velocity", axis)
+        if key not in cache:
+            cache[key] = smoothed_velocity(getattr(log, AXIS_ANGLE[axis]), dt)
+        vel[axis] = cache[key]
+    scale = {a: max(3.0 * float(np.median(np.abs(np.diff(v)))), 1e-4) for a, v in vel.items()}
+    return {"alpha": log.alpha_rad, "beta": log.beta_rad, "dalpha": vel["pitch"], "dbeta": vel["yaw"],
+            "scale_alpha": scale["pitch"], "scale_beta": scale["yaw"], "tau1": ps.tau1, "tau2": ps.tau2,
+            "M1": ps.M1_nm, "M2": ps.M2_nm, "MR": ps.MR_nm,
+            "gyro_factor": 1.0 - p["Kg"] * vel["yaw"] * np.cos(log.alpha_rad)}
+
+
+def fit_correction(axis: str, reg: Regression, base_score, ids: np.ndarray, sig: dict, filt, n_tests: int,
+                   context: dict) -> tuple[list[Term], np.ndarray, object, object, object] | None:
+    """The sparse set of library terms that best lowers the held-out residual of ``axis`` beyond chance, or
+    None.  Returns (terms, coefficients, score, test, regression with the terms)."""
+    from pysindy.optimizers import STLSQ
+
+    terms = [t for t in LIBRARY if t.axis == axis]
+    cols = np.column_stack([-filt.apply(t.torque(sig)) for t in terms])  # eq. (3): -F[phi], as model.py
+    x = reg.x[axis]
+    theta = base_score.theta[axis]
+    r = reg.g[axis] - x @ theta
+    # Frisch-Waugh-Lovell: the library's part not explained by J, B and the accepted effects
+    proj, *_ = np.linalg.lstsq(x, cols, rcond=None)
+    lib = cols - x @ proj
+    norms = np.linalg.norm(lib, axis=0)
+    usable = norms > 1e-12 * max(float(norms.max()), 1e-300)
+    rn = float(np.linalg.norm(r))
+    if rn == 0 or not usable.any():
+        return None
+    supports = []
+    for thr in THRESHOLDS:
+        opt = STLSQ(threshold=thr, alpha=1e-8, normalize_columns=False, max_iter=50)
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # "eliminated all coefficients" at a high threshold: an empty set
+            opt.fit(lib[:, usable] / norms[usable], r / rn)
+        coef = np.zeros(len(terms))
+        coef[usable] = np.ravel(opt.coef_)
+        s = tuple(int(i) for i in np.flatnonzero(coef))
+        if s and len(s) <= MAX_TERMS and s not in supports:
+            supports.append(s)
+    if not supports:
+        return None
+    level = FAMILY_ALPHA / (n_tests + len(supports))
+
+    def scored(s):
+        xs = np.column_stack([x, cols[:, list(s)]])
+        rs = Regression({**reg.g}, {**reg.x, axis: xs}, {})
+        sc = score(rs, ids, (axis,))
+        return sc, compare(base_score, sc, rs, (axis,), n_tests, alpha=level), rs
+
+    best = None
+    for s in supports:
+        sc, test, rs = scored(s)
+        while len(s) > 1:  # backward pruning: a term whose removal costs < PRUNE_GAIN of the held-out gain goes
+            trials = [(scored(tuple(i for i in s if i != j)), j) for j in s]
+            (sc2, test2, rs2), j = max(trials, key=lambda tr: tr[0][1].gain)
+            if test2.gain < test.gain - PRUNE_GAIN * abs(test.gain):
+                break
+            s, sc, test, rs = tuple(i for i in s if i != j), sc2, test2, rs2
+        if not _keeps_physics(sc.theta[axis][:2], theta[:2]):
+            continue  # e.g. terms that rebuild the right-hand side itself, leaving 0 = 0 with J = B = 0
+        if test.passed and (best is None or test.gain > best[3].gain):
+            best = ([terms[i] for i in s], sc.theta[axis][x.shape[1]:], sc, test, rs)
+    return best
+
+
+#: a correction may move J or B by at most this fraction of their values with the named effects
+MAX_JB_CHANGE = 0.5
+
+
+def _keeps_physics(jb: np.ndarray, jb_before: np.ndarray) -> bool:
+    """J and B stay positive and near their values without the correction: a correction describes a torque the
+    model misses, it does not replace the model's inertia and damping."""
+    if not np.all(jb > 0):
+        return False
+    if not np.all(jb_before > 0):  # the model without it was not physical: any physical J, B is a repair
+        return True
+    return bool(np.all(np.abs(jb / jb_before - 1.0) <= MAX_JB_CHANGE))
+
+
+def describe(axis: str, terms: list[Term], coef: np.ndarray, context: dict) -> list[dict]:
+    return [{"term": t.name, "coefficient": float(c), "unit": t.unit, "sentence": t.words(float(c), context)}
+            for t, c in zip(terms, coef)]
+
+
+def torque(terms: list[Term], coef: np.ndarray, sig: dict) -> np.ndarray:
+    """The correction as a torque per sample [N m] (unfiltered), for the prediction fit."""
+    out = np.zeros_like(sig["alpha"])
+    for t, c in zip(terms, coef):
+        out = out + float(c) * t.torque(sig)
+    return out
+
+
+def finite(x: float) -> float:
+    return x if math.isfinite(x) else math.nan
