@@ -161,3 +161,14 @@ def test_grid_refinement_finds_the_parabola_vertex(grid, vertex, log_space):
     to = np.log if log_space else (lambda v: v)
     gains = [-(to(g) - to(vertex)) ** 2 for g in grid]
     assert _refine(grid, gains, int(np.argmax(gains)), log_space) == pytest.approx(vertex, rel=1e-9)
+
+
+def test_progress_is_reported_in_order_and_quiet_when_piped(square_csv):
+    r = sim_cached("multisine", 100.0, 90.0, 0.0, Q12, 3, ())
+    seen = []
+    diagnose(as_log(r), progress=lambda stage, done: seen.append((stage, done)))
+    fractions = [f for _, f in seen]
+    assert fractions == sorted(fractions) and fractions[0] == 0.0 and fractions[-1] >= 0.85
+    assert any(stage.startswith("testing coulomb_friction:pitch") for stage, _ in seen)
+    res = runner.invoke(app, ["diagnose", str(square_csv), "--json", "-"])  # stderr is not a terminal here
+    assert res.exit_code == 0 and "━" not in res.stderr and "\r" not in res.stderr

@@ -12,6 +12,7 @@ import json
 import math
 import os
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -181,6 +182,22 @@ def stage_reporter(label: str):
         sys.stderr.flush()
 
     return report
+
+
+@contextmanager
+def progress_bar(label: str):
+    """Yield advance(stage, fraction): a transient bar with the stage on a terminal, a no-op when piped."""
+    if not sys.stderr.isatty():
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    bar = Progress(TextColumn(Path(label).name), BarColumn(bar_width=20), TextColumn("{task.percentage:>3.0f} %"),
+                   TimeElapsedColumn(), TextColumn("{task.description}"), transient=True, console=Console(stderr=True))
+    task = bar.add_task("", total=1.0)
+    with bar:
+        yield lambda stage, done: bar.update(task, completed=done, description=stage)
 
 
 @app.command()
@@ -393,10 +410,10 @@ def diagnose(
                     voltage_time=voltage_time, rate_hz=rate)
     for note in data.meta.get("assumed", {}).values():
         say(f"note: {note}")
-    progress and progress("testing candidate effects")
-    d = run_diagnosis(data, overrides, thrust_law, parse_auto("--a", a))
     if progress:
         sys.stderr.write("\r\033[K")
+    with progress_bar(str(log)) as advance:  # a bar on a terminal, nothing when stderr is piped
+        d = run_diagnosis(data, overrides, thrust_law, parse_auto("--a", a), progress=advance)
     doc = to_doc(d, data)
     fits = ", ".join(f"{k} {v:.2f} %" for k, v in d.fit_before.items())
     say(f"{log}: {d.verdict.upper().replace('_', ' ')}: {d.verdict_sentence}")

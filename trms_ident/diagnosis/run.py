@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
@@ -110,18 +111,26 @@ def _refine(grid, gains, best_i, log_space: bool = True) -> float:
     return float(grid[best_i])
 
 
-def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_rad_s: float | None = None) -> Diagnosis:
-    """Find what the seed model leaves out of this log, fit it, and give the verdict (VERDICTS)."""
+def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_rad_s: float | None = None,
+             progress: Callable[[str, float], None] | None = None) -> Diagnosis:
+    """Find what the seed model leaves out of this log, fit it, and give the verdict (VERDICTS).
+
+    ``progress(stage, fraction done)``: called as the work advances (the CLI draws a bar with it)."""
     with np.errstate(all="ignore"):  # a model far off the log overflows its predictions: they score as misfits
-        return _diagnose(log, overrides, law, a_rad_s)
+        return _diagnose(log, overrides, law, a_rad_s, progress or (lambda stage, done: None))
 
 
 #: the held-out tests need this many blocks (each five filter memories long)
 MIN_BLOCKS_DIAGNOSE = 4
 
 
-def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None) -> Diagnosis:
+#: shares of the work, for the progress bar: seed check, each search round, fits and corrections
+_SEED_SHARE, _ROUNDS_SHARE = 0.15, 0.7
+
+
+def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None, progress) -> Diagnosis:
     p = merge(overrides or {}, source="parameter overrides")
+    progress("fitting the seed model", 0.0)
     seed = _seed_check(log, overrides, law)  # also refuses an axis with no excitation (exit 6), as estimate does
     dt = log.sample_time_s
     a = a_rad_s or design_filters(log.alpha_rad, log.beta_rad, dt).a_rad_s
@@ -143,9 +152,11 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None)
     n_tests = len(cands)
     reg_now, score_now = base_reg, base
     excluded: set[str] = set()  # look-alikes already named as a finding's alternatives
-    for _ in range(MAX_FINDINGS):
+    for round_i in range(MAX_FINDINGS):
         results = []
-        for c in cands:
+        for i, c in enumerate(cands):
+            progress(f"testing {c.key} (round {round_i + 1})",
+                     _SEED_SHARE + _ROUNDS_SHARE * (round_i + i / len(cands)) / MAX_FINDINGS)
             if c.key in current.keys or c.key in excluded or (c.effect in EXACT_OFFSETS and any(
                     k.split(":")[0] in EXACT_OFFSETS for k in current.keys)):  # one pitch offset explains both
                 continue
@@ -173,6 +184,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None)
         reg_now, score_now = best["reg"], best["score"]
         excluded.update(alts)
         findings.append((best, alts))
+    progress("prediction fits", _SEED_SHARE + _ROUNDS_SHARE)
     fit_before, over_before = _fits(log, p, law, Model(), {}, nominal)
     refused = []
     while True:  # accept only findings that keep J/B physical and raise the fit of every axis they touch
@@ -227,6 +239,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None)
     verdict, sentence = _verdict(log, seed, out, fit_after, seg)
     corrections = []
     if verdict in ("partly_explained", "unexplained"):
+        progress("data-driven correction", 0.95)
         corrections = _corrections(log, p, law, a, current, values, augmented, reg_now, score_now, ids, cache,
                                    seed, fit_after, n_tests)
         for c in corrections:
