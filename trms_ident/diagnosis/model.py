@@ -128,9 +128,7 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
             _, cache[mkey] = filtered_regression(np.zeros_like(x), x, dt, a_rad_s, a_rad_s * a_rad_s)
         if keys[axis] not in cache:
             cache[keys[axis]] = f.apply(ps.y_pitch_nm if axis == "pitch" else ps.y_yaw_nm)  # eq. (3)
-            if len(cache) > 400:  # bound the memory of long searches
-                for k in [k for k in cache if k[0] == "g" and k != keys["pitch"] and k != keys["yaw"]][:100]:
-                    del cache[k]
+            _bound(cache, keep=(keys["pitch"], keys["yaw"]))
         m = cache[mkey]
         cols, names = [m[:, 0], m[:, 1]], ["J", "B"]
         for key in model.linear:
@@ -158,6 +156,21 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
             names.append(key)
         reg.g[axis], reg.x[axis], reg.names[axis] = cache[keys[axis]], np.column_stack(cols), names
     return reg
+
+
+#: the filtered targets of the grid searches kept for reuse, in bytes (oldest dropped first): a bound that
+#: holds for any log length (an hour at 1 kHz is 29 MB per target)
+CACHE_BYTES = 400e6
+
+
+def _bound(cache: dict, keep: tuple) -> None:
+    targets = [k for k in cache if k[0] == "g"]
+    total = sum(cache[k].nbytes for k in targets)
+    for k in targets:  # insertion order: oldest first
+        if total <= CACHE_BYTES:
+            break
+        if k not in keep:
+            total -= cache.pop(k).nbytes
 
 
 def phi(effect: str, axis: str, log: Log, p: dict, ps, cache: dict) -> np.ndarray:
