@@ -152,19 +152,22 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
                 col = cache[ck]
             else:
                 col = cache[ck] = -f.apply(phi(effect, axis, log, p, None, cache))
+                _bound(cache, keep=(keys["pitch"], keys["yaw"], ck))
             cols.append(col)
             names.append(key)
-        reg.g[axis], reg.x[axis], reg.names[axis] = cache[keys[axis]], np.column_stack(cols), names
+        # no extra column: the cached regressors themselves (read-only use), not an n x 2 copy per candidate
+        reg.g[axis], reg.x[axis], reg.names[axis] = cache[keys[axis]], m if len(cols) == 2 else np.column_stack(cols), names
     return reg
 
 
-#: the filtered targets of the grid searches kept for reuse, in bytes (oldest dropped first): a bound that
-#: holds for any log length (an hour at 1 kHz is 29 MB per target)
-CACHE_BYTES = 400e6
+#: the filtered targets and extra-regressor columns kept for reuse, in bytes (oldest dropped first): a bound
+#: that holds for any log length (an hour at 1 kHz is 29 MB per column)
+CACHE_BYTES = 256e6
 
 
 def _bound(cache: dict, keep: tuple) -> None:
-    targets = [k for k in cache if k[0] == "g"]
+    """Drop the oldest filtered targets and extra-regressor columns beyond CACHE_BYTES (both recomputable)."""
+    targets = [k for k in cache if k[0] in ("g", "phi")]
     total = sum(cache[k].nbytes for k in targets)
     for k in targets:  # insertion order: oldest first
         if total <= CACHE_BYTES:

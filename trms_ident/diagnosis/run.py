@@ -162,6 +162,8 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                 continue
             res = _try(c, log, p, law, a, current, cache, ids, score_now, n_tests)
             if res is not None:
+                if not (res["test"].passed and _plausible(c, res["value"])):
+                    res["reg"] = None  # only the passing candidates' regressions are needed again (memory)
                 results.append(res)
         if not findings:
             tested = [{"effect": r["c"].effect, "axis": r["c"].axis, "held_out_gain": r["test"].gain,
@@ -179,6 +181,9 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         if best["c"].key in PAIR and any(k in PAIR for k in alts):
             best, alts, told = _offsets_by_output_error(best, alts, ok, log, p, law, current)
         best["told_apart"] = told
+        for r in ok:
+            if r is not best:
+                r["reg"] = None
         best["before"] = (current, reg_now, score_now)
         current = best["model"]
         reg_now, score_now = best["reg"], best["score"]

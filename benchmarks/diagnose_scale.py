@@ -1,0 +1,64 @@
+"""Diagnose at scale (issue #12, point 5): `trms-ident diagnose` on 10 min, 1 h and 4 h of 1 kHz data.
+
+    python benchmarks/diagnose_scale.py            # 10 min, 1 h, 4 h: about 12 minutes
+    python benchmarks/diagnose_scale.py --only 1h
+
+Each figure is a fresh process timed from outside (start-up included); peak memory is its max RSS
+(os.wait4).  The yardstick is the plain scipy pipeline on the same CSV: pandas.read_csv plus 16
+scipy.signal.lfilter passes (benchmarks/ratios.py), run right after the diagnose, once each.
+Targets: 1 h within 1.5 GB and at most 25x the yardstick; 4 h within 4 GB.  Writes the "Diagnose at
+scale" section of RESULTS.md.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from ratios import PY, SCIPY_PIPELINE, make_csv, timed  # noqa: E402
+
+LENGTHS_S = {"10min": 600.0, "1h": 3600.0, "4h": 14400.0}
+TARGETS = {"1h": (1500.0, 25.0), "4h": (4000.0, None)}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--only", choices=list(LENGTHS_S))
+    ap.add_argument("--out", default=str(Path(__file__).with_name("RESULTS.md")))
+    args = ap.parse_args()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, seconds in LENGTHS_S.items():
+            if args.only and name != args.only:
+                continue
+            path = Path(tmp) / f"{name}.csv"
+            make_csv(path, seconds)
+            wall, peak = timed([PY, "-m", "trms_ident", "diagnose", str(path), "--json", str(Path(tmp) / "d.json")])
+            base, _ = timed([PY, "-c", SCIPY_PIPELINE, str(path)])
+            rows.append((name, wall, peak, base))
+            print(rows[-1], file=sys.stderr)
+            path.unlink()
+    lines = ["| log | diagnose [s] | peak memory [MB] | scipy pipeline [s] | diagnose / pipeline | targets |",
+             "|---|---|---|---|---|---|"]
+    for name, wall, peak, base in rows:
+        mem_t, ratio_t = TARGETS.get(name, (None, None))
+        target = []
+        if mem_t:
+            target.append(f"<= {mem_t:.0f} MB: {'met' if peak <= mem_t else 'not met'}")
+        if ratio_t:
+            target.append(f"<= {ratio_t:g}x: {'met' if wall / base <= ratio_t else 'not met'}")
+        lines.append(f"| {name} | {wall:.1f} | {peak:.0f} | {base:.2f} | {wall / base:.1f} | {'; '.join(target) or '-'} |")
+    text = ("## Diagnose at scale (benchmarks/diagnose_scale.py, fresh processes, one run each, this 2-core "
+            "machine)\n\n" + "\n".join(lines) + "\n\nLogs: multisine, 12-bit encoder, 1 kHz, clean (the seed model "
+            "fits: every candidate is tested and none passes, the full search).\n")
+    from results import update_section
+    update_section(Path(args.out), "Diagnose at scale", text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
