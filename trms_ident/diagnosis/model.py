@@ -16,7 +16,8 @@ from scipy import signal
 
 from ..log import Log
 from ..numerics.filters import discretize, second_order_lowpass
-from ..numerics.regressors import filtered_regression, plant_signals
+from ..numerics.fused import plant_signals  # compiled, equal to regressors.plant_signals to round-off
+from ..numerics.regressors import filtered_regression
 
 AXIS_ANGLE = {"pitch": "alpha_rad", "yaw": "beta_rad"}
 
@@ -118,8 +119,14 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
         pp = {**p, **changes}
         # exact offsets: the encoder's (true angle = logged - delta) and the centre of mass's (gravity only);
         # the angle regressors F s^2[x], F s[x] are blind to a constant offset and stay as logged
-        ps = plant_signals(u1, u2, log.alpha_rad - mods.get("sensor_offset:pitch", 0.0), log.beta_rad, dt, pp, law,
-                           gravity_offset_rad=mods.get("com_offset:pitch", 0.0))
+        sensor = mods.get("sensor_offset:pitch", 0.0)
+        trig = None
+        if sensor == 0.0:  # sin and cos of the logged pitch, once per log
+            trig = cache.get(("trig",))
+            if trig is None:
+                trig = cache[("trig",)] = (np.sin(log.alpha_rad), np.cos(log.alpha_rad))
+        ps = plant_signals(u1, u2, log.alpha_rad - sensor, log.beta_rad, dt, pp, law,
+                           gravity_offset_rad=mods.get("com_offset:pitch", 0.0), trig=trig)
     reg = Regression({}, {}, {})
     for axis in ("pitch", "yaw"):
         x = getattr(log, AXIS_ANGLE[axis])

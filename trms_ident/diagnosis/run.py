@@ -275,7 +275,7 @@ def _corrections(log, p, law, a, current, values, augmented, reg_now, score_now,
                  n_tests) -> list:
     """A sparse data-driven correction (sparse.py) for each axis still above its noise level; kept only when
     it passes the held-out block test and raises the axis' prediction fit."""
-    from ..numerics.regressors import plant_signals
+    from ..numerics.fused import plant_signals
     from . import sparse
 
     u1, u2, changes = modified_inputs(log, dict(current.mods))
@@ -461,7 +461,7 @@ def _effect_values(model: Model, sc, reg) -> dict:
 
 def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, extra: dict | None = None):
     """Prediction fit [%] and predictions per axis; ``extra``: axis -> extra torque [N m] per sample."""
-    from ..numerics.regressors import plant_signals
+    from ..numerics.fused import plant_signals
 
     dt = log.sample_time_s
     u1, u2, changes = modified_inputs(log, dict(model.mods))

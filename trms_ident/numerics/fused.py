@@ -153,3 +153,64 @@ def warm_up() -> None:
     biquad(np.array([1.0, 0.0, 0.0]), np.array([1.0, 0.0, 0.0]), x)
     gradient_estimator(np.column_stack([x, x]), x, [None, None], 0.01, rate_per_s=1.0)
     _block_scores(x, x, 1.0, 4, 4)
+
+
+@njit(cache=True, nogil=True)
+def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed, mg, kg, delta, out):
+    """One pass of regressors.plant_signals (eq. 1): out rows tau1, tau2, M1, M2, M_R, beta', y_p, y_y.
+    sin_a, cos_a: sin and cos of alpha (computed once by the caller, reused across candidates)."""
+    n = sin_a.size
+    sd, cd = math.sin(delta), math.cos(delta)
+    z = np.zeros((3, 2))
+    for k in range(n):
+        if k == 0:
+            _init(b, a, 0, u1[0], z)
+            _init(b, a, 1, u2[0], z)
+            _init(b, a, 2, u1[0], z)
+        t1 = _step(b, a, 0, u1[k], z)  # eq. (1): motor lags, zero-order hold
+        t2 = _step(b, a, 1, u2[k], z)
+        mr = _step(b, a, 2, u1[k], z)  # eq. (1): M_R from u1 in one ZOH step
+        if n < 3:
+            db = 0.0
+        elif k == 0:  # beta' as numpy.gradient(edge_order=2)
+            db = (-3.0 * beta[0] + 4.0 * beta[1] - beta[2]) / (2.0 * dt)
+        elif k == n - 1:
+            db = (3.0 * beta[k] - 4.0 * beta[k - 1] + beta[k - 2]) / (2.0 * dt)
+        else:
+            db = (beta[k + 1] - beta[k - 1]) / (2.0 * dt)
+        m1 = a1 * t1 * (abs(t1) if signed else t1) + b1 * t1
+        m2 = a2 * t2 * (abs(t2) if signed else t2) + b2 * t2
+        out[0, k] = t1
+        out[1, k] = t2
+        out[2, k] = m1
+        out[3, k] = m2
+        out[4, k] = mr
+        out[5, k] = db
+        s_ad = sin_a[k] if delta == 0.0 else sin_a[k] * cd + cos_a[k] * sd  # sin(alpha + delta)
+        out[6, k] = m1 - mg * s_ad - kg * m1 * db * cos_a[k]  # eq. (1), pitch
+        out[7, k] = m2 - mr  # eq. (1), yaw
+
+
+def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str, gravity_offset_rad: float = 0.0,
+                  trig: tuple | None = None):
+    """regressors.plant_signals in one compiled pass (the same ZOH coefficients, the same steady start);
+    equal to the reference to round-off (tested).  For the diagnosis, which rebuilds these signals for
+    every candidate and grid point; ``trig``: (sin alpha, cos alpha) when the caller keeps them."""
+    from .filters import discretize
+    from .regressors import PlantSignals
+
+    b = np.zeros((3, 3))
+    a = np.zeros((3, 3))
+    for i, f in enumerate((discretize([p["k1"]], [p["T11"], p["T10"]], dt_s, "zoh"),
+                           discretize([p["k2"]], [p["T21"], p["T20"]], dt_s, "zoh"),
+                           discretize(p["kc"] * p["k1"] * np.array([p["T0"], 1.0]),
+                                      np.polymul([p["Tp"], 1.0], [p["T11"], p["T10"]]), dt_s, "zoh"))):
+        b[i, :f.b.size], a[i, :f.a.size] = f.b, f.a
+    out = np.empty((8, alpha_rad.size))
+    sin_a, cos_a = trig if trig is not None else (np.sin(alpha_rad), np.cos(alpha_rad))
+    _plant_signals(np.ascontiguousarray(u1_v, dtype=float), np.ascontiguousarray(u2_v, dtype=float),
+                   np.ascontiguousarray(sin_a, dtype=float), np.ascontiguousarray(cos_a, dtype=float),
+                   np.ascontiguousarray(beta_rad, dtype=float),
+                   float(dt_s), b, a, p["a1"], p["b1"], p["a2"], p["b2"], law == "signed", p["Mg"], p["Kg"],
+                   float(gravity_offset_rad), out)
+    return PlantSignals(*out)
