@@ -169,7 +169,7 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
 
 #: the filtered targets and extra-regressor columns kept for reuse, in bytes (oldest dropped first): a bound
 #: that holds for any log length (an hour at 1 kHz is 29 MB per column)
-CACHE_BYTES = 256e6
+CACHE_BYTES = 96e6
 
 
 def _bound(cache: dict, keep: tuple) -> None:

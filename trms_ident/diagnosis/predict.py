@@ -38,18 +38,17 @@ def _rhs(pitch, x, v, tau_m, other, s2, scw, ext, th, fx):
 
 
 @njit(cache=True)
-def predict(pitch, x_start, v_start, tau, other, s2, scw, ext, dt, horizon, th, fx):
-    """Angle predictions [rad], restarted every ``horizon`` samples from x_start (logged angle) and
-    v_start [rad/s] at the restart sample; inputs (tau, other = beta' or M_R, s2, scw, ext: see _rhs) are linear
-    between samples."""
+def _predict(pitch, x_start, v_start, x_off, v_off, tau, other, s2, scw, ext, dt, horizon, th, fx, out):
+    """Angle predictions [rad] into ``out``, restarted every ``horizon`` samples from x_start + x_off[window]
+    (logged angle) and v_start + v_off[window] [rad/s] at the restart sample; inputs (tau, other = beta' or
+    M_R, s2, scw, ext: see _rhs) are linear between samples."""
     n = x_start.size
-    out = np.empty(n)
     x = 0.0
     v = 0.0
     for k in range(n):
         if k % horizon == 0:
-            x = x_start[k] - fx[4]
-            v = v_start[k]
+            x = x_start[k] + x_off[k // horizon] - fx[4]
+            v = v_start[k] + v_off[k // horizon]
         out[k] = x + fx[4]
         if k == n - 1:
             break
@@ -65,31 +64,77 @@ def predict(pitch, x_start, v_start, tau, other, s2, scw, ext, dt, horizon, th, 
         a4 = _rhs(pitch, x + dt * (v + 0.5 * dt * a2), v + dt * a3, t1, o1, p1, q1, e1, th, fx)
         x += dt * (v + dt / 6.0 * (a1 + a2 + a3))
         v += dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+
+
+def _windows(n: int, horizon: int) -> int:
+    return (n + horizon - 1) // horizon
+
+
+def predict(pitch, x_start, v_start, tau, other, s2, scw, ext, dt, horizon, th, fx) -> np.ndarray:
+    """Angle predictions [rad], restarted every ``horizon`` samples from x_start and v_start (see _predict)."""
+    zero = np.zeros(_windows(x_start.size, horizon))
+    out = np.empty(x_start.size)
+    _predict(pitch, x_start, v_start, zero, zero, tau, other, s2, scw, ext, dt, horizon, th, fx, out)
     return out
 
 
+@njit(cache=True)
+def _normal_sums(x, y0, yx, yv, hx, hv, horizon, sums):
+    """Per window: the Gauss-Newton normal equations of (start angle, start velocity) from the finite-difference
+    sensitivities (yx - y0)/hx, (yv - y0)/hv: columns a11, a12, a22, b1, b2 of ``sums``."""
+    for k in range(x.size):
+        w = k // horizon
+        sx = (yx[k] - y0[k]) / hx
+        sv = (yv[k] - y0[k]) / hv
+        e = x[k] - y0[k]
+        sums[w, 0] += sx * sx
+        sums[w, 1] += sx * sv
+        sums[w, 2] += sv * sv
+        sums[w, 3] += sx * e
+        sums[w, 4] += sv * e
+
+
+@njit(cache=True)
+def _keep_better(x, y0, y1, horizon):
+    """Per window, y0 takes y1 where y1's squared error is lower (in place)."""
+    n = x.size
+    for w0 in range(0, n, horizon):
+        w1 = min(w0 + horizon, n)
+        e0 = 0.0
+        e1 = 0.0
+        for k in range(w0, w1):
+            e0 += (x[k] - y0[k]) ** 2
+            e1 += (x[k] - y1[k]) ** 2
+        if e1 < e0:
+            for k in range(w0, w1):
+                y0[k] = y1[k]
+
+
 def predict_fitted_start(pitch, x_meas, v_guess, tau, other, s2, scw, ext, dt, horizon, th, fx) -> np.ndarray:
-    """Predictions with each window's initial angle and velocity fitted to the window's measurements."""
-    y0 = predict(pitch, x_meas, v_guess, tau, other, s2, scw, ext, dt, horizon, th, fx)
+    """Predictions with each window's initial angle and velocity fitted to the window's measurements (one
+    Gauss-Newton step, kept where it lowers the window's error: friction makes the start non-smooth).  Three
+    prediction buffers, no other temporaries the length of the log."""
+    n, nw = x_meas.size, _windows(x_meas.size, horizon)
+    zero = np.zeros(nw)
+    args = (tau, other, s2, scw, ext, dt, horizon, th, fx)
+    y0, yx, yv = np.empty(n), np.empty(n), np.empty(n)
     hx = 1e-6 * max(float(np.max(np.abs(x_meas))), 1.0)  # rad
     hv = 1e-5 * max(float(np.max(np.abs(v_guess))), 1.0)  # rad/s
-    sx = (predict(pitch, x_meas + hx, v_guess, tau, other, s2, scw, ext, dt, horizon, th, fx) - y0) / hx
-    sv = (predict(pitch, x_meas, v_guess + hv, tau, other, s2, scw, ext, dt, horizon, th, fx) - y0) / hv
-    e = x_meas - y0
-    n = x_meas.size
-    starts = np.arange(0, n, horizon)
-    sums = lambda z: np.add.reduceat(z, starts)  # noqa: E731
-    a11, a12, a22 = sums(sx * sx), sums(sx * sv), sums(sv * sv)
-    b1, b2 = sums(sx * e), sums(sv * e)
+    _predict(pitch, x_meas, v_guess, zero, zero, *args, y0)
+    _predict(pitch, x_meas, v_guess, zero + hx, zero, *args, yx)
+    _predict(pitch, x_meas, v_guess, zero, zero + hv, *args, yv)
+    sums = np.zeros((nw, 5))
+    _normal_sums(x_meas, y0, yx, yv, hx, hv, horizon, sums)
+    del yx
+    a11, a12, a22, b1, b2 = sums.T
     ridge = 1e-12 * (a11 + a22) + 1e-300
     det = (a11 + ridge) * (a22 + ridge) - a12 * a12
     dx = ((a22 + ridge) * b1 - a12 * b2) / det
     dv = ((a11 + ridge) * b2 - a12 * b1) / det
-    w = np.arange(n) // horizon
-    y1 = predict(pitch, x_meas + dx[w], v_guess + dv[w], tau, other, s2, scw, ext, dt, horizon, th, fx)
-    # keep a window's step only where it lowers that window's error (friction makes the start non-smooth)
-    better = sums((x_meas - y1) ** 2) < sums(e * e)
-    return np.where(better[w], y1, y0)
+    y1 = yv  # reuse the buffer
+    _predict(pitch, x_meas, v_guess, dx, dv, *args, y1)
+    _keep_better(x_meas, y0, y1, horizon)
+    return y0
 
 
 def nrmse_fit(y: np.ndarray, y_hat: np.ndarray) -> float:
