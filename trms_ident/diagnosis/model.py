@@ -126,15 +126,25 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
             if trig is None:
                 trig = cache[("trig",)] = (np.sin(log.alpha_rad), np.cos(log.alpha_rad))
         ps = plant_signals(u1, u2, log.alpha_rad - sensor, log.beta_rad, dt, pp, law,
-                           gravity_offset_rad=mods.get("com_offset:pitch", 0.0), trig=trig)
+                           gravity_offset_rad=mods.get("com_offset:pitch", 0.0), trig=trig,
+                           start=cache.get(("start_states",)))  # the motors mid-run when the log begins
     reg = Regression({}, {}, {})
     for axis in ("pitch", "yaw"):
         x = getattr(log, AXIS_ANGLE[axis])
         mkey = ("m", axis, a_rad_s)
+        skey = ("start", axis, a_rad_s)
+        if skey not in cache:
+            base_ps = ps if not mods else plant_signals(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, dt, p, law,
+                                                        start=cache.get(("start_states",)))
+            cache[skey] = _leading_basis(start_columns(axis, p, law, base_ps, log.alpha_rad, a_rad_s, dt, f))
+        basis = cache[skey]
         if mkey not in cache:
-            _, cache[mkey] = filtered_regression(np.zeros_like(x), x, dt, a_rad_s, a_rad_s * a_rad_s)
+            _, jb = filtered_regression(np.zeros_like(x), x, dt, a_rad_s, a_rad_s * a_rad_s)
+            deflate(jb[:, 0], basis)
+            deflate(jb[:, 1], basis)
+            cache[mkey] = jb
         if keys[axis] not in cache:
-            cache[keys[axis]] = f.apply(ps.y_pitch_nm if axis == "pitch" else ps.y_yaw_nm)  # eq. (3)
+            cache[keys[axis]] = deflate(f.apply(ps.y_pitch_nm if axis == "pitch" else ps.y_yaw_nm), basis)  # eq. (3)
             _bound(cache, keep=(keys["pitch"], keys["yaw"]))
         m = cache[mkey]
         cols, names = [m[:, 0], m[:, 1]], ["J", "B"]
@@ -144,27 +154,74 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
                 continue
             ck = ("phi", key, axis, a_rad_s)
             if key in NEEDS_PLANT:  # depends on the input modifications: not cached
-                col = -f.apply(phi(effect, axis, log, pp, ps, cache))
+                col = deflate(-f.apply(phi(effect, axis, log, pp, ps, cache)), basis)
             elif effect == "yaw_inertia_pitch" and axis == "pitch":  # its centrifugal torque on pitch
                 if ck not in cache:
-                    cache[ck] = -f.apply(phi(effect, axis, log, p, None, cache))
+                    cache[ck] = deflate(-f.apply(phi(effect, axis, log, p, None, cache)), basis)
                 col = cache[ck]
             elif effect == "yaw_inertia_pitch":  # a derivative: F s[sin^2(alpha) beta'], exact through F s
                 if ck not in cache:
                     _, ms = filtered_regression(np.zeros_like(x), phi(effect, axis, log, p, None, cache), dt,
                                                 a_rad_s, a_rad_s * a_rad_s)
-                    cache[ck] = -ms[:, 1]
+                    cache[ck] = deflate(-ms[:, 1], basis)
                 col = cache[ck]
             elif ck in cache:
                 col = cache[ck]
             else:
-                col = cache[ck] = -f.apply(phi(effect, axis, log, p, None, cache))
+                col = cache[ck] = deflate(-f.apply(phi(effect, axis, log, p, None, cache)), basis)
                 _bound(cache, keep=(keys["pitch"], keys["yaw"], ck))
             cols.append(col)
             names.append(key)
-        # no extra column: the cached regressors themselves (read-only use), not an n x 2 copy per candidate
+        # no extra column: the cached regressors themselves (read-only use), not a copy per candidate
         reg.g[axis], reg.x[axis], reg.names[axis] = cache[keys[axis]], m if len(cols) == 2 else np.column_stack(cols), names
     return reg
+
+
+def start_columns(axis: str, p: dict, law: str, ps, alpha_rad: np.ndarray, a_rad_s: float, dt: float,
+                  f) -> list[np.ndarray]:
+    """Regressors of the unknown start states (a log that begins mid-run): the filters start in the steady
+    state of the first sample, and the motors at the steady state of the first voltage, so the equation
+    error carries their initial-condition responses.  Those are linear in the unknown initial states: the
+    filter's own modes z^k, k z^k (double pole z of the bilinear F), and the motor-state error c e^k filtered
+    by F, through the thrust's slope (linearised) and, on yaw, through the reaction moment's two lags.  They
+    are always in the model (never tested as candidates), like the refinement's start states: every target and
+    column is deflated by them once (Frisch-Waugh-Lovell, see deflate), so J, B and the candidates' parameters
+    are those of the joint fit, and the held-out tests never have to extrapolate a start transient."""
+    n = ps.tau1.size
+    k = np.arange(n, dtype=float)
+    z = (1.0 - a_rad_s * dt / 2.0) / (1.0 + a_rad_s * dt / 2.0)
+    with np.errstate(under="ignore"):
+        fz = z ** k
+        cols = [fz, k * dt * fz]
+        e1 = np.exp(-p["T10"] / p["T11"] * dt) ** k  # main-motor mode
+        if axis == "pitch":
+            slope = 2.0 * p["a1"] * (np.abs(ps.tau1) if law == "signed" else ps.tau1) + p["b1"]
+            cols.append(f.apply(slope * e1 * (1.0 - p["Kg"] * ps.dbeta_rad_s * np.cos(alpha_rad))))
+        else:
+            e2 = np.exp(-p["T20"] / p["T21"] * dt) ** k
+            slope = 2.0 * p["a2"] * (np.abs(ps.tau2) if law == "signed" else ps.tau2) + p["b2"]
+            cols += [f.apply(slope * e2), f.apply(e1), f.apply(np.exp(-dt / p["Tp"]) ** k)]
+    return cols
+
+
+def _leading_basis(cols: list[np.ndarray]) -> tuple[np.ndarray, int]:
+    """Orthonormal basis of the start columns over the leading samples where they are not negligible."""
+    s = np.column_stack(cols)
+    mag = np.max(np.abs(s), axis=0)
+    live = np.abs(s) > 1e-12 * np.where(mag > 0, mag, 1.0)
+    n0 = int(np.max(np.flatnonzero(live.any(axis=1)), initial=-1)) + 1
+    q, r = np.linalg.qr(s[:n0]) if n0 else (np.zeros((0, s.shape[1])), np.zeros((s.shape[1], s.shape[1])))
+    keep = np.abs(np.diag(r)) > 1e-10 * max(float(np.max(np.abs(np.diag(r)), initial=0.0)), 1e-300)
+    return q[:, keep], n0
+
+
+def deflate(col: np.ndarray, basis: tuple[np.ndarray, int]) -> np.ndarray:
+    """Remove the start columns' span from ``col`` in place (only its leading samples change) and return it."""
+    q, n0 = basis
+    if n0 and q.shape[1]:
+        head = col[:n0]
+        head -= q @ (q.T @ head)
+    return col
 
 
 #: the filtered targets and extra-regressor columns kept for reuse, in bytes (oldest dropped first): a bound

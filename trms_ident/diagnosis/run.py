@@ -141,8 +141,10 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                              f"held-out tests, and {HORIZON_S:g} s prediction windows)")
     block = block_length(len(log), dt, 1.0 / a)
     ids = np.minimum(np.arange(len(log)) // block, max(len(log) // block, 1) - 1)
-    cache: dict = {}
     axes = ("pitch", "yaw")
+    start = _choose_start(log, p, law, a, seed.get("start_states"), ids)
+    seed["start_states"] = start
+    cache: dict = {("start_states",): start}  # the motors' states at the first sample (None: steady state)
     current = Model()
     base_reg = regression(log, p, law, a, current, cache)
     base = score(base_reg, ids, axes)
@@ -190,12 +192,12 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         excluded.update(alts)
         findings.append((best, alts))
     progress("prediction fits", _SEED_SHARE + _ROUNDS_SHARE)
-    fit_before, over_before = _fits(log, p, law, Model(), {}, nominal)
+    fit_before, over_before = _fits(log, p, law, Model(), {}, nominal, start=seed.get("start_states"))
     refused = []
     while True:  # accept only findings that keep J/B physical and raise the fit of every axis they touch
         augmented = _estimates(score_now, reg_now)
         values = _effect_values(current, score_now, reg_now)
-        fit_after, over_after = _fits(log, p, law, current, values, augmented)
+        fit_after, over_after = _fits(log, p, law, current, values, augmented, start=seed.get("start_states"))
         if not findings:
             break
         why = _refusal(findings[-1][0]["c"], nominal, augmented, fit_before, fit_after)
@@ -280,14 +282,16 @@ def _corrections(log, p, law, a, current, values, augmented, reg_now, score_now,
 
     u1, u2, changes = modified_inputs(log, dict(current.mods))
     pp = {**p, **changes}
-    ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, log.sample_time_s, pp, law)
+    ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, log.sample_time_s, pp, law,
+                       start=cache.get(("start_states",)))
     sig = sparse.signals(log, ps, pp, cache)
     ctx = {**pp, **augmented}
     out = []
     for axis, ratio in _over_noise(log, seed, fit_after).items():
         if ratio <= EXPLAINED_RMS_OVER_NOISE:
             continue
-        found = sparse.fit_correction(axis, reg_now, score_now, ids, sig, cache[("F", a)], n_tests, ctx)
+        found = sparse.fit_correction(axis, reg_now, score_now, ids, sig, cache[("F", a)], n_tests, ctx,
+                                      cache.get(("start", axis, a)))
         if found is None:
             continue
         terms, coef, sc, test, _ = found
@@ -295,7 +299,7 @@ def _corrections(log, p, law, a, current, values, augmented, reg_now, score_now,
         jb = ("J1", "B1") if axis == "pitch" else ("J2", "B2")
         est[jb[0]], est[jb[1]] = float(sc.theta[axis][0]), float(sc.theta[axis][1])
         torque = sparse.torque(terms, coef, sig)
-        fits, preds = _fits(log, p, law, current, values, est, extra={axis: torque})
+        fits, preds = _fits(log, p, law, current, values, est, extra={axis: torque}, start=seed.get("start_states"))
         before = fit_after[axis]
         if not (math.isfinite(fits[axis]) and (not math.isfinite(before) or fits[axis] > before)):
             continue  # it must raise the prediction fit (or give one where the model had no physical J, B)
@@ -320,12 +324,35 @@ def _refusal(c: Candidate, nominal: dict, augmented: dict, fit_before: dict, fit
     return None
 
 
+def _choose_start(log: Log, p: dict, law: str, a: float, estimated: dict | None, ids: np.ndarray) -> dict | None:
+    """The motors' states at the first sample: at rest, in the steady state of the first voltages (None), or as
+    the seed check estimated them (a log that begins mid-run; from a model that may miss physics).  The one
+    whose seed-model predictions fit the angles best is used (the equation error cannot tell: its start-state
+    regressors absorb the difference)."""
+    rest = {"tau1_0": 0.0, "tau2_0": 0.0, "zeta_0": 0.0}
+    options = [None, rest] + ([estimated] if estimated is not None else [])
+    best, best_cost = None, math.inf
+    for opt in options:
+        reg = regression(log, p, law, a, Model(), {("start_states",): opt})
+        fits, _ = _fits(log, p, law, Model(), {}, _estimates(score(reg, ids, ("pitch", "yaw")), reg), start=opt)
+        cost = sum((1.0 - fits[ax] / 100.0) ** 2 if math.isfinite(fits[ax]) else math.inf for ax in fits)
+        if cost < best_cost:
+            best, best_cost = opt, cost
+    return best
+
+
 def _seed_check(log: Log, overrides: dict | None, law: str) -> dict:
-    """identify's adequacy verdict for the seed model (output-error fit with start states); an axis with no
-    excitation raises IdentificationError, as in estimate."""
+    """identify's adequacy verdict for the seed model (output-error fit with start states), with the motor and
+    reaction-lag states it estimated for the first sample under "start_states" (None when the refinement did
+    not run); an axis with no excitation raises IdentificationError, as in estimate."""
     from ..identify import Settings, identify
 
-    return identify(log, Settings(thrust_law=law, overrides=dict(overrides or {}))).model_check
+    res = identify(log, Settings(thrust_law=law, overrides=dict(overrides or {})))
+    start = None
+    if res.refined is not None and all(np.isfinite(res.refined.start_states.get(k, np.nan))
+                                       for k in ("tau1_0", "tau2_0", "zeta_0")):
+        start = {k: float(res.refined.start_states[k]) for k in ("tau1_0", "tau2_0", "zeta_0")}
+    return {**res.model_check, "start_states": start}
 
 
 def _verdict(log: Log, seed: dict, findings: list, fit_after: dict, seg: dict) -> tuple[str, str]:
@@ -459,14 +486,16 @@ def _effect_values(model: Model, sc, reg) -> dict:
     return vals
 
 
-def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, extra: dict | None = None):
-    """Prediction fit [%] and predictions per axis; ``extra``: axis -> extra torque [N m] per sample."""
+def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, extra: dict | None = None,
+          start: dict | None = None):
+    """Prediction fit [%] and predictions per axis; ``extra``: axis -> extra torque [N m] per sample; ``start``:
+    the motors' states at the first sample (plant_signals)."""
     from ..numerics.fused import plant_signals
 
     dt = log.sample_time_s
     u1, u2, changes = modified_inputs(log, dict(model.mods))
     pp = {**p, **changes}
-    ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, dt, pp, law)
+    ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, dt, pp, law, start=start)
     horizon = max(int(round(HORIZON_S / dt)), 1)
     fits, preds = {}, {}
     a_meas = log.alpha_rad

@@ -30,7 +30,7 @@ from typing import Callable
 
 import numpy as np
 
-from .model import AXIS_ANGLE, Regression, smoothed_velocity
+from .model import AXIS_ANGLE, Regression, deflate, smoothed_velocity
 from .select import FAMILY_ALPHA, compare, score
 
 #: STLSQ thresholds tried, on columns and target scaled to unit norm (a term must carry about this share
@@ -138,13 +138,15 @@ def signals(log, ps, p: dict, cache: dict) -> dict:
 
 
 def fit_correction(axis: str, reg: Regression, base_score, ids: np.ndarray, sig: dict, filt, n_tests: int,
-                   context: dict) -> tuple[list[Term], np.ndarray, object, object, object] | None:
+                   context: dict, basis=None) -> tuple[list[Term], np.ndarray, object, object, object] | None:
     """The sparse set of library terms that best lowers the held-out residual of ``axis`` beyond chance, or
     None.  Returns (terms, coefficients, score, test, regression with the terms)."""
     from pysindy.optimizers import STLSQ
 
     terms = [t for t in LIBRARY if t.axis == axis]
-    cols = np.column_stack([-filt.apply(t.torque(sig)) for t in terms])  # eq. (3): -F[phi], as model.py
+    # eq. (3): -F[phi], as model.py, with the start-state regressors' span removed as from every other column
+    cols = np.column_stack([deflate(-filt.apply(t.torque(sig)), basis) if basis is not None else
+                            -filt.apply(t.torque(sig)) for t in terms])
     x = reg.x[axis]
     theta = base_score.theta[axis]
     r = reg.g[axis] - x @ theta

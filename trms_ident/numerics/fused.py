@@ -156,7 +156,21 @@ def warm_up() -> None:
 
 
 @njit(cache=True, nogil=True)
-def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed, mg, kg, delta, out):
+def _motor_states(u1, u2, c1, c2, kc, t0, tp, x0, out):
+    """Rows 0, 1, 4 of ``out`` (tau1, tau2, M_R) from given start states x0 = (tau1, tau2, zeta), the voltages
+    held over each sample: c1 = zoh_motor_lag_states of the main motor and the reaction lag (e1, e2, phi21, g1,
+    g2), c2 = (e, g) of the tail motor.  eq. (1): M_R = kc (T0/Tp tau1 + (1 - T0/Tp) zeta)."""
+    t1, t2, z = x0[0], x0[1], x0[2]
+    for k in range(u1.size):
+        out[0, k] = t1
+        out[1, k] = t2
+        out[4, k] = kc * (t0 / tp * t1 + (1.0 - t0 / tp) * z)
+        t1, z = c1[0] * t1 + c1[3] * u1[k], c1[2] * t1 + c1[1] * z + c1[4] * u1[k]
+        t2 = c2[0] * t2 + c2[1] * u2[k]
+
+
+@njit(cache=True, nogil=True)
+def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed, mg, kg, delta, given, out):
     """One pass of regressors.plant_signals (eq. 1): out rows tau1, tau2, M1, M2, M_R, beta', y_p, y_y.
     sin_a, cos_a: sin and cos of alpha (computed once by the caller, reused across candidates)."""
     n = sin_a.size
@@ -167,9 +181,12 @@ def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed,
             _init(b, a, 0, u1[0], z)
             _init(b, a, 1, u2[0], z)
             _init(b, a, 2, u1[0], z)
-        t1 = _step(b, a, 0, u1[k], z)  # eq. (1): motor lags, zero-order hold
-        t2 = _step(b, a, 1, u2[k], z)
-        mr = _step(b, a, 2, u1[k], z)  # eq. (1): M_R from u1 in one ZOH step
+        if given:  # motor states from their estimated start (rows 0, 1, 4 filled by _motor_states)
+            t1, t2, mr = out[0, k], out[1, k], out[4, k]
+        else:
+            t1 = _step(b, a, 0, u1[k], z)  # eq. (1): motor lags, zero-order hold
+            t2 = _step(b, a, 1, u2[k], z)
+            mr = _step(b, a, 2, u1[k], z)  # eq. (1): M_R from u1 in one ZOH step
         if n < 3:
             db = 0.0
         elif k == 0:  # beta' as numpy.gradient(edge_order=2)
@@ -192,10 +209,12 @@ def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed,
 
 
 def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str, gravity_offset_rad: float = 0.0,
-                  trig: tuple | None = None):
+                  trig: tuple | None = None, start: dict | None = None):
     """regressors.plant_signals in one compiled pass (the same ZOH coefficients, the same steady start);
     equal to the reference to round-off (tested).  For the diagnosis, which rebuilds these signals for
-    every candidate and grid point; ``trig``: (sin alpha, cos alpha) when the caller keeps them."""
+    every candidate and grid point; ``trig``: (sin alpha, cos alpha) when the caller keeps them; ``start``: the
+    motor and reaction-lag states at the first sample (tau1_0, tau2_0, zeta_0, as the refinement estimates
+    them) instead of the steady state of the first voltage (a log that begins mid-run)."""
     from .filters import discretize
     from .regressors import PlantSignals
 
@@ -207,10 +226,18 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
                                       np.polymul([p["Tp"], 1.0], [p["T11"], p["T10"]]), dt_s, "zoh"))):
         b[i, :f.b.size], a[i, :f.a.size] = f.b, f.a
     out = np.empty((8, alpha_rad.size))
+    if start is not None:
+        from .coefficients import zoh_first_order, zoh_motor_lag_states
+
+        c1 = np.array(zoh_motor_lag_states(p["k1"], p["Tp"], p["T11"], p["T10"], dt_s))
+        bb, aa = zoh_first_order(p["k2"], p["T21"], p["T20"], dt_s)
+        _motor_states(np.ascontiguousarray(u1_v, dtype=float), np.ascontiguousarray(u2_v, dtype=float), c1,
+                      np.array([-aa[1], bb[1]]), p["kc"], p["T0"], p["Tp"],
+                      np.array([start["tau1_0"], start["tau2_0"], start["zeta_0"]], dtype=float), out)
     sin_a, cos_a = trig if trig is not None else (np.sin(alpha_rad), np.cos(alpha_rad))
     _plant_signals(np.ascontiguousarray(u1_v, dtype=float), np.ascontiguousarray(u2_v, dtype=float),
                    np.ascontiguousarray(sin_a, dtype=float), np.ascontiguousarray(cos_a, dtype=float),
                    np.ascontiguousarray(beta_rad, dtype=float),
                    float(dt_s), b, a, p["a1"], p["b1"], p["a2"], p["b2"], law == "signed", p["Mg"], p["Kg"],
-                   float(gravity_offset_rad), out)
+                   float(gravity_offset_rad), start is not None, out)
     return PlantSignals(*out)
