@@ -324,6 +324,10 @@ def _refusal(c: Candidate, nominal: dict, augmented: dict, fit_before: dict, fit
     return None
 
 
+#: how much of the log's beginning decides the motors' start states (_choose_start) [s]
+START_JUDGE_S = 60.0
+
+
 def _choose_start(log: Log, p: dict, law: str, a: float, estimated: dict | None, ids: np.ndarray) -> dict | None:
     """The motors' states at the first sample: at rest, in the steady state of the first voltages (None), or as
     the seed check estimated them (a log that begins mid-run; from a model that may miss physics).  The one
@@ -331,6 +335,13 @@ def _choose_start(log: Log, p: dict, law: str, a: float, estimated: dict | None,
     regressors absorb the difference)."""
     rest = {"tau1_0": 0.0, "tau2_0": 0.0, "zeta_0": 0.0}
     options = [None, rest] + ([estimated] if estimated is not None else [])
+    # the start is forgotten within a few motor time constants: judge on the leading START_JUDGE_S only (an
+    # hour-long log would otherwise pay three full searches' worth of regressions and predictions)
+    n = min(len(log), max(int(START_JUDGE_S / log.sample_time_s), 1))
+    if n < len(log):
+        log = Log(log.t_s[:n], log.u1_v[:n], log.u2_v[:n], log.alpha_rad[:n], log.beta_rad[:n], log.source,
+                  log.sha256, log.meta, None if log.u_switch_s is None else log.u_switch_s[:n])
+        ids = ids[:n]
     best, best_cost = None, math.inf
     for opt in options:
         reg = regression(log, p, law, a, Model(), {("start_states",): opt})
