@@ -394,6 +394,7 @@ def diagnose(
     rate: RateOpt = None,
 ) -> None:
     """Find where the model and the recording disagree, name the missing physics, fit it, show the gain."""
+    from .diagnosis.predict import fit_text
     from .diagnosis.run import diagnose as run_diagnosis
     from .io.atomic import write_text
     from .io.readers import read_log
@@ -425,14 +426,14 @@ def diagnose(
             say(f"  {i}. {f.effect} on {f.axis}: {f.parameter['name']} = {f.parameter['value']:.4g} "
                 f"{f.parameter['unit']}")
             say(f"     {f.explanation[0].upper() + f.explanation[1:]}.")
-            say(f"     fit {_fit_text(f.fit_before)} -> {_fit_text(f.fit_after)}; {f.evidence}")
+            say(f"     fit {fit_text(f.fit_before)} -> {fit_text(f.fit_after)}; {f.evidence}")
         say("  estimates  " + "  ".join(f"{k} {d.nominal[k]:.5g} -> {d.augmented[k]:.5g}" for k in ESTIMATED))
     for r in d.refused:
         say(f"  refused: {r['effect']} on {r['axis']}: {r['reason']}")
     for c in d.corrections:
         say(f"  outside the library, {c.axis}: {c.sentence}")
-        say(f"     data-driven correction (not a named effect): prediction fit {_fit_text(c.fit_before)} -> "
-            f"{_fit_text(c.fit_after)}; terms " + ", ".join(f"{t['term']} = {t['coefficient']:.4g} {t['unit']}"
+        say(f"     data-driven correction (not a named effect): prediction fit {fit_text(c.fit_before)} -> "
+            f"{fit_text(c.fit_after)}; terms " + ", ".join(f"{t['term']} = {t['coefficient']:.4g} {t['unit']}"
                                                            for t in c.terms))
     if report is not None:
         write_text(report / "diagnosis.json", to_json(doc))
@@ -440,10 +441,6 @@ def diagnose(
         say(f"wrote {report / 'report.html'}, {report / 'diagnosis.json'}")
     if json_path:
         emit_json(doc, json_path)
-
-
-def _fit_text(fit: float) -> str:
-    return f"{fit:.2f} %" if math.isfinite(fit) else "n/a (J or B not physical: no prediction)"
 
 
 def parse_effect(text: str) -> dict:

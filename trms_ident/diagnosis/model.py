@@ -215,8 +215,11 @@ def _leading_basis(cols: list[np.ndarray]) -> tuple[np.ndarray, int]:
     return q[:, keep], n0
 
 
-def deflate(col: np.ndarray, basis: tuple[np.ndarray, int]) -> np.ndarray:
-    """Remove the start columns' span from ``col`` in place (only its leading samples change) and return it."""
+def deflate(col: np.ndarray, basis: tuple[np.ndarray, int] | None) -> np.ndarray:
+    """Remove the start columns' span from ``col`` in place (only its leading samples change) and return it
+    (unchanged when ``basis`` is None)."""
+    if basis is None:
+        return col
     q, n0 = basis
     if n0 and q.shape[1]:
         head = col[:n0]

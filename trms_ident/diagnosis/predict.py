@@ -137,6 +137,11 @@ def predict_fitted_start(pitch, x_meas, v_guess, tau, other, s2, scw, ext, dt, h
     return y0
 
 
+def fit_text(fit: float) -> str:
+    """A prediction fit for people: NaN means the model had no physical J or B to predict with."""
+    return f"{fit:.2f} %" if math.isfinite(fit) else "n/a (J or B not physical: no prediction)"
+
+
 def nrmse_fit(y: np.ndarray, y_hat: np.ndarray) -> float:
     den = float(np.linalg.norm(y - y.mean()))
     return 100.0 * (1.0 - float(np.linalg.norm(y - y_hat)) / den) if den > 0 else math.nan

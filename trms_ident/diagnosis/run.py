@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -16,7 +16,7 @@ from .discriminate import PAIR, tell_offsets_apart
 from .effects import CANDIDATES, UNOBSERVABLE, Candidate
 from .locate import lag_profile, regimes, segments
 from .model import AXIS_ANGLE, Model, modified_inputs, regression, restart_velocity, smoothed_velocity
-from .predict import HORIZON_S, nrmse_fit, predict_fitted_start
+from .predict import HORIZON_S, fit_text, nrmse_fit, predict_fitted_start
 from .select import FAMILY_ALPHA, compare, score
 
 MAX_FINDINGS = 3
@@ -251,9 +251,9 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                                    seed, fit_after, n_tests)
         for c in corrections:
             overlay[c.axis] = overlay[c.axis] + (c.prediction,)
-            before = f"{c.fit_before:.2f} %" if math.isfinite(c.fit_before) else "none (J or B not physical)"
             sentence += (f" Outside the library, the {c.axis} residual torque is described by: {c.sentence}; with "
-                         f"this correction the {c.axis} prediction fit goes from {before} to {c.fit_after:.2f} %.")
+                         f"this correction the {c.axis} prediction fit goes from {fit_text(c.fit_before)} to "
+                         f"{fit_text(c.fit_after)}.")
     return Diagnosis(bool(out) or verdict != "consistent", out, nominal, augmented, fit_before, fit_after, seg, reg_stats, lag, tested,
                      {"a_rad_s": a, "block_s": block * dt, "horizon_s": HORIZON_S, "thrust_law": law,
                       "alpha_family": FAMILY_ALPHA, "candidates": len(cands),
@@ -290,7 +290,7 @@ def _corrections(log, p, law, a, current, values, augmented, reg_now, score_now,
     for axis, ratio in _over_noise(log, seed, fit_after).items():
         if ratio <= EXPLAINED_RMS_OVER_NOISE:
             continue
-        found = sparse.fit_correction(axis, reg_now, score_now, ids, sig, cache[("F", a)], n_tests, ctx,
+        found = sparse.fit_correction(axis, reg_now, score_now, ids, sig, cache[("F", a)], n_tests,
                                       cache.get(("start", axis, a)))
         if found is None:
             continue
@@ -303,7 +303,7 @@ def _corrections(log, p, law, a, current, values, augmented, reg_now, score_now,
         before = fit_after[axis]
         if not (math.isfinite(fits[axis]) and (not math.isfinite(before) or fits[axis] > before)):
             continue  # it must raise the prediction fit (or give one where the model had no physical J, B)
-        described = sparse.describe(axis, terms, coef, ctx)
+        described = sparse.describe(terms, coef, ctx)
         out.append(sparse.Correction(axis, described, "; ".join(d["sentence"] for d in described), test.gain,
                                      test.t, test.p, fit_after[axis], fits[axis], {k: est[k] for k in jb}, torque,
                                      preds[axis]))
@@ -339,8 +339,8 @@ def _choose_start(log: Log, p: dict, law: str, a: float, estimated: dict | None,
     # hour-long log would otherwise pay three full searches' worth of regressions and predictions)
     n = min(len(log), max(int(START_JUDGE_S / log.sample_time_s), 1))
     if n < len(log):
-        log = Log(log.t_s[:n], log.u1_v[:n], log.u2_v[:n], log.alpha_rad[:n], log.beta_rad[:n], log.source,
-                  log.sha256, log.meta, None if log.u_switch_s is None else log.u_switch_s[:n])
+        log = replace(log, t_s=log.t_s[:n], u1_v=log.u1_v[:n], u2_v=log.u2_v[:n], alpha_rad=log.alpha_rad[:n],
+                      beta_rad=log.beta_rad[:n], u_switch_s=None if log.u_switch_s is None else log.u_switch_s[:n])
         ids = ids[:n]
     best, best_cost = None, math.inf
     for opt in options:

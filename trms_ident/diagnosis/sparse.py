@@ -23,7 +23,6 @@ verdict "explained".
 """
 from __future__ import annotations
 
-import math
 import warnings
 from dataclasses import dataclass
 from typing import Callable
@@ -138,15 +137,14 @@ def signals(log, ps, p: dict, cache: dict) -> dict:
 
 
 def fit_correction(axis: str, reg: Regression, base_score, ids: np.ndarray, sig: dict, filt, n_tests: int,
-                   context: dict, basis=None) -> tuple[list[Term], np.ndarray, object, object, object] | None:
+                   basis=None) -> tuple[list[Term], np.ndarray, object, object, object] | None:
     """The sparse set of library terms that best lowers the held-out residual of ``axis`` beyond chance, or
     None.  Returns (terms, coefficients, score, test, regression with the terms)."""
     from pysindy.optimizers import STLSQ
 
     terms = [t for t in LIBRARY if t.axis == axis]
     # eq. (3): -F[phi], as model.py, with the start-state regressors' span removed as from every other column
-    cols = np.column_stack([deflate(-filt.apply(t.torque(sig)), basis) if basis is not None else
-                            -filt.apply(t.torque(sig)) for t in terms])
+    cols = np.column_stack([deflate(-filt.apply(t.torque(sig)), basis) for t in terms])
     x = reg.x[axis]
     theta = base_score.theta[axis]
     r = reg.g[axis] - x @ theta
@@ -209,7 +207,7 @@ def _keeps_physics(jb: np.ndarray, jb_before: np.ndarray) -> bool:
     return bool(np.all(np.abs(jb / jb_before - 1.0) <= MAX_JB_CHANGE))
 
 
-def describe(axis: str, terms: list[Term], coef: np.ndarray, context: dict) -> list[dict]:
+def describe(terms: list[Term], coef: np.ndarray, context: dict) -> list[dict]:
     return [{"term": t.name, "coefficient": float(c), "unit": t.unit, "sentence": t.words(float(c), context)}
             for t, c in zip(terms, coef)]
 
@@ -221,6 +219,3 @@ def torque(terms: list[Term], coef: np.ndarray, sig: dict) -> np.ndarray:
         out = out + float(c) * t.torque(sig)
     return out
 
-
-def finite(x: float) -> float:
-    return x if math.isfinite(x) else math.nan

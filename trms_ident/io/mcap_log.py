@@ -166,13 +166,12 @@ def scan(path: Path, wanted: dict[str, list[SignalSource]] | None, time_source: 
             channels[c.id] = Channel(c.id, c.topic, c.message_encoding, s.name if s else "", s.encoding if s else "",
                                      s.data if s else b"")
 
-        def count(ids, cnt, lo, hi) -> np.ndarray:
+        def count(ids, cnt, lo, hi) -> None:
             """Add a chunk's per-channel statistics (from scan_chunk) to the file's."""
             for cid, k, a, b in zip(ids.tolist(), cnt.tolist(), lo.tolist(), hi.tolist()):
                 counts[cid] = counts.get(cid, 0) + k
                 first[cid] = min(first.get(cid, a), a)
                 last[cid] = max(last.get(cid, b), b)
-            return ids
 
         def add(decoded: dict) -> None:
             for topic, clock, t, vals in decoded.values():

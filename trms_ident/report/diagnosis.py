@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import html
 
+from ..diagnosis.predict import fit_text
 from ..diagnosis.run import Diagnosis
 from ..log import Log
 from .summary import versions
@@ -40,10 +41,6 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                            "residual beyond chance and raises the prediction fit); a description, not a named effect",
         },
     }
-
-
-def _fit(x: float) -> str:
-    return f"{x:.2f} %" if x == x else "none (J or B not physical)"
 
 
 def render(doc: dict, d: Diagnosis, log: Log) -> str:
@@ -119,7 +116,7 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
         "</span></li>" for f in doc["findings"])
     corrections = "".join(
         f"<li><b>outside the library</b>, {c['axis']}: {html.escape(c['sentence'])}. Prediction fit "
-        f"{_fit(c['fit_before'])} &rarr; {_fit(c['fit_after'])}. <span class='note'>held-out equation-error RSS "
+        f"{fit_text(c['fit_before'])} &rarr; {fit_text(c['fit_after'])}. <span class='note'>held-out equation-error RSS "
         f"{-100 * c['held_out_gain']:+.1f} % (t = {c['t']:.1f}, p = {c['p']:.1e}); terms: "
         + html.escape(", ".join(f"{t['term']} = {t['coefficient']:.4g} {t['unit']}" for t in c["terms"]))
         + "</span></li>" for c in doc["corrections"])
