@@ -379,7 +379,7 @@ def batch(
 @app.command()
 @handled
 def diagnose(
-    log: Annotated[Path, typer.Argument(help="Log file: CSV or MCAP.", show_default=False)],
+    log: Annotated[Path, typer.Argument(help="Log file: CSV, MCAP or MATLAB .mat.", show_default=False)],
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the diagnosis JSON here; '-' = stdout.")] = None,
     report: Annotated[Optional[Path], typer.Option("--output", "-o", "--report", help="Folder for report.html "
                                                    "(figures) and diagnosis.json (--report: the older name).")] = None,
