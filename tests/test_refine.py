@@ -152,3 +152,58 @@ def test_cli_reports_the_refinement(tmp_path, square_csv):
     res = CliRunner().invoke(app, ["estimate", str(square_csv), "-o", str(tmp_path / "p"), "--no-report",
                                    "--refine", "sometimes"])
     assert res.exit_code == 2 and "refine must be one of" in res.output
+
+
+def test_windows_give_the_same_pass_in_one_thread_or_several(monkeypatch):
+    # the windows start from the motor states of motor_starts, so any split over threads gives the same bits;
+    # and motor_starts from zero start states plus its sensitivity columns is motor_starts from any start
+    r = simulate(SimSettings(ref="multisine", sample_rate_hz=1000.0, duration_s=12.0, jitter=0.2, seed=6))
+    n = r.t_s.size
+    h = np.diff(r.t_s)
+    y = np.column_stack([r.alpha_rad, r.beta_rad])
+    pv = R.model_vector(defaults())
+    win, nw = 2000, n // 2000
+    starts = np.column_stack([r.alpha_rad[::win][:nw], np.zeros(nw), r.beta_rad[::win][:nw], np.zeros(nw)])
+    m0 = np.array([0.3, -0.2, 0.1])
+    dsw = np.zeros((n, 2))
+    free = R.motor_starts(r.u1_v, r.u2_v, pv, h, dsw, R.MAX_SUBSTEP_S, win, nw, np.zeros(3))
+    direct = R.motor_starts(r.u1_v, r.u2_v, pv, h, dsw, R.MAX_SUBSTEP_S, win, nw, m0)
+    np.testing.assert_allclose(R.motor_response(free, m0), direct, rtol=1e-12, atol=1e-15)
+
+    def run(threads):
+        monkeypatch.setattr(R, "THREAD_MIN_SAMPLES", 0)
+        monkeypatch.setattr(R, "_threads", lambda: threads)
+        out = np.empty((n, 2))
+        res = R.gauss_newton_pass(r.u1_v, r.u2_v, y, np.ones(2), starts, m0, pv, False, h, dsw, R.MAX_SUBSTEP_S,
+                                  win, 1000, out, np.zeros((n, 2, 0)))
+        return res, out
+
+    (c1, a1, b1, s1), o1 = run(1)
+    for threads in (2, 4):
+        (c, a, b, s), o = run(threads)
+        assert c == c1
+        for x, x1 in ((a, a1), (b, b1), (s, s1), (o, o1)):
+            np.testing.assert_array_equal(x, x1)
+    # the windows after the first still see the start states through the motors: tau1(0)'s column there
+    # against a finite difference over the whole log
+    step = 1e-6
+    out = np.empty((n, 2))
+    R.gauss_newton_pass(r.u1_v, r.u2_v, y, np.ones(2), starts, m0 + [step, 0, 0], pv, False, h, dsw,
+                        R.MAX_SUBSTEP_S, win, 1000, out, np.zeros((n, 2, 0)))
+    jac = (out - o1) / step
+    w = 1  # the second window: its diagonal entry for tau1(0) is the sum of squared sensitivities
+    sl = slice(w * win, (w + 1) * win)
+    np.testing.assert_allclose(a1[w, 4, 4], np.sum(jac[sl] ** 2), rtol=1e-4)
+
+
+def test_integration_error_is_estimated_with_a_really_halved_sub_step():
+    # at 1 kHz the sub-step is the 1 ms sample interval: the Richardson pass must halve that (halving the 2.5 ms
+    # ceiling instead left one sub-step per sample, the same pass, and an integration error of exactly 0)
+    r = sim_cached("square", 1000.0, 20.0)
+    res = identify(as_log(r), Settings(refine="on"))
+    err = res.refined.integration_error
+    assert res.refined.converged and max(err.values()) > 0.0
+    for k, v in r.truth["estimated"].items():
+        lo, hi = res.refined.ci95[k]
+        assert lo <= v <= hi
+        assert err[k] < 1e-9 * v  # RK4 at 1 ms: far below any noisy log's interval

@@ -19,7 +19,10 @@ gives the Gauss-Newton system).
 Unknowns.  Global: J1, B1, J2, B2 and the motors' and the reaction lag's states when the log
 begins, tau1(0), tau2(0), zeta(0) (a log starts from rest with the controller driving, or
 mid-run: these are never assumed, as greyest does with InitialState='estimate').  The motor
-states run on continuously through the whole log.  Per window of WINDOW_S seconds: the angles
+states run on continuously through the whole log; they depend on no J/B or angle, so they are integrated
+first (motor_starts, once per set of motor values: they are linear in their start states) and the windows
+then run independently, in threads on the machine's cores, each window computed the same way whatever the
+split.  Per window of WINDOW_S seconds: the angles
 and angular rates at the window's first sample (so a model error cannot accumulate over the
 whole log, yaw has no restoring force), eliminated by a Schur complement.  No sample is left
 out.  The angle errors are weighted by each angle's noise level.  Interval: batch means over
@@ -29,7 +32,9 @@ correlated errors, e.g. quantization).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
@@ -52,7 +57,9 @@ STEP_OVER_SE = 1e-2
 MIN_COST_DECREASE = 0.1
 JB_STEP_OVER_SE = 0.1
 BLOCK_S = 1.0
-#: intervals narrower than this fraction of the estimate get the integrator's error added
+#: intervals narrower than this fraction of the estimate get the integrator's error added, at sub-steps of
+#: MAX_SUBSTEP_S (the integrator's error there, ~1e-10, is 1e4 times smaller); RK4's error falls as the
+#: sub-step's 4th power, so at shorter sub-steps the threshold falls with it (1 kHz: 2.6e-8)
 RICHARDSON_BELOW = 1e-6
 NAMES = ("J1", "B1", "J2", "B2")
 #: the start states estimated with J/B (global unknowns 4..6)
@@ -178,22 +185,93 @@ def _rk4(x, xt, k1, k2, k3, k4, v1, v2, p, signed, dur, max_sub):
             x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
+@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
+def _pieces(k, u1, u2, h, dsw):
+    """The voltages held over sample interval k, each switching at its own time: up to three pieces, cut where
+    u1 and u2 switch.  Returns the cut times [s] and, per piece, the voltages."""
+    d1, d2 = (dsw[k, 0], dsw[k, 1]) if k > 0 else (0.0, 0.0)
+    lo, hi = min(d1, d2), max(d1, d2)
+    cuts = (0.0, lo, hi, h[k])
+    v1 = (u1[k] if 0.0 >= d1 else u1[k - 1], u1[k] if lo >= d1 else u1[k - 1], u1[k] if hi >= d1 else u1[k - 1])
+    v2 = (u2[k] if 0.0 >= d2 else u2[k - 1], u2[k] if lo >= d2 else u2[k - 1], u2[k] if hi >= d2 else u2[k - 1])
+    return cuts, v1, v2
+
+
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
-def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub, win, block, out, extra):
-    """One pass over the log: predictions (out), weighted cost, per-window normal equations in the
-    NU unknowns (J1, B1, J2, B2, tau1(0), tau2(0), zeta(0), alpha0, alpha'0, beta0, beta'0), then one per
-    column of ``extra`` (n, 2, m: sensitivities of alpha, beta to freed known values, computed by the
-    caller), and per-block scores.  ``h``: the n - 1 sample intervals [s]; each is integrated in RK4
-    sub-steps <= max_sub.  ``dsw`` (n, 2): u1[k], u2[k] take effect dsw[k] [s] after sample k (before that the
-    previous voltage holds); zeros when every voltage acts from its own stamp."""
+def _motor_rhs(x, u1, u2, p, d):
+    """The motor lags and M_R's lag state of eq. (1) with their sensitivities to the start states: the layout's
+    states 4, 5, 6, 39, 40, 41, 42 as x[0..6] (the same formulas as _rhs; they depend on no J/B or angle)."""
+    d[0] = (p[10] * u1 - p[13] * x[0]) / p[12]
+    d[1] = (p[11] * u2 - p[15] * x[1]) / p[14]
+    d[2] = (x[0] - x[2]) / p[18]
+    d[3] = -p[13] / p[12] * x[3]
+    d[4] = -p[15] / p[14] * x[4]
+    d[5] = (x[3] - x[5]) / p[18]
+    d[6] = -x[6] / p[18]
+
+
+@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
+def motor_starts(u1, u2, p, h, dsw, max_sub, win, nw, m0):
+    """(nw, 7) motor states and their start-state sensitivities (layout states 4, 5, 6, 39..42) at each window's
+    first sample, integrated through the log from m0 = tau1(0), tau2(0), zeta(0) with the same RK4 sub-steps as
+    the full pass.  They depend on no J/B or angle, so the windows can then be integrated independently."""
+    out = np.zeros((nw, 7))
+    x = np.zeros(7)
+    xt = np.empty(7)
+    k1 = np.empty(7)
+    k2 = np.empty(7)
+    k3 = np.empty(7)
+    k4 = np.empty(7)
+    x[0], x[1], x[2] = m0[0], m0[1], m0[2]
+    x[3], x[4], x[6] = 1.0, 1.0, 1.0
+    for w in range(nw):
+        for i in range(3, 7):  # the start states' influence has died out: exactly 0, never subnormal numbers
+            if abs(x[i]) < 1e-200:  # (whose arithmetic is ~100x slower: an hour took 62 s instead of 5 s)
+                x[i] = 0.0
+        out[w] = x
+        if w == nw - 1:
+            break
+        for k in range(w * win, (w + 1) * win):
+            cuts, v1, v2 = _pieces(k, u1, u2, h, dsw)
+            for j in range(3):
+                dur = cuts[j + 1] - cuts[j]
+                if dur <= 0.0:
+                    continue
+                nsub = max(1, int(math.ceil(dur / max_sub - 1e-9)))
+                hs = dur / nsub
+                for _ in range(nsub):
+                    _motor_rhs(x, v1[j], v2[j], p, k1)
+                    for i in range(7):
+                        xt[i] = x[i] + 0.5 * hs * k1[i]
+                    _motor_rhs(xt, v1[j], v2[j], p, k2)
+                    for i in range(7):
+                        xt[i] = x[i] + 0.5 * hs * k2[i]
+                    _motor_rhs(xt, v1[j], v2[j], p, k3)
+                    for i in range(7):
+                        xt[i] = x[i] + hs * k3[i]
+                    _motor_rhs(xt, v1[j], v2[j], p, k4)
+                    for i in range(7):
+                        x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+    return out
+
+
+_MOTOR = (4, 5, 6, 39, 40, 41, 42)
+#: the model values the motor states depend on (k1, k2, T11, T10, T21, T20, Tp): keys of the motor cache
+_MOTOR_P = np.array([_P.index(k) for k in ("k1", "k2", "T11", "T10", "T21", "T20", "Tp")])
+
+
+@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
+def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block, w0, w1, out, extra,
+                 costs, a_mat, b_vec, scores):
+    """Windows w0..w1-1 of one pass: predictions (out), each window's weighted cost (costs), normal equations
+    (a_mat, b_vec) and its blocks' scores, written into the caller's arrays (disjoint slices: windows can run
+    in threads).  Each window starts from its fitted angles and rates (starts) and the motor states of
+    motor_starts (mstart)."""
     n = u1.size
     nw = starts.shape[0]
-    nb = max(n // block, 1)
+    nb = scores.shape[0]
     m = extra.shape[2]
     nt = NU + m
-    a_mat = np.zeros((nw, nt, nt))
-    b_vec = np.zeros((nw, nt))
-    scores = np.zeros((nb, nt))
     x = np.zeros(_NS)
     xt = np.empty(_NS)
     k1 = np.empty(_NS)
@@ -202,21 +280,18 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
     k4 = np.empty(_NS)
     ja = np.empty(nt)
     jb = np.empty(nt)
-    x[4], x[5], x[6] = m0[0], m0[1], m0[2]
-    x[39], x[40], x[42] = 1.0, 1.0, 1.0
-    cost = 0.0
-    for w in range(nw):
+    for w in range(w0, w1):
         s = w * win
         e = n if w == nw - 1 else s + win
-        for i in range(7, 39):  # the angles restart: their sensitivities are relative to this window's start
+        for i in range(_NS):  # the angles restart: their sensitivities are relative to this window's start
             x[i] = 0.0
-        for i in range(39, 43):  # the start states' influence has died out: exactly 0, never subnormal numbers
-            if abs(x[i]) < 1e-200:  # (whose arithmetic is ~100x slower: an hour took 62 s instead of 5 s)
-                x[i] = 0.0
+        for i in range(7):
+            x[_MOTOR[i]] = mstart[w, i]
         x[0], x[1], x[2], x[3] = starts[w, 0], starts[w, 1], starts[w, 2], starts[w, 3]
         x[7 + 4] = 1.0  # d alpha / d alpha0
         x[14 + 5] = 1.0  # d alpha' / d alpha'0
         x[24 + 2] = 1.0  # d beta' / d beta'0
+        cost = 0.0
         for k in range(s, e):
             out[k, 0] = x[0]
             out[k, 1] = x[2]
@@ -241,24 +316,78 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
                 scores[q, i] += g
                 for j in range(i, nt):
                     a_mat[w, i, j] += ja[i] * ja[j] + jb[i] * jb[j]
-            if k == n - 1:
+            if k == e - 1:
                 break
-            # hold the voltages over the actual interval, each switching at its own time (the motor states
-            # run on into the next window): up to three pieces, cut where u1 and u2 switch
-            d1, d2 = (dsw[k, 0], dsw[k, 1]) if k > 0 else (0.0, 0.0)
-            lo, hi = min(d1, d2), max(d1, d2)
-            cuts = (0.0, lo, hi, h[k])
+            # hold the voltages over the actual interval, each switching at its own time
+            cuts, v1, v2 = _pieces(k, u1, u2, h, dsw)
             for j in range(3):
                 dur = cuts[j + 1] - cuts[j]
-                if dur <= 0.0:
-                    continue
-                v1 = u1[k] if cuts[j] >= d1 else u1[k - 1]
-                v2 = u2[k] if cuts[j] >= d2 else u2[k - 1]
-                _rk4(x, xt, k1, k2, k3, k4, v1, v2, p, signed, dur, max_sub)
+                if dur > 0.0:
+                    _rk4(x, xt, k1, k2, k3, k4, v1[j], v2[j], p, signed, dur, max_sub)
+        costs[w] = cost
         for i in range(nt):
             for j in range(i):
                 a_mat[w, i, j] = a_mat[w, j, i]
-    return cost, a_mat, b_vec, scores
+
+
+#: logs shorter than this many samples run their windows in one thread (a thread's start costs more)
+THREAD_MIN_SAMPLES = 50_000
+
+
+def _threads() -> int:
+    try:
+        return max(1, min(len(os.sched_getaffinity(0)), 4))
+    except AttributeError:  # not on Linux
+        return max(1, min(os.cpu_count() or 1, 4))
+
+
+def motor_response(free, m0):
+    """motor_starts from the start states m0, given its result from zero start states (``free``): the motors'
+    equations are linear in their start states and the sensitivity columns are their coefficients."""
+    ms = free.copy()
+    ms[:, 0] += free[:, 3] * m0[0]
+    ms[:, 1] += free[:, 4] * m0[1]
+    ms[:, 2] += free[:, 5] * m0[0] + free[:, 6] * m0[2]
+    return ms
+
+
+def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub, win, block, out, extra,
+                      motor_free=None):
+    """One pass over the log: predictions (out), weighted cost, per-window normal equations in the
+    NU unknowns (J1, B1, J2, B2, tau1(0), tau2(0), zeta(0), alpha0, alpha'0, beta0, beta'0), then one per
+    column of ``extra`` (n, 2, m: sensitivities of alpha, beta to freed known values, computed by the
+    caller), and per-block scores.  ``h``: the n - 1 sample intervals [s]; each is integrated in RK4
+    sub-steps <= max_sub.  ``dsw`` (n, 2): u1[k], u2[k] take effect dsw[k] [s] after sample k (before that the
+    previous voltage holds); zeros when every voltage acts from its own stamp.
+
+    The motor states at each window's start come first (motor_starts); the windows are then independent and
+    run on up to _threads() cores, each window computed the same way whatever the split, so the numbers do not
+    depend on the machine.  ``motor_free``: motor_starts from zero start states for this p (computed when
+    None)."""
+    n = u1.size
+    nw = starts.shape[0]
+    nb = max(n // block, 1)
+    nt = NU + extra.shape[2]
+    costs = np.zeros(nw)
+    a_mat = np.zeros((nw, nt, nt))
+    b_vec = np.zeros((nw, nt))
+    scores = np.zeros((nb, nt))
+    if motor_free is None:
+        motor_free = motor_starts(u1, u2, p, h, dsw, max_sub, win, nw, np.zeros(3))
+    mstart = motor_response(motor_free, m0)
+    args = (u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block)
+    tail = (out, extra, costs, a_mat, b_vec, scores)
+    groups = min(_threads(), nw) if n >= THREAD_MIN_SAMPLES else 1
+    if groups <= 1:
+        windows_pass(*args, 0, nw, *tail)
+    else:
+        cut = [round(g * nw / groups) for g in range(groups + 1)]
+        with ThreadPoolExecutor(groups - 1) as pool:
+            jobs = [pool.submit(windows_pass, *args, cut[g], cut[g + 1], *tail) for g in range(1, groups)]
+            windows_pass(*args, cut[0], cut[1], *tail)
+            for j in jobs:
+                j.result()
+    return float(costs.sum()), a_mat, b_vec, scores
 
 
 def warm_up() -> None:
@@ -354,6 +483,7 @@ class _Problem:
     win: int
     block: int
     free_idx: list  # positions in the model vector of the freed known values
+    motor_cache: dict = field(default_factory=dict)  # (max_sub, motor values) -> motor_starts from zero states
 
     def vector(self, th):
         """The kernel's model vector at th: J/B and the freed values over the table/file values."""
@@ -365,8 +495,12 @@ class _Problem:
 
     def _pass(self, pv, th, st, out, max_sub, extra):
         ext = np.zeros((self.y.shape[0], 2, 0)) if extra is None else extra
+        key = (max_sub, pv[_MOTOR_P].tobytes())  # the motor states depend on the motors' values alone
+        if key not in self.motor_cache:
+            self.motor_cache[key] = motor_starts(self.u1, self.u2, pv, self.h, self.dsw, max_sub, self.win,
+                                                 st.shape[0], np.zeros(3))
         return gauss_newton_pass(self.u1, self.u2, self.y, self.inv_sig, st, th[4:NG], pv, self.signed, self.h,
-                                 self.dsw, max_sub, self.win, self.block, out, ext)
+                                 self.dsw, max_sub, self.win, self.block, out, ext, self.motor_cache[key])
 
     def run(self, th, st, out, max_sub=MAX_SUBSTEP_S, extra=None):
         return self._pass(self.vector(th), th, st, out, max_sub, extra)
@@ -469,10 +603,11 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     half = tq * se[:4]
     rms = _rms(y, out)
     integration = np.zeros(4)
-    if np.any(half < RICHARDSON_BELOW * theta[:4]):
+    sub_s = step_s / substeps(step_s)  # the RK4 sub-step of a median sample interval [s]
+    if np.any(half < RICHARDSON_BELOW * (sub_s / MAX_SUBSTEP_S) ** 4 * theta[:4]):
         # intervals this narrow (noise-free logs) meet the integrator's own error: estimate it from the
         # parameter shift that halving the sub-step causes (RK4: the error falls 16-fold) and add twice that
-        fine = prob.evaluate(theta, starts, np.empty((n, 2)), MAX_SUBSTEP_S / 2.0)
+        fine = prob.evaluate(theta, starts, np.empty((n, 2)), sub_s / 2.0)
         _, rhs_fine, _ = _schur(fine[1], fine[2], ng)
         integration = np.abs(_scaled_inverse(s_mat) @ (rhs_fine - s_rhs))[:4] * 16.0 / 15.0
         half = half + 2.0 * integration
