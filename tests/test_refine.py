@@ -207,3 +207,10 @@ def test_integration_error_is_estimated_with_a_really_halved_sub_step():
         lo, hi = res.refined.ci95[k]
         assert lo <= v <= hi
         assert err[k] < 1e-9 * v  # RK4 at 1 ms: far below any noisy log's interval
+
+
+def test_every_known_value_can_be_freed():
+    # Settings checks --free against the table's known values without loading the compiled refinement
+    from trms_ident.params import KNOWN
+
+    assert R.FREEABLE == KNOWN

@@ -5,7 +5,7 @@ import math
 from dataclasses import dataclass, field
 
 from .errors import SettingsError
-from .params import ESTIMATED, THRUST_LAWS
+from .params import ESTIMATED, KNOWN, THRUST_LAWS
 
 AXES = {"pitch": ("J1", "B1"), "yaw": ("J2", "B2")}
 #: traces of longer logs keep every k-th sample (Result.trace_step = k); plenty for plots
@@ -51,11 +51,9 @@ class Settings:
             raise SettingsError(f"refine must be one of {REFINE_MODES}, got {self.refine!r}")
         if self.headline not in HEADLINES:
             raise SettingsError(f"headline must be one of {HEADLINES}, got {self.headline!r}")
-        from .numerics.refine import FREEABLE
-
-        for name in self.free:
-            if name not in FREEABLE:
-                raise SettingsError(f"--free {name}: expected known values among {', '.join(FREEABLE)}")
+        for name in self.free:  # every known value can be freed (numerics.refine.FREEABLE; numba not loaded here)
+            if name not in KNOWN:
+                raise SettingsError(f"--free {name}: expected known values among {', '.join(KNOWN)}")
         if self.free and self.refine == "off":
             raise SettingsError("--free needs the refinement (it estimates the freed values); drop --refine off")
         if self.gamma is not None:
