@@ -8,14 +8,15 @@
     ti.diagnose("log.csv").verdict               # consistent | explained | partly_explained | unexplained
     log = ti.simulate(ref="square", noise=1e-3)  # a synthetic log with its ground truth
 
-The command line calls the same functions (commands.py); nothing here prints.
+The command line calls the same functions (commands.py: estimate_with, Estimate.save); nothing here prints.
 """
 from __future__ import annotations
 
 import hashlib
+import threading
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -95,11 +96,25 @@ class Estimate:
 
         return to_json(self.doc)
 
-    def save(self, out_dir: str | Path, html: bool = True) -> list[Path]:
+    def save(self, out_dir: str | Path, html: bool = True, on_stage: Callable[[str], None] | None = None
+             ) -> list[Path]:
         """Write result.json, traces.csv and report.html (atomically) into out_dir; returns their paths."""
-        from .commands import write_outputs
+        from .io.atomic import write_text
+        from .report.summary import to_json
+        from .report.traces import write_traces
 
-        return write_outputs(out_dir, self.doc, self.result, self.log, html)
+        out = Path(out_dir)
+        write_text(out / "result.json", to_json(self.doc))
+        write_traces(out / "traces.csv", self.result)
+        written = [out / "result.json", out / "traces.csv"]
+        if html:
+            from .report.html import render
+
+            if on_stage:
+                on_stage("drawing the report")
+            write_text(out / "report.html", render(self.doc, self.result, self.log))
+            written.append(out / "report.html")
+        return written
 
     def plot(self):
         """Measured against simulated angles with the fit in % (as ``compare``); a matplotlib Figure."""
@@ -122,9 +137,7 @@ def estimate(log, *, params: dict | str | Path | None = None, truth: dict | None
     ``thrust_law``, ``filter_a_rad_s``, ...) and the reader's (``angle_unit``, ``time_unit``, ``signals``,
     ``time_source``, ``voltage_time``).  Same numbers as ``trms-ident estimate`` with the same options."""
     from .errors import SettingsError
-    from .identify import identify
     from .params import load_parameter_file
-    from .report.summary import summarize
 
     unknown = set(options) - _SETTINGS - set(_READ)
     if unknown:
@@ -135,9 +148,58 @@ def estimate(log, *, params: dict | str | Path | None = None, truth: dict | None
         params = load_parameter_file(params)
     settings = Settings(overrides=dict(params or {}), **{k: (tuple(v) if k == "free" else v)
                                                           for k, v in options.items()})
+    settings.validate()
+    return estimate_with(log, settings, truth=truth, **read)
+
+
+#: CSV logs up to this size are likely to be refined under refine="auto" (about 50 bytes a row and
+#: REFINE_AUTO_MAX_STEPS rows at 1 kHz), so the refinement's kernel is loaded while the log is read
+REFINE_WARM_UP_BYTES = 50_000_000
+
+
+def _load_numerics() -> None:
+    """Import the compiled core and load its kernels from numba's cache (numba start-up ~0.6 s)."""
+    from .numerics.fused import warm_up
+
+    warm_up()
+
+
+def _load_refinement() -> None:
+    """Load the refinement's compiled kernels from numba's cache (~0.2 s)."""
+    from .numerics.refine import warm_up
+
+    warm_up()
+
+
+def estimate_with(log, settings: Settings, *, truth: dict | None = None, truth_source: str | None = None,
+                  on_stage: Callable[[str], None] | None = None, **read) -> Estimate:
+    """:func:`estimate` with ready (validated) Settings: the one path of the library and the command line.
+
+    ``truth_source``: where the truth came from (the report names it); ``on_stage(name)`` is told "reading"
+    and "identifying" as they begin.  When ``log`` is a file, the compiled kernels load in threads while it is
+    read (they need the GIL little: the read is pyarrow's, the kernels come from numba's cache)."""
+    from .identify import identify
+    from .report.summary import summarize
+
+    stage = on_stage or (lambda _: None)
+    warm = threading.Thread(target=_load_numerics, daemon=True)
+    warm.start()
+    if isinstance(log, (str, Path)) and (settings.refine == "on" or (
+            settings.refine == "auto" and _size(log) <= REFINE_WARM_UP_BYTES)):
+        threading.Thread(target=_load_refinement, daemon=True).start()  # identify waits for it if needed
+    stage("reading")
     data = _as_log(log, read)
+    warm.join()
+    stage("identifying")
     result = identify(data, settings)
-    return Estimate(data, result, summarize(result, data, truth, "given" if truth else None))
+    return Estimate(data, result, summarize(result, data, truth, truth_source or ("given" if truth else None)))
+
+
+def _size(path: str | Path) -> int:
+    try:
+        return Path(path).stat().st_size
+    except OSError:  # read_log reports a missing file with its own message
+        return 0
 
 
 def diagnose(log, *, params: dict | str | Path | None = None, thrust_law: str = "quadratic",
