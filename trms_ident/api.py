@@ -203,15 +203,19 @@ def _size(path: str | Path) -> int:
 
 
 def diagnose(log, *, params: dict | str | Path | None = None, thrust_law: str = "quadratic",
-             filter_a_rad_s: float | None = None, **read):
+             filter_a_rad_s: float | None = None, progress: Callable[[str, float], None] | None = None, **read):
     """Where the model and the log disagree: the verdict, the findings with their physics, the fit before and
-    after.  Returns diagnosis.run.Diagnosis (``.verdict``, ``.findings``, ``.fit_before``, ``.fit_after``)."""
+    after.  Returns diagnosis.run.Diagnosis (``.verdict``, ``.findings``, ``.fit_before``, ``.fit_after``).
+    ``progress(stage, fraction done)`` is called as the search advances (the CLI draws its bar with it)."""
     from .diagnosis.run import diagnose as run
-    from .params import load_parameter_file
+    from .errors import SettingsError
+    from .params import THRUST_LAWS, load_parameter_file
 
+    if thrust_law not in THRUST_LAWS:
+        raise SettingsError(f"thrust law must be one of {tuple(THRUST_LAWS)}, got {thrust_law!r}")
     if isinstance(params, (str, Path)):
         params = load_parameter_file(params)
-    return run(_as_log(log, read), dict(params or {}), thrust_law, filter_a_rad_s)
+    return run(_as_log(log, read), dict(params or {}), thrust_law, filter_a_rad_s, progress=progress)
 
 
 def simulate(ref: str = "square", **options):

@@ -395,11 +395,12 @@ def diagnose(
 ) -> None:
     """Find where the model and the recording disagree, name the missing physics, fit it, show the gain."""
     from .diagnosis.predict import fit_text
-    from .diagnosis.run import diagnose as run_diagnosis
     from .io.atomic import write_text
     from .io.readers import read_log
     from .report.diagnosis import render, to_doc
     from .report.summary import to_json
+
+    from .api import diagnose as run_diagnosis
 
     check_units(angle_unit, time_unit)
     if thrust_law not in THRUST_LAWS:
@@ -414,7 +415,8 @@ def diagnose(
     if progress:
         sys.stderr.write("\r\033[K")
     with progress_bar(str(log)) as advance:  # a bar on a terminal, nothing when stderr is piped
-        d = run_diagnosis(data, overrides, thrust_law, parse_auto("--a", a), progress=advance)
+        d = run_diagnosis(data, params=overrides, thrust_law=thrust_law, filter_a_rad_s=parse_auto("--a", a),
+                          progress=advance)
     doc = to_doc(d, data)
     fits = ", ".join(f"{k} {v:.2f} %" for k, v in d.fit_before.items())
     say(f"{log}: {d.verdict.upper().replace('_', ' ')}: {d.verdict_sentence}")
@@ -483,9 +485,7 @@ def simulate(
                                                   "the voltage messages' time; CSV: a t_u column) (0..0.99).")] = 0.0,
 ) -> None:
     """Simulate the closed-loop bench (paper eq. 1 with PID eq. 9) and write a log with its ground truth."""
-    from sim import SimSettings
-    from sim import simulate as run_sim
-
+    from .api import simulate as run_sim
     from .io.atomic import write_text
     from .io.csv_log import truth_path, write_csv_log
 
@@ -496,13 +496,13 @@ def simulate(
         if not 1 <= encoder_bits <= 32:
             raise SettingsError(f"--encoder-bits {encoder_bits}: expected 1..32")
         quantization = 2 * math.pi / 2 ** encoder_bits
-    settings = SimSettings(ref=ref, duration_s=duration, sample_rate_hz=rate, seed=seed, noise_std_rad=noise,
-                           quantization_rad=quantization, thrust_law=thrust_law, u_limit_v=u_limit,
-                           overrides=load_parameter_file(params, allow_estimated=True) if params else {},
-                           effects=[parse_effect(e) for e in effect or []], jitter=jitter, start_s=start,
-                           voltage_offset=voltage_offset)
+    options = dict(duration_s=duration, sample_rate_hz=rate, seed=seed, noise_std_rad=noise,
+                   quantization_rad=quantization, thrust_law=thrust_law, u_limit_v=u_limit,
+                   overrides=load_parameter_file(params, allow_estimated=True) if params else {},
+                   effects=[parse_effect(e) for e in effect or []], jitter=jitter, start_s=start,
+                   voltage_offset=voltage_offset)
     try:
-        result = run_sim(settings)
+        result = run_sim(ref, **options)
     except ValueError as exc:
         raise SettingsError(str(exc)) from None
     path = output or Path(f"sim_{ref}{formats[fmt]}")
