@@ -54,6 +54,24 @@ def test_two_effects_are_both_named():
                                             dict(effect="coulomb_friction", axis="pitch", value=2e-3)])
     named = {(f.effect, f.axis) for f in d.findings}
     assert {("cable_stiffness", "yaw"), ("coulomb_friction", "pitch")} <= named
+    # each finding carries its own step: the fits chain from the seed model's to the final one, each step
+    # raises the fit of the axes it acts on, and its term's shape is the fitted law
+    assert [s["key"] for s in d.steps] == [f"{f.effect}:{f.axis}" for f in d.findings]
+    last = dict(d.fit_before)
+    for f, step in zip(d.findings, d.steps):
+        for axis, a in step["axes"].items():
+            assert a["fit_before"] == pytest.approx(last[axis]) and a["fit_after"] > a["fit_before"]
+            last[axis] = a["fit_after"]
+            assert a["measured"].shape == a["before"].shape == a["residual_after"].shape == a["regime"].shape
+        assert f.fit_after == pytest.approx(min(a["fit_after"] for a in step["axes"].values()))
+        sh = step["shape"]
+        if f.effect == "coulomb_friction":
+            assert np.allclose(np.abs(sh.fitted[sh.x != 0]), f.parameter["value"]) and not sh.seed.any()
+            assert np.all(sh.fitted[sh.x > 0] < 0)  # opposes the motion
+        if f.effect == "cable_stiffness":
+            assert np.allclose(sh.fitted, -f.parameter["value"] * sh.x)
+    for axis in d.fit_after:
+        assert last[axis] == pytest.approx(d.fit_after[axis])
 
 
 @pytest.mark.parametrize("ref, rate, noise, q", [("square", 200.0, 0.0, 0.0), ("sine", 200.0, 0.0, Q12),
@@ -145,7 +163,8 @@ def test_cli_json_contract_and_report(tmp_path):
         assert set(doc["estimates"][key]) == {"J1", "B1", "J2", "B2"}
     assert "1. coulomb_friction on yaw: Fc = " in res.stderr
     html = (tmp_path / "rep" / "report.html").read_text()
-    assert html.count("data:image/png;base64,") == 3
+    assert html.count("data:image/png;base64,") == 4  # residual, regime, overlay; one set for the finding
+    assert "Finding 1: coulomb_friction on yaw" in html
     assert json.loads((tmp_path / "rep" / "diagnosis.json").read_text())["mismatch"] is True
 
 
@@ -197,3 +216,24 @@ def test_log_that_begins_mid_run(ref, rate, noise, q, effect, axis, value):
     clean = simulate(SimSettings(ref=ref, sample_rate_hz=rate, duration_s=90.0, noise_std_rad=noise,
                                  quantization_rad=q, seed=78, start_s=30.0))
     assert diagnose(as_log(clean)).verdict == "consistent"
+
+
+def test_every_candidate_has_a_term_shape_that_is_the_seed_model_at_its_neutral_value():
+    from trms_ident.diagnosis.effects import CANDIDATES
+    from trms_ident.diagnosis.shapes import term_shape
+    from trms_ident.params import defaults
+
+    p = defaults()
+    rng = np.random.default_rng(1)
+    w, x, a, u = (rng.normal(0, s, 500) for s in (1.0, 0.5, 0.3, 1.5))
+    neutral = {"input_saturation": 10.0, "motor_lag": None}
+    for c in CANDIDATES:
+        v = neutral.get(c.effect, 0.0)
+        if c.effect == "motor_lag":
+            v = p["T11"] if c.axis == "pitch" else p["T21"]
+        sh = term_shape(c, v, p, "quadratic", w, x, a, u, 1e-2)
+        assert sh.x.shape == sh.fitted.shape == sh.seed.shape and np.all(np.isfinite(sh.fitted)), c.key
+        np.testing.assert_allclose(sh.fitted, sh.seed, atol=1e-12, err_msg=c.key)
+        moved = term_shape(c, 1.0 if c.effect == "input_saturation" else (v or 0.0) + 0.1, p, "quadratic",
+                           w, x, a, u, 1e-2)
+        assert not np.allclose(moved.fitted, moved.seed), c.key  # and a non-neutral value shows

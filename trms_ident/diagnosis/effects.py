@@ -17,6 +17,9 @@ class Candidate:
     kind: str  # "linear": an extra regressor; "grid": fitted by search over its parameter
     grid: tuple[float, ...] = ()
     sentence: str = ""  # one-sentence explanation, formatted with {value} and {unit}
+    #: the variable the effect's residual shows against: "velocity" or "angle" of its axis, "pitch_angle", or
+    #: "input" (the axis' voltage)
+    regime: str = "input"
 
     @property
     def key(self) -> str:
@@ -31,21 +34,24 @@ def _geom(lo: float, hi: float, n: int) -> tuple[float, ...]:
 CANDIDATES: tuple[Candidate, ...] = (
     Candidate("coulomb_friction", "pitch", "Fc", "N m", "linear",
               sentence="a constant friction torque of {value:.3g} {unit} opposes the pitch motion and flips sign "
-                       "when the velocity reverses"),
+                       "when the velocity reverses", regime="velocity"),
     Candidate("coulomb_friction", "yaw", "Fc", "N m", "linear",
               sentence="a constant friction torque of {value:.3g} {unit} opposes the yaw motion and flips sign when "
-                       "the velocity reverses"),
+                       "the velocity reverses", regime="velocity"),
     Candidate("quadratic_drag", "pitch", "c", "N m s^2/rad^2", "linear",
-              sentence="aerodynamic drag c*omega*|omega| with c = {value:.3g} {unit} brakes fast pitch motion"),
+              sentence="aerodynamic drag c*omega*|omega| with c = {value:.3g} {unit} brakes fast pitch motion",
+              regime="velocity"),
     Candidate("quadratic_drag", "yaw", "c", "N m s^2/rad^2", "linear",
-              sentence="aerodynamic drag c*omega*|omega| with c = {value:.3g} {unit} brakes fast yaw motion"),
+              sentence="aerodynamic drag c*omega*|omega| with c = {value:.3g} {unit} brakes fast yaw motion",
+              regime="velocity"),
     Candidate("cable_stiffness", "yaw", "k", "N m/rad", "linear",
-              sentence="the cable pulls the beam back towards beta = 0 with {value:.3g} {unit}"),
+              sentence="the cable pulls the beam back towards beta = 0 with {value:.3g} {unit}", regime="angle"),
     Candidate("com_offset", "pitch", "delta", "rad", "linear",
               sentence="the centre of mass sits {value:.3g} {unit} off the beam axis, so gravity acts as "
-                       "Mg sin(alpha + delta)"),
+                       "Mg sin(alpha + delta)", regime="angle"),
     Candidate("sensor_offset", "pitch", "delta", "rad", "linear",
-              sentence="the pitch encoder reads {value:.3g} {unit} more than the true angle (zero offset)"),
+              sentence="the pitch encoder reads {value:.3g} {unit} more than the true angle (zero offset)",
+              regime="angle"),
     Candidate("thrust_asymmetry", "pitch", "s", "1", "linear",
               sentence="the main rotor turning backwards (tau1 < 0) pushes {value:+.2%} relative to the table's "
                        "thrust law (thrust asymmetry of a reversed rotor)"),
@@ -54,7 +60,7 @@ CANDIDATES: tuple[Candidate, ...] = (
                        "thrust law (thrust asymmetry of a reversed rotor)"),
     Candidate("yaw_inertia_pitch", "yaw", "dJ", "kg m^2", "linear",
               sentence="the yaw inertia depends on the pitch angle: J2 - {value:.3g} {unit} x sin^2(alpha) (the "
-                       "beam's inertia about the vertical falls as it tilts)"),
+                       "beam's inertia about the vertical falls as it tilts)", regime="pitch_angle"),
     Candidate("dead_zone", "pitch", "w", "V", "grid", _geom(0.02, 0.6, 16),
               sentence="main-motor voltages below {value:.3g} {unit} in magnitude move nothing (dead zone)"),
     Candidate("dead_zone", "yaw", "w", "V", "grid", _geom(0.02, 0.6, 16),

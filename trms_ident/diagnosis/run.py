@@ -18,6 +18,7 @@ from .locate import lag_profile, regimes, segments
 from .model import AXIS_ANGLE, Model, modified_inputs, regression, restart_velocity, smoothed_velocity
 from .predict import HORIZON_S, fit_text, nrmse_fit, predict_fitted_start
 from .select import FAMILY_ALPHA, compare, score
+from .shapes import term_shape, thin
 
 MAX_FINDINGS = 3
 #: two candidates whose fitted contributions correlate this much and whose gains are this close
@@ -63,6 +64,7 @@ class Diagnosis:
     refused: list = field(default_factory=list)  # findings the equation error chose but the checks refused
     seed_check: dict = field(default_factory=dict)  # identify's model_check of the seed model
     corrections: list = field(default_factory=list)  # sparse.Correction per axis left above its noise level
+    steps: list = field(default_factory=list)  # per finding, thinned for its figures (_finding_steps)
 
 
 VERDICTS = {
@@ -207,14 +209,18 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         refused.append({"effect": best["c"].effect, "axis": best["c"].axis, "parameter": best["value"],
                         "reason": why})
         current, reg_now, score_now = best["before"]
+    fits = _step_fits(log, p, law, findings, {0: (fit_before, over_before), len(findings): (fit_after, over_after)},
+                      seed.get("start_states"))
+    ests = [_estimates(sc, reg) for _, reg, sc in [f[0]["before"] for f in findings]] + [augmented]
     out = []
-    for best, alts in findings:
+    for i, (best, alts) in enumerate(findings):
         c = best["c"]
         v = values[c.key]
         axes_c = _axes_of(c)
-        shift = {k: 100.0 * (nominal[k] / augmented[k] - 1.0) for k in ("J1", "B1", "J2", "B2")}
-        fb = min(fit_before[x] for x in axes_c if x in fit_before)
-        fa = min(fit_after[x] for x in axes_c if x in fit_after)
+        # how far leaving this finding out (with the ones before it in) had moved each estimate
+        shift = {k: 100.0 * (ests[i][k] / ests[i + 1][k] - 1.0) for k in ("J1", "B1", "J2", "B2")}
+        fb = min(fits[i][0][x] for x in axes_c if x in fits[i][0])  # this finding's own step
+        fa = min(fits[i + 1][0][x] for x in axes_c if x in fits[i + 1][0])
         evidence = (f"held-out equation-error RSS {-100 * best['test'].gain:+.1f} % (t = {best['test'].t:.1f} over "
                     f"{int(ids.max()) + 1} blocks, p = {best['test'].p:.1e}); leaving it out shifted "
                     + ", ".join(f"{k} by {shift[k]:+.2g} %" for k in _params_of(axes_c)))
@@ -240,6 +246,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         seg[axis] = segments(log.t_s, r0, max(5.0 / a, 1.0), ctx)
         reg_stats[axis] = regimes(r0, vel, x, u)
         residual[axis] = (log.t_s, r0, r1)
+    steps = _finding_steps(log, p, law, findings, (current, reg_now, score_now), values, fits, cache, seg)
     delay = next((r for r in tested if r["effect"] == "input_delay"), None)
     lag = lag_profile([delay["parameter"]], [delay["held_out_gain"]]) if delay else {}
     overlay = {axis: (log.t_s, getattr(log, AXIS_ANGLE[axis]), over_before[axis], over_after[axis]) for axis in axes}
@@ -259,7 +266,47 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                       "alpha_family": FAMILY_ALPHA, "candidates": len(cands),
                       "unobservable": UNOBSERVABLE}, residual, overlay,
                      {axis: cache[("velocity", axis)] for axis in axes}, verdict, sentence, refused, seed,
-                     corrections)
+                     corrections, steps)
+
+
+def _step_fits(log, p, law, findings, fits: dict, start) -> dict:
+    """Prediction fits and predictions of the model before each finding (index i: findings 0..i-1 added; the
+    findings are added in order), given those of the seed model (0) and the final one (len(findings))."""
+    for i in range(1, len(findings)):
+        model, reg, sc = findings[i][0]["before"]
+        fits[i] = _fits(log, p, law, model, _effect_values(model, sc, reg), _estimates(sc, reg), start=start)
+    return fits
+
+
+def _finding_steps(log, p, law, findings, final, values, fits, cache, seg) -> list[dict]:
+    """What each finding changed, for its own figures: on the finding's axes the measured angle and the
+    predictions before and after it (_step_fits), the equation error before and after it over time (with the
+    located segments) and against the effect's regime variable, and the fitted term's shape.  Series are
+    thinned to about 4000 points."""
+    states = [f[0]["before"] for f in findings] + [final]  # (model, regression, score) before each, then last
+    dt = log.sample_time_s
+    th = thin(len(log))
+    out = []
+    for i, (best, _) in enumerate(findings):
+        c = best["c"]
+        axes = {}
+        for axis in _axes_of(c):
+            x = getattr(log, AXIS_ANGLE[axis])
+            r = [st[1].g[axis] - st[1].x[axis] @ st[2].theta[axis] for st in (states[i], states[i + 1])]
+            regime = {"velocity": (f"{axis} velocity [rad/s]", cache[("velocity", axis)]),
+                      "angle": (f"{AXIS_ANGLE[axis].split('_')[0]} [rad]", x),
+                      "pitch_angle": ("alpha [rad]", log.alpha_rad),
+                      "input": ("u1 [V]" if axis == "pitch" else "u2 [V]",
+                                log.u1_v if axis == "pitch" else log.u2_v)}[c.regime]
+            axes[axis] = {"measured": x[th], "before": fits[i][1][axis][th], "after": fits[i + 1][1][axis][th],
+                          "fit_before": fits[i][0][axis], "fit_after": fits[i + 1][0][axis],
+                          "residual_before": r[0][th], "residual_after": r[1][th],
+                          "regime_label": regime[0], "regime": regime[1][th], "segments": seg[axis]}
+        first = _axes_of(c)[0]
+        shape = term_shape(c, values[c.key], p, law, cache[("velocity", first)], getattr(log, AXIS_ANGLE[first]),
+                           log.alpha_rad, log.u2_v if c.axis == "yaw" else log.u1_v, dt)
+        out.append({"key": c.key, "t": log.t_s[th], "axes": axes, "shape": shape})
+    return out
 
 
 def _over_noise(log: Log, seed: dict, fits: dict) -> dict:

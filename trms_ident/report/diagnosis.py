@@ -35,12 +35,69 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
         "meaning": {
             "estimates.nominal": "J, B by least squares on the filtered regression (3) of the seed model",
             "estimates.augmented": "the same with the findings' terms added and refitted together",
-            "estimate_shift_percent": "how far leaving the effect out had moved each estimate (nominal vs augmented)",
+            "estimate_shift_percent": "how far leaving the effect out (the findings before it in) had moved each "
+                                      "estimate",
+            "findings.fit_before, fit_after": "this finding's own step: the prediction fit [%] of its axes with the "
+                                              "findings before it, then with it added (worst axis)",
             "corrections": "physics outside the library: a sparse data-driven correction of an axis' residual torque "
                            "(terms from a small library, pysindy STLSQ, kept only when it lowers the held-out "
                            "residual beyond chance and raises the prediction fit); a description, not a named effect",
         },
     }
+
+
+def finding_figure(step: dict):
+    """One finding's figure set: per axis it acts on, measured against the model's prediction before and after
+    the finding (as ``compare``), then the prediction error, the equation error over time (located segments
+    shaded) and against the effect's regime variable, before and after; last the fitted term's shape against
+    what the seed model assumes."""
+    import matplotlib.pyplot as plt
+
+    axes = step["axes"]
+    fig = plt.figure(figsize=(12, 2.7 * (2 * len(axes) + 1)))
+    grid = fig.add_gridspec(2 * len(axes) + 1, 3)
+    t = step["t"]
+    for row, (axis, a) in enumerate(axes.items()):
+        ov = fig.add_subplot(grid[2 * row, :])
+        ov.plot(t, a["measured"], color="0.35", lw=1.0, label="measured")
+        ov.plot(t, a["before"], color="tab:blue", lw=0.8, label=f"model before: fit {a['fit_before']:.2f} %")
+        ov.plot(t, a["after"], color="tab:orange", lw=0.8, ls="--", label=f"with it: fit {a['fit_after']:.2f} %")
+        ov.set_ylabel(f"{axis} angle [rad]")
+        ov.set_xlabel("t [s]")
+        ov.legend(fontsize=8, loc="upper right")
+        pe, rt, rr = (fig.add_subplot(grid[2 * row + 1, j]) for j in range(3))
+        pe.plot(t, a["measured"] - a["before"], color="tab:blue", lw=0.6, label="before")
+        pe.plot(t, a["measured"] - a["after"], color="tab:orange", lw=0.6, label="with it")
+        pe.set_ylabel(f"{axis} prediction error [rad]")
+        pe.set_xlabel("t [s]")
+        rt.plot(t, a["residual_before"], color="tab:blue", lw=0.6, label="before")
+        rt.plot(t, a["residual_after"], color="tab:orange", lw=0.6, label="with it")
+        for seg in a["segments"]:
+            rt.axvspan(seg["start_s"], seg["end_s"], color="tab:red", alpha=0.12)
+        rt.set_ylabel(f"{axis} equation error [N m]")
+        rt.set_xlabel("t [s] (shaded: located)")
+        rr.plot(a["regime"], a["residual_before"], ".", color="tab:blue", ms=1.2, alpha=0.5, label="before")
+        rr.plot(a["regime"], a["residual_after"], ".", color="tab:orange", ms=1.2, alpha=0.5, label="with it")
+        rr.set_xlabel(a["regime_label"])
+        rr.set_ylabel("equation error [N m]")
+        for p in (ov, pe, rt, rr):
+            p.grid(alpha=0.3)
+        for p in (pe, rt):
+            p.legend(fontsize=7, loc="upper right")
+        rr.legend(fontsize=7, markerscale=6, loc="upper right")
+    sh = step["shape"]
+    ax = fig.add_subplot(grid[2 * len(axes), :])
+    ax.plot(sh.x, sh.seed, color="0.45", lw=1.0, ls=":", label="seed model (Table 1)")
+    ax.plot(sh.x, sh.fitted, color="tab:red", lw=1.4, label="with the fitted term")
+    ax.set_xlabel(sh.x_label)
+    ax.set_ylabel(sh.y_label)
+    ax.set_title(sh.title, fontsize=10)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.suptitle(f"{step['key'].replace(':', ' on ')}: prediction, prediction and equation error in time and "
+                 "regime (before and with this finding), and the term's shape")
+    fig.tight_layout()
+    return fig
 
 
 def render(doc: dict, d: Diagnosis, log: Log) -> str:
@@ -95,7 +152,10 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
     ax[1].set_xlabel("t [s]")
     fig.suptitle(f"{d.settings['horizon_s']:g} s multi-step predictions against the measurement")
     figs.append(("Fit overlay", png_data_uri(fig)))
-    # 4. the shape of each data-driven correction: its torque against the axis' velocity and against time
+    # 4. per finding: what it changed on its axes, where, and the shape of its term
+    for i, step in enumerate(d.steps, 1):
+        figs.append((f"Finding {i}: {step['key'].replace(':', ' on ')}", png_data_uri(finding_figure(step))))
+    # 5. the shape of each data-driven correction: its torque against the axis' velocity and against time
     for c in d.corrections:
         fig, ax = plt.subplots(1, 2, figsize=(10, 3.5))
         v = d.velocity[c.axis]
