@@ -57,13 +57,19 @@ def _pass(r, pv, starts, m0, h, out):
                                R.MAX_SUBSTEP_S, n, 1000, out, np.zeros((n, 2, 0)))
 
 
-@pytest.mark.parametrize("jitter", [0.0, 0.2])
-def test_forward_sensitivities_match_finite_differences(jitter):
+@pytest.mark.parametrize("jitter, effects", [
+    (0.0, {}), (0.2, {}),
+    # the effects the output-error fit carries change the Jacobian (friction's slope, the cable's beta term,
+    # the reversed rotors' thrust): the sensitivities must stay exact with them in
+    (0.1, {"coulomb_friction:pitch": 2e-3, "quadratic_drag:yaw": 0.02, "cable_stiffness:yaw": 0.005,
+           "thrust_asymmetry:pitch": -0.2, "thrust_asymmetry:yaw": 0.3, "coulomb_friction:yaw": 3e-3,
+           "quadratic_drag:pitch": 0.01, "com_offset:pitch": 0.04})])
+def test_forward_sensitivities_match_finite_differences(jitter, effects):
     # every unknown: J1, B1, J2, B2, the start states tau1(0), tau2(0), zeta(0), the window's start angles/rates
     r = simulate(SimSettings(ref="square", duration_s=10.0, jitter=jitter, seed=2))
     n = r.t_s.size
     h = np.diff(r.t_s)
-    base = R.model_vector(defaults())
+    base = R.model_vector(defaults(), effects=effects)
     starts, m0 = np.array([[0.01, 0.2, 0.02, 0.3]]), np.array([0.3, -0.2, 0.1])
     out = np.empty((n, 2))
     _, a, b, _ = _pass(r, base, starts, m0, h, out)

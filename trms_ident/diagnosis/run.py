@@ -12,6 +12,7 @@ from ..log import Log
 from ..numerics.design import design_filters
 from ..numerics.stats import block_length
 from ..params import merge
+from . import oe
 from .discriminate import PAIR, tell_offsets_apart
 from .effects import CANDIDATES, UNOBSERVABLE, Candidate
 from .locate import lag_profile, regimes, segments
@@ -65,6 +66,7 @@ class Diagnosis:
     seed_check: dict = field(default_factory=dict)  # identify's model_check of the seed model
     corrections: list = field(default_factory=list)  # sparse.Correction per axis left above its noise level
     steps: list = field(default_factory=list)  # per finding, thinned for its figures (_finding_steps)
+    oe_tested: list = field(default_factory=list)  # candidates judged by output error (oe.py), in order
 
 
 VERDICTS = {
@@ -156,6 +158,9 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
     n_tests = len(cands)
     reg_now, score_now = base_reg, base
     excluded: set[str] = set()  # look-alikes already named as a finding's alternatives
+    fitter = oe.Fitter(log, p, law)  # output-error fits of candidates (oe.py)
+    oe_values: dict = {}  # findings the output-error test decided: key -> its fitted value
+    oe_tested: list = []
     for round_i in range(MAX_FINDINGS):
         results = []
         for i, c in enumerate(cands):
@@ -175,8 +180,13 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                        "t": r["test"].t, "p": r["test"].p, "passed": r["test"].passed,
                        "parameter": r["value"]} for r in results]
         ok = [r for r in results if r["test"].passed and _plausible(r["c"], r["value"])]
-        if not ok:
-            break
+        if not ok:  # the equation error finds nothing: the output-error fit judges its best candidates
+            rescue = _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests, fitter,
+                                oe_tested)
+            if rescue is None:
+                break
+            ok = [rescue]
+            oe_values[rescue["c"].key] = rescue["value"]
         ok.sort(key=lambda r: -r["test"].gain)
         best = ok[0]
         alts = [r["c"].key for r in ok[1:] if r["test"].gain >= ALIAS_GAIN_RATIO * best["test"].gain and
@@ -199,6 +209,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
     while True:  # accept only findings that keep J/B physical and raise the fit of every axis they touch
         augmented = _estimates(score_now, reg_now)
         values = _effect_values(current, score_now, reg_now)
+        values.update({k: v for k, v in oe_values.items() if k in current.keys})  # the output-error fit's value
         fit_after, over_after = _fits(log, p, law, current, values, augmented, start=seed.get("start_states"))
         if not findings:
             break
@@ -224,6 +235,9 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         evidence = (f"held-out equation-error RSS {-100 * best['test'].gain:+.1f} % (t = {best['test'].t:.1f} over "
                     f"{int(ids.max()) + 1} blocks, p = {best['test'].p:.1e}); leaving it out shifted "
                     + ", ".join(f"{k} by {shift[k]:+.2g} %" for k in _params_of(axes_c)))
+        if "oe" in best:  # decided by the output-error fit (the equation error alone did not pass it)
+            evidence = (oe.evidence(best["oe"], log.sample_time_s) + "; the equation-error test alone: " +
+                        evidence)
         if best.get("told_apart"):
             evidence += "; " + best["told_apart"]
         if alts:
@@ -266,7 +280,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                       "alpha_family": FAMILY_ALPHA, "candidates": len(cands),
                       "unobservable": UNOBSERVABLE}, residual, overlay,
                      {axis: cache[("velocity", axis)] for axis in axes}, verdict, sentence, refused, seed,
-                     corrections, steps)
+                     corrections, steps, oe_tested)
 
 
 def _step_fits(log, p, law, findings, fits: dict, start) -> dict:
@@ -414,7 +428,7 @@ def _seed_check(log: Log, overrides: dict | None, law: str) -> dict:
 
 
 def _verdict(log: Log, seed: dict, findings: list, fit_after: dict, seg: dict) -> tuple[str, str]:
-    if seed.get("adequate"):
+    if seed.get("adequate") and not findings:
         return "consistent", VERDICTS["consistent"] + "."
     if findings:
         ratios = _over_noise(log, seed, fit_after)
@@ -498,6 +512,41 @@ def _offsets_by_output_error(best, alts, ok, log, p, law, current):
         return best, alts, None
     winner = best if verdict.winner == best["c"].key else other
     return winner, [k for k in alts if k not in PAIR], verdict.reason
+
+
+#: per round, this many candidates (the equation error's best first) are fitted by output error when the
+#: equation error passes none; the equation error only orders them
+OE_TOP_K = 3
+
+
+def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests, fitter, tested):
+    """The equation-error test passed no candidate: fit its best OE_TOP_K output-error candidates by output
+    error (oe.py) and return the one that passes there with the largest drop in angle error (its regression
+    and value, as _try returns them, with "oe": the fit), or None."""
+    if not oe.representable(current):
+        return None
+    est = _estimates(score_now, reg_now)
+    theta0 = est if all(math.isfinite(v) and v > 0 for v in est.values()) else {k: p[k] for k in est}
+    values = _effect_values(current, score_now, reg_now)
+    order = sorted((r for r in results if r["c"].key in oe.OE_KEYS and r["c"].key not in current.keys),
+                   key=lambda r: -r["test"].gain)[:OE_TOP_K]
+    good = []
+    for r in order:
+        f = fitter.candidate(current, values, theta0, r["c"].key)
+        ok = f is not None and oe.passes(f, n_tests, FAMILY_ALPHA) and _plausible(r["c"], f.value)
+        if f is not None:
+            tested.append({"effect": r["c"].effect, "axis": r["c"].axis, "after": list(current.keys),
+                           "parameter": f.value, "se": f.se, "t": f.t, "p": f.p, "cost_drop": f.cost_drop,
+                           "excess_share": f.excess_share, "torque_share": f.torque_share,
+                           "passed": bool(ok)})
+        if ok:
+            good.append((r, f))
+    if not good:
+        return None
+    r, f = max(good, key=lambda rf: rf[1].cost_drop)
+    res = _try(r["c"], log, p, law, a, current, cache, ids, score_now, n_tests)  # its regression (dropped before)
+    res["oe"], res["value"] = f, f.value
+    return res
 
 
 def _plausible(c: Candidate, v: float) -> bool:

@@ -10,7 +10,8 @@ leaves angle errors above the noise level; the caller (identify) then keeps DREM
 
 Model: paper eq. (1), both axes together (the pitch equation takes beta' from the model, not
 differentiated from the log), state [alpha, alpha', beta, beta', tau1, tau2, zeta] with zeta
-the lag state of M_R = kc (T0 s + 1)/(Tp s + 1) tau1.  The logged voltages are held over each
+the lag state of M_R = kc (T0 s + 1)/(Tp s + 1) tau1, plus the effects of EFFECT_SLOTS when diagnose
+puts a candidate in (friction, drag, cable, thrust asymmetry, centre-of-mass offset; 0 = absent).  The logged voltages are held over each
 actual sample interval t[k]..t[k+1] (the bench's controller holds them; jittered stamps are
 integrated over their real length), classical RK4 in sub-steps of at most MAX_SUBSTEP_S
 advances the state together with its sensitivities (forward sensitivity equations: one pass
@@ -70,11 +71,23 @@ NU = NG + NL
 # the model vector handed to the compiled kernel
 _P = ("J1", "B1", "J2", "B2", "a1", "b1", "a2", "b2", "Mg", "Kg", "k1", "k2", "T11", "T10", "T21", "T20", "kc",
       "T0", "Tp")
-# state layout: 7 states; pitch sensitivities to (J1, B1, J2, B2, alpha0, alpha'0, beta'0) of alpha [7:14] and
-# alpha' [14:21]; yaw sensitivities to (J2, B2, beta'0) of beta [21:24] and beta' [24:27]; sensitivities to the
-# start states (tau1(0), tau2(0), zeta(0)) of alpha [27:30], alpha' [30:33], beta [33:36], beta' [36:39];
-# motor-state sensitivities d tau1/d tau1(0) [39], d tau2/d tau2(0) [40], d zeta/d tau1(0) [41], d zeta/d zeta(0) [42]
-_NS = 43
+#: the model vector's slots after _P: the gravity offset (19), then the effects the output-error fit can carry
+#: (numerics' share of diagnose's library; 0 = absent): Coulomb friction Fc [N m] (smoothed sign, as the
+#: prediction model), quadratic drag c [N m s^2/rad^2], yaw cable stiffness k [N m/rad], thrust asymmetry s of a
+#: reversed rotor ((1 + s) times the thrust law for tau < 0)
+EFFECT_SLOTS = {"com_offset:pitch": 19, "coulomb_friction:pitch": 20, "coulomb_friction:yaw": 21,
+                "quadratic_drag:pitch": 22, "quadratic_drag:yaw": 23, "cable_stiffness:yaw": 24,
+                "thrust_asymmetry:pitch": 25, "thrust_asymmetry:yaw": 26}
+_NP = 27
+#: Coulomb friction's sign is smoothed as tanh(omega / FRICTION_SMOOTH_RAD_S) (RK4 needs a smooth right side)
+FRICTION_SMOOTH_RAD_S = 1e-3
+# state layout: [0:7] alpha, alpha', beta, beta', tau1, tau2, zeta; then per unknown c in the NU order (J1, B1,
+# J2, B2, tau1(0), tau2(0), zeta(0), alpha0, alpha'0, beta0, beta'0) the sensitivities of alpha, alpha', beta,
+# beta' at [7 + 4c : 11 + 4c]; then the motor-state sensitivities d tau1/d tau1(0), d tau2/d tau2(0),
+# d zeta/d tau1(0), d zeta/d zeta(0) at [51:55]
+_S0 = 7
+_MS = _S0 + 4 * NU  # 51
+_NS = _MS + 4
 
 
 @dataclass(frozen=True)
@@ -109,17 +122,26 @@ def _thrust_slope(tau, a, b, signed):
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
 def _rhs(x, u1, u2, p, signed, d):
-    """Paper eq. (1) with the motor lags and M_R's lag state, and the forward sensitivities (layout above)."""
+    """Paper eq. (1) with the motor lags, M_R's lag state and the effects in p's slots, and the exact forward
+    sensitivities (layout above): for every unknown c, d/dt S_c = A(t) S_c + df/dtheta_c, with A the Jacobian
+    of (alpha', alpha'', beta', beta'') in (alpha, alpha', beta, beta')."""
     j1, b1, j2, b2 = p[0], p[1], p[2], p[3]
+    eps = FRICTION_SMOOTH_RAD_S
     m1 = _thrust(x[4], p[4], p[5], signed)
     m2 = _thrust(x[5], p[6], p[7], signed)
+    g1 = 1.0 + p[25] if x[4] < 0.0 else 1.0  # thrust asymmetry of a reversed rotor
+    g2 = 1.0 + p[26] if x[5] < 0.0 else 1.0
+    m1 *= g1
+    m2 *= g2
     mr = p[16] * (p[17] / p[18] * x[4] + (1.0 - p[17] / p[18]) * x[6])
     sa, ca = math.sin(x[0]), math.cos(x[0])
     # gravity Mg sin(alpha + delta): p[19] = delta, a centre-of-mass offset (0 in the seed model)
     sg, cg = (sa, ca) if p[19] == 0.0 else (math.sin(x[0] + p[19]), math.cos(x[0] + p[19]))
-    f1 = (m1 - b1 * x[1] - p[8] * sg - p[9] * m1 * x[3] * ca) / j1  # eq. (1), pitch
-    f3 = (m2 - b2 * x[3] - mr) / j2  # eq. (1), yaw
-    p1, p2 = p[13] / p[12], p[15] / p[14]
+    th1, th2 = math.tanh(x[1] / eps), math.tanh(x[3] / eps)
+    fr1 = -p[20] * th1 - p[22] * x[1] * abs(x[1])  # friction beyond B: Coulomb (smoothed) and drag
+    fr2 = -p[21] * th2 - p[23] * x[3] * abs(x[3])
+    f1 = (m1 - b1 * x[1] - p[8] * sg - p[9] * m1 * x[3] * ca + fr1) / j1  # eq. (1), pitch
+    f3 = (m2 - b2 * x[3] - mr - p[24] * x[2] + fr2) / j2  # eq. (1), yaw (with a cable: -k beta)
     d[0] = x[1]
     d[1] = f1
     d[2] = x[3]
@@ -127,42 +149,39 @@ def _rhs(x, u1, u2, p, signed, d):
     d[4] = (p[10] * u1 - p[13] * x[4]) / p[12]
     d[5] = (p[11] * u2 - p[15] * x[5]) / p[14]
     d[6] = (x[4] - x[6]) / p[18]
-    # yaw: d/dt S_beta' = -B2/J2 S_beta' + d f3 / d theta
-    for j in range(3):
-        d[21 + j] = x[24 + j]
-        d[24 + j] = -b2 / j2 * x[24 + j]
-    d[24] -= f3 / j2
-    d[25] -= x[3] / j2
-    # pitch: d/dt S_alpha' = A10 S_alpha + A11 S_alpha' + A13 S_beta' + d f1 / d theta
+    # the Jacobian A: pitch row (alpha'') and yaw row (beta''); alpha'' does not depend on beta, beta'' not on
+    # alpha or alpha'
     a10 = (-p[8] * cg + p[9] * m1 * x[3] * sa) / j1
-    a11 = -b1 / j1
+    a11 = (-b1 - p[20] * (1.0 - th1 * th1) / eps - 2.0 * p[22] * abs(x[1])) / j1
     a13 = -p[9] * m1 * ca / j1
-    for c in range(7):
-        d[7 + c] = x[14 + c]
-        d[14 + c] = a10 * x[7 + c] + a11 * x[14 + c]
-    d[14 + 2] += a13 * x[24]  # J2
-    d[14 + 3] += a13 * x[25]  # B2
-    d[14 + 6] += a13 * x[26]  # beta'0
-    d[14] -= f1 / j1
-    d[15] -= x[1] / j1
-    # start states: the motors' sensitivities decay with the motors' own poles ...
-    d[39] = -p1 * x[39]
-    d[40] = -p2 * x[40]
-    d[41] = (x[39] - x[41]) / p[18]
-    d[42] = -x[42] / p[18]
-    # ... and drive the angles through the thrusts and M_R
-    df1_t1 = _thrust_slope(x[4], p[4], p[5], signed) * (1.0 - p[9] * x[3] * ca) / j1
+    b12 = -p[24] / j2
+    b13 = (-b2 - p[21] * (1.0 - th2 * th2) / eps - 2.0 * p[23] * abs(x[3])) / j2
+    # direct terms: J/B, then the start states through the thrusts and M_R
+    p1, p2 = p[13] / p[12], p[15] / p[14]
+    df1_t1 = g1 * _thrust_slope(x[4], p[4], p[5], signed) * (1.0 - p[9] * x[3] * ca) / j1
     df3_t1 = -p[16] * p[17] / p[18] / j2
     df3_z = -p[16] * (1.0 - p[17] / p[18]) / j2
-    df3_t2 = _thrust_slope(x[5], p[6], p[7], signed) / j2
-    for c in range(3):
-        st1 = x[39] if c == 0 else 0.0
-        st2 = x[40] if c == 1 else 0.0
-        sz = x[41] if c == 0 else (x[42] if c == 2 else 0.0)
-        d[33 + c] = x[36 + c]
-        d[36 + c] = -b2 / j2 * x[36 + c] + df3_t1 * st1 + df3_t2 * st2 + df3_z * sz
-        d[27 + c] = x[30 + c]
-        d[30 + c] = a10 * x[27 + c] + a11 * x[30 + c] + a13 * x[36 + c] + df1_t1 * st1
+    df3_t2 = g2 * _thrust_slope(x[5], p[6], p[7], signed) / j2
+    for c in range(NU):
+        i = _S0 + 4 * c
+        d[i] = x[i + 1]
+        d[i + 1] = a10 * x[i] + a11 * x[i + 1] + a13 * x[i + 3]
+        d[i + 2] = x[i + 3]
+        d[i + 3] = b12 * x[i + 2] + b13 * x[i + 3]
+    d[_S0 + 1] -= f1 / j1  # J1
+    d[_S0 + 4 + 1] -= x[1] / j1  # B1
+    d[_S0 + 8 + 3] -= f3 / j2  # J2
+    d[_S0 + 12 + 3] -= x[3] / j2  # B2
+    st1, st2, sz1, sz0 = x[_MS], x[_MS + 1], x[_MS + 2], x[_MS + 3]
+    d[_S0 + 16 + 1] += df1_t1 * st1  # tau1(0): through M1, and M_R's direct and lagged paths
+    d[_S0 + 16 + 3] += df3_t1 * st1 + df3_z * sz1
+    d[_S0 + 20 + 3] += df3_t2 * st2  # tau2(0)
+    d[_S0 + 24 + 3] += df3_z * sz0  # zeta(0)
+    # the motors' sensitivities decay with the motors' own poles
+    d[_MS] = -p1 * st1
+    d[_MS + 1] = -p2 * st2
+    d[_MS + 2] = (st1 - sz1) / p[18]
+    d[_MS + 3] = -sz0 / p[18]
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
@@ -255,7 +274,7 @@ def motor_starts(u1, u2, p, h, dsw, max_sub, win, nw, m0):
     return out
 
 
-_MOTOR = (4, 5, 6, 39, 40, 41, 42)
+_MOTOR = (4, 5, 6, _MS, _MS + 1, _MS + 2, _MS + 3)
 #: the model values the motor states depend on (k1, k2, T11, T10, T21, T20, Tp): keys of the motor cache
 _MOTOR_P = np.array([_P.index(k) for k in ("k1", "k2", "T11", "T10", "T21", "T20", "Tp")])
 
@@ -288,9 +307,8 @@ def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub,
         for i in range(7):
             x[_MOTOR[i]] = mstart[w, i]
         x[0], x[1], x[2], x[3] = starts[w, 0], starts[w, 1], starts[w, 2], starts[w, 3]
-        x[7 + 4] = 1.0  # d alpha / d alpha0
-        x[14 + 5] = 1.0  # d alpha' / d alpha'0
-        x[24 + 2] = 1.0  # d beta' / d beta'0
+        for j in range(4):  # d (alpha, alpha', beta, beta') / d (alpha0, alpha'0, beta0, beta'0) = identity
+            x[_S0 + 4 * (NG + j) + j] = 1.0
         cost = 0.0
         for k in range(s, e):
             out[k, 0] = x[0]
@@ -298,14 +316,9 @@ def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub,
             ra = (y[k, 0] - x[0]) * inv_sig[0]
             rb = (y[k, 1] - x[2]) * inv_sig[1]
             cost += ra * ra + rb * rb
-            for i in range(4):
-                ja[i] = x[7 + i] * inv_sig[0]
-            for c in range(3):
-                ja[4 + c] = x[27 + c] * inv_sig[0]
-                jb[4 + c] = x[33 + c] * inv_sig[1]
-            ja[7], ja[8], ja[9], ja[10] = x[11] * inv_sig[0], x[12] * inv_sig[0], 0.0, x[13] * inv_sig[0]
-            jb[0], jb[1], jb[2], jb[3] = 0.0, 0.0, x[21] * inv_sig[1], x[22] * inv_sig[1]
-            jb[7], jb[8], jb[9], jb[10] = 0.0, 0.0, inv_sig[1], x[23] * inv_sig[1]
+            for c in range(NU):
+                ja[c] = x[_S0 + 4 * c] * inv_sig[0]
+                jb[c] = x[_S0 + 4 * c + 2] * inv_sig[1]
             for c in range(m):
                 ja[NU + c] = extra[k, 0, c] * inv_sig[0]
                 jb[NU + c] = extra[k, 1, c] * inv_sig[1]
@@ -401,9 +414,20 @@ def warm_up() -> None:
                       np.zeros((n, 2, 0)))
 
 
-def model_vector(params: dict, gravity_offset_rad: float = 0.0) -> np.ndarray:
-    """The compiled kernel's parameter vector: the table's values in _P order, then the gravity offset."""
-    return np.array([params[k] for k in _P] + [gravity_offset_rad], dtype=float)
+def model_vector(params: dict, gravity_offset_rad: float = 0.0, effects: dict | None = None) -> np.ndarray:
+    """The compiled kernel's parameter vector: the table's values in _P order, the gravity offset, then the
+    effects' slots (EFFECT_SLOTS; ``effects``: key -> value, absent ones 0)."""
+    pv = np.zeros(_NP)
+    pv[:len(_P)] = [params[k] for k in _P]
+    pv[19] = gravity_offset_rad
+    for key, v in (effects or {}).items():
+        pv[EFFECT_SLOTS[key]] = v
+    return pv
+
+
+def slot(name: str) -> int:
+    """Position in the model vector of a known value (_P) or an effect (EFFECT_SLOTS)."""
+    return EFFECT_SLOTS[name] if name in EFFECT_SLOTS else _P.index(name)
 
 
 def steady_motor_states(u1_0: float, u2_0: float, params: dict) -> np.ndarray:
@@ -528,7 +552,8 @@ class _Problem:
 
 def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict, noise_rad: dict,
            window_s: float = WINDOW_S, gravity_offset_rad: float = 0.0, t_s: np.ndarray | None = None,
-           free: tuple[str, ...] = (), switch_delay_s: np.ndarray | None = None) -> Refined:
+           free: tuple[str, ...] = (), switch_delay_s: np.ndarray | None = None,
+           effects: dict | None = None) -> Refined:
     """Gauss-Newton on the noise-weighted angle errors, from theta0 (DREM's estimate).
 
     ``t_s``: the sample stamps [s] when they are not uniform (default: uniform steps of ``dt`` [s]); the
@@ -536,7 +561,8 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     after stamp k (the voltage topic's own times; default 0).  ``free``: known values (names of the parameter table) to
     estimate with J/B, started from ``params``.  ``gravity_offset_rad``: a centre-of-mass offset, gravity
     Mg sin(alpha + delta) (diagnose's extended model; an encoder offset is handled by the caller, shifting
-    the logged angle)."""
+    the logged angle).  ``effects``: effect key (EFFECT_SLOTS) -> value in the model; an effect key in ``free``
+    is estimated with J/B, started from its value there (or 0)."""
     n = alpha.size
     t = np.arange(n) * dt if t_s is None else np.asarray(t_s, dtype=float)
     h = np.diff(t)
@@ -550,18 +576,19 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
                        for s in range(0, nw * win, win)])
     free = tuple(free)
     m = len(free)
+    effects = dict(effects or {})
     theta = np.concatenate([[theta0[k] for k in NAMES], steady_motor_states(u1[0], u2[0], params),
-                            [params[k] for k in free]])
+                            [params[k] if k in _P else effects.get(k, 0.0) for k in free]])
     # what "negligible" means per unknown: J/B and freed values relative to themselves, start states to the
     # motors' range
     motor_range = np.abs(steady_motor_states(float(np.max(np.abs(u1))), float(np.max(np.abs(u2))), params))
     scale = np.concatenate([np.abs(theta[:4]), np.maximum(motor_range, 1e-6) * 1e3,
                             np.maximum(np.abs(theta[NG:]), 1e-9)])
     prob = _Problem(np.ascontiguousarray(u1, dtype=float), np.ascontiguousarray(u2, dtype=float), y, 1.0 / sig,
-                    model_vector(params, gravity_offset_rad), law == "signed", h,
+                    model_vector(params, gravity_offset_rad, effects), law == "signed", h,
                     np.zeros((n, 2)) if switch_delay_s is None else np.ascontiguousarray(switch_delay_s, dtype=float),
                     win, block,
-                    [_P.index(k) for k in free])
+                    [slot(k) for k in free])
     ng = NG + m
     out = np.empty((n, 2))
     cost, a, b, scores = prob.evaluate(theta, starts, out)
@@ -617,7 +644,8 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     start_se = dict(zip(START_NAMES, map(float, se[4:NG])))
     freed = {k: {"estimate": float(theta[NG + j]), "ci95": [float(theta[NG + j] - tq * se[NG + j]),
                                                            float(theta[NG + j] + tq * se[NG + j])],
-                 "table_or_file_value": float(params[k])} for j, k in enumerate(free)}
+                 "se": float(se[NG + j]), "table_or_file_value": float(params[k] if k in _P else effects.get(k, 0.0))}
+             for j, k in enumerate(free)}
     return Refined(dict(zip(NAMES, map(float, theta[:4]))),
                    {k: (float(theta[i] - half[i]), float(theta[i] + half[i])) for i, k in enumerate(NAMES)},
                    converged, it, rms, float(cost), win * step_s, nw, substeps(step_s), nb,

@@ -29,12 +29,18 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                 "before": d.fit_before, "after": d.fit_after},
         "located": {"segments": d.segments, "regimes": d.regimes, "lag": d.lag},
         "tested": d.tested,
+        "output_error_tested": d.oe_tested,
         "settings": {k: v for k, v in d.settings.items()},
         "input": {"path": log.source, "sha256": log.sha256, "samples": len(log), "sample_time_s": log.sample_time_s},
         "versions": versions(),
         "meaning": {
             "estimates.nominal": "J, B by least squares on the filtered regression (3) of the seed model",
             "estimates.augmented": "the same with the findings' terms added and refitted together",
+            "output_error_tested": "when the equation-error test passes no candidate, its best output-error "
+                                   "candidates fitted by output error (the effect's parameter free with J, B, the "
+                                   "findings' parameters and the motors' start states): value, batch-means "
+                                   "standard error, t, p (passes below 0.05 / candidates) and the relative drop "
+                                   "of the noise-weighted squared angle error (passes from 1 %)",
             "estimate_shift_percent": "how far leaving the effect out (the findings before it in) had moved each "
                                       "estimate",
             "findings.fit_before, fit_after": "this finding's own step: the prediction fit [%] of its axes with the "
