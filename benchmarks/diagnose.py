@@ -176,8 +176,9 @@ def main():
         f"- logs with two effects: {len(two_rows)}; both named: {sum(x[2].get('both_named', False) for x in two_rows)}",
         f"- parameter error of right findings: median {100 * np.median(perr):.1f} %, worst {100 * max(perr):.1f} %, "
         f"within 30 %: {sum(e <= 0.3 for e in perr)}/{len(perr)}",
-        f"- fit improved on {sum(g > 0 for g in gains)}/{len(gains)} right findings (median gain {np.median(gains):.3f} "
-        "NRMSE points)",
+        f"- fit improved on {sum(g > 0 for g in gains)}/{len(gains)} right findings (median gain "
+        f"{np.nanmedian(gains) if gains else float('nan'):.3f} NRMSE points; {int(np.sum(np.isnan(gains)))} without a "
+        "seed-model prediction: its least-squares J or B not physical)",
         f"- median diagnose time per log: {np.median([x[1]['seconds'] for x in rows]):.1f} s "
         f"(total benchmark {time.perf_counter() - t0:.0f} s on 2 processes)",
     ]
