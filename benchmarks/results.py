@@ -5,8 +5,23 @@ import re
 from pathlib import Path
 
 
+def _section(name: str) -> re.Pattern:
+    """The section headed "## <name>" exactly (optionally followed by " (...)"), up to the next heading: not
+    the ones whose names merely begin with it ("Diagnose" is not "Diagnose power")."""
+    return re.compile(rf"^## {re.escape(name)}(?: \([^\n]*)?\n.*?(?=^## |\Z)", re.S | re.M)
+
+
 def update_section(path: Path, name: str, text: str) -> None:
+    """Replace the section ``name`` with ``text`` (appended when absent; later copies of it are removed)."""
     old = path.read_text(encoding="utf-8") if path.exists() else "# Benchmark results\n\n"
-    pattern = re.compile(rf"^## {re.escape(name)}\b.*?(?=^## |\Z)", re.S | re.M)
-    new = pattern.sub(lambda _: text.rstrip() + "\n\n", old) if pattern.search(old) else old.rstrip() + "\n\n" + text
-    path.write_text(new, encoding="utf-8")
+    pattern = _section(name)
+    if not pattern.search(old):
+        path.write_text(old.rstrip() + "\n\n" + text.rstrip() + "\n", encoding="utf-8")
+        return
+    first = [True]
+
+    def put(_):
+        keep, first[0] = first[0], False
+        return text.rstrip() + "\n\n" if keep else ""
+
+    path.write_text(pattern.sub(put, old).rstrip() + "\n", encoding="utf-8")
