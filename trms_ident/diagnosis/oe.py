@@ -32,7 +32,7 @@ from ..log import Log
 from ..numerics.design import angle_noise_rad
 from ..numerics.refine import EFFECT_SLOTS, substeps
 from ..numerics.refine import refine as oe_refine
-from .model import Model, modified_inputs
+from .model import Model
 from .select import MIN_SIGNAL_SHARE
 
 #: candidates the output-error fit can carry
@@ -40,8 +40,9 @@ OE_KEYS = tuple(EFFECT_SLOTS)
 #: a passing candidate must lower the noise-weighted squared angle error by this fraction of the current one
 #: (a practical size: on clean logs the drop was at most 2e-4 of it, on a 0.002 N m pitch friction 3e-2)
 MIN_COST_DROP = 0.01
-#: the output-error fits cover at most this many integration steps of the log's beginning (bounded cost)
-MAX_STEPS = 400_000
+#: the output-error fits cover at most this many integration steps of the log's beginning (bounded time and
+#: memory; as estimate's adequacy check, about 4 min at 1 kHz)
+MAX_STEPS = 250_000
 
 
 @dataclass(frozen=True)
@@ -105,17 +106,14 @@ class Fitter:
         self._base: dict = {}
 
     def _fit(self, model: Model, values: dict, theta0: dict, extra_key: str | None):
-        n = self.n
-        mods = dict(model.mods)
-        inputs = {k: v for k, v in mods.items() if not k.endswith("offset:pitch")}
-        u1, u2, changes = modified_inputs(self.log, inputs)
+        """The refinement of the log's first n samples with the model's effects (representable: linear ones and
+        the centre-of-mass offset, all free) and, when given, ``extra_key`` free from 0."""
+        n, log = self.n, self.log
         effects = {k: values[k] for k in model.linear}
-        if "com_offset:pitch" in mods:
-            effects["com_offset:pitch"] = mods["com_offset:pitch"]
-        alpha = self.log.alpha_rad[:n] - mods.get("sensor_offset:pitch", 0.0)
+        effects.update({k: v for k, v in model.mods if k == "com_offset:pitch"})
         free = tuple(effects) + ((extra_key,) if extra_key else ())
-        return oe_refine(u1[:n], u2[:n], alpha, self.log.beta_rad[:n], self.log.sample_time_s,
-                         {**self.p, **changes}, self.law, theta0, self.noise, free=free, effects=effects)
+        return oe_refine(log.u1_v[:n], log.u2_v[:n], log.alpha_rad[:n], log.beta_rad[:n], log.sample_time_s, self.p,
+                         self.law, theta0, self.noise, free=free, effects=effects)
 
     def base(self, model: Model, values: dict, theta0: dict):
         """The current model's fit (its findings' parameters free): cost and convergence."""

@@ -203,6 +203,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         reg_now, score_now = best["reg"], best["score"]
         excluded.update(alts)
         findings.append((best, alts))
+    del fitter  # its cached fits are not needed any more (memory on long logs)
     progress("prediction fits", _SEED_SHARE + _ROUNDS_SHARE)
     fit_before, over_before = _fits(log, p, law, Model(), {}, nominal, start=seed.get("start_states"))
     refused = []
