@@ -45,6 +45,10 @@ MIN_COST_DROP = 0.01
 MAX_STEPS = 250_000
 
 
+#: what a fit on a log with nothing to fit raises (the normal equations not finite, a zero step)
+_FAILED = (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError)
+
+
 @dataclass(frozen=True)
 class OEFit:
     key: str
@@ -116,19 +120,25 @@ class Fitter:
                          self.law, theta0, self.noise, free=free, effects=effects)
 
     def base(self, model: Model, values: dict, theta0: dict):
-        """The current model's fit (its findings' parameters free): cost and convergence."""
+        """The current model's fit (its findings' parameters free), or None when it cannot be fitted (a log
+        with nothing to fit: the normal equations are not finite)."""
         if model not in self._base:
-            self._base[model] = self._fit(model, values, theta0, None)
+            try:
+                self._base[model] = self._fit(model, values, theta0, None)
+            except _FAILED:
+                self._base[model] = None
         return self._base[model]
 
     def candidate(self, model: Model, values: dict, theta0: dict, key: str) -> OEFit | None:
-        """The model with candidate ``key`` added and fitted; None when a fit does not converge."""
+        """The model with candidate ``key`` added and fitted; None when a fit fails or does not converge."""
         base = self.base(model, values, theta0)
-        try:  # from the current model's fit: Gauss-Newton then starts next to the answer
-            r = self._fit(model, values, base.estimate if base.converged else theta0, key)
-        except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
+        if base is None or not base.converged:
             return None
-        if not (r.converged and base.converged):
+        try:  # from the current model's fit: Gauss-Newton then starts next to the answer
+            r = self._fit(model, values, base.estimate, key)
+        except _FAILED:
+            return None
+        if not r.converged:
             return None
         f = r.freed[key]
         se = f["se"]
