@@ -244,7 +244,7 @@ def estimate(
 
     def on_stage(stage: str) -> None:
         if cold and stage == "identifying":  # said once the log is read: bad input still gets one line
-            say("note: first run here: compiling the numerical kernels (measured 6 s for the sample log; more the "
+            say("note: first run here: compiling the numerical kernels (measured 10 s for the sample log; more the "
                 "first time a refinement, diagnose or the simulator runs); later runs load them from the cache")
         if progress:
             progress(stage)
