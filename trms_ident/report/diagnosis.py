@@ -39,8 +39,10 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
             "output_error_tested": "when the equation-error test passes no candidate, its best output-error "
                                    "candidates fitted by output error (the effect's parameter free with J, B, the "
                                    "findings' parameters and the motors' start states): value, batch-means "
-                                   "standard error, t, p (passes below 0.05 / candidates) and the relative drop "
-                                   "of the noise-weighted squared angle error (passes from 1 %)",
+                                   "standard error, t, p (passes below 0.05 / candidates), the relative drop "
+                                   "of the noise-weighted squared angle error (passes from 1 %), the share of the "
+                                   "misfit above the noise floor it removes (information), and its torque over its "
+                                   "axis' thrust torque (passes from 0.5 %)",
             "estimate_shift_percent": "how far leaving the effect out (the findings before it in) had moved each "
                                       "estimate",
             "findings.fit_before, fit_after": "this finding's own step: the prediction fit [%] of its axes with the "
