@@ -122,3 +122,11 @@ def test_python_dash_m_subprocess(square_csv, tmp_path):
     proc = subprocess.run([sys.executable, "-m", "trms_ident", "estimate", str(tmp_path / "missing.csv")],
                           capture_output=True, text=True, env=env, timeout=300)
     assert proc.returncode == 3 and proc.stderr.strip() == f"error: {tmp_path / 'missing.csv'}: no such file"
+
+
+def test_simulate_says_the_log_length_and_where_its_stamps_begin(tmp_path):
+    out = tmp_path / "mid.csv"
+    res = CliRunner().invoke(app, ["simulate", "--ref", "square", "--rate", "100", "--duration", "12", "--start",
+                                   "30", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "(1201 samples, 12 s at 100 Hz, stamps from 30 s into the run)" in res.output

@@ -516,7 +516,9 @@ def simulate(
 
         write_mcap_log(path, *columns, encoding="cdr" if fmt == "mcap" else "json", u_t_s=result.u_time_s)
     write_text(truth_path(path), json.dumps(result.truth, indent=2) + "\n")
-    say(f"wrote {path} ({result.t_s.size} samples, {result.t_s[-1]:.6g} s at {rate:g} Hz) and {truth_path(path)}")
+    t0 = float(result.t_s[0])
+    say(f"wrote {path} ({result.t_s.size} samples, {float(result.t_s[-1]) - t0:.6g} s at {rate:g} Hz"
+        + (f", stamps from {t0:.6g} s into the run" if t0 else "") + f") and {truth_path(path)}")
 
 
 @app.command()
