@@ -257,3 +257,11 @@ def test_output_error_fit_finds_small_friction_the_equation_error_misses():
     judged = [x for x in d.oe_tested if x["effect"] == "coulomb_friction" and x["axis"] == "pitch"]
     assert judged and judged[0]["passed"] and judged[0]["t"] > 10
     assert not any(x["passed"] for x in d.oe_tested if x["after"])  # nothing more once it is in
+
+
+def test_fit_change_shows_the_change():
+    from trms_ident.diagnosis.predict import fit_change
+
+    assert fit_change(99.688, 99.694) == "99.688 % -> 99.694 %"  # 2 decimals would read 99.69 -> 99.69
+    assert fit_change(96.64, 99.09) == "96.64 % -> 99.09 %"
+    assert fit_change(float("nan"), 97.5).startswith("n/a (J or B not physical")

@@ -394,7 +394,7 @@ def diagnose(
     rate: RateOpt = None,
 ) -> None:
     """Find where the model and the recording disagree, name the missing physics, fit it, show the gain."""
-    from .diagnosis.predict import fit_text
+    from .diagnosis.predict import fit_change
     from .io.atomic import write_text
     from .io.readers import read_log
     from .report.diagnosis import render, to_doc
@@ -428,15 +428,15 @@ def diagnose(
             say(f"  {i}. {f.effect} on {f.axis}: {f.parameter['name']} = {f.parameter['value']:.4g} "
                 f"{f.parameter['unit']}")
             say(f"     {f.explanation[0].upper() + f.explanation[1:]}.")
-            say(f"     fit {fit_text(f.fit_before)} -> {fit_text(f.fit_after)}; {f.evidence}")
+            say(f"     fit {fit_change(f.fit_before, f.fit_after)}; {f.evidence}")
         say("  estimates  " + "  ".join(f"{k} {d.nominal[k]:.5g} -> {d.augmented[k]:.5g}" for k in ESTIMATED))
     for r in d.refused:
         say(f"  refused: {r['effect']} on {r['axis']}: {r['reason']}")
     for c in d.corrections:
         say(f"  outside the library, {c.axis}: {c.sentence}")
-        say(f"     data-driven correction (not a named effect): prediction fit {fit_text(c.fit_before)} -> "
-            f"{fit_text(c.fit_after)}; terms " + ", ".join(f"{t['term']} = {t['coefficient']:.4g} {t['unit']}"
-                                                           for t in c.terms))
+        terms = ", ".join(f"{t['term']} = {t['coefficient']:.4g} {t['unit']}" for t in c.terms)
+        say(f"     data-driven correction (not a named effect): prediction fit "
+            f"{fit_change(c.fit_before, c.fit_after)}; terms {terms}")
     if report is not None:
         write_text(report / "diagnosis.json", to_json(doc))
         write_text(report / "report.html", render(doc, d, data))

@@ -137,9 +137,18 @@ def predict_fitted_start(pitch, x_meas, v_guess, tau, other, s2, scw, ext, dt, h
     return y0
 
 
-def fit_text(fit: float) -> str:
+def fit_text(fit: float, decimals: int = 2) -> str:
     """A prediction fit for people: NaN means the model had no physical J or B to predict with."""
-    return f"{fit:.2f} %" if math.isfinite(fit) else "n/a (J or B not physical: no prediction)"
+    return f"{fit:.{decimals}f} %" if math.isfinite(fit) else "n/a (J or B not physical: no prediction)"
+
+
+def fit_change(before: float, after: float, arrow: str = "->") -> str:
+    """'before -> after' with as many decimals (2 to 4) as it takes to show that they differ."""
+    decimals = 2
+    while decimals < 4 and math.isfinite(before) and math.isfinite(after) and before != after and \
+            f"{before:.{decimals}f}" == f"{after:.{decimals}f}":
+        decimals += 1
+    return f"{fit_text(before, decimals)} {arrow} {fit_text(after, decimals)}"
 
 
 def nrmse_fit(y: np.ndarray, y_hat: np.ndarray) -> float:

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import html
 
-from ..diagnosis.predict import fit_text
+from ..diagnosis.predict import fit_change
 from ..diagnosis.run import Diagnosis
 from ..log import Log
 from .summary import versions
@@ -180,11 +180,11 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
     items = "".join(
         f"<li><b>{html.escape(f['effect'])}</b> on {f['axis']}: {html.escape(f['parameter']['name'])} = "
         f"{f['parameter']['value']:.4g} {html.escape(f['parameter']['unit'])}. {html.escape(f['explanation'])}.<br>"
-        f"Fit {f['fit_before']:.2f} % &rarr; {f['fit_after']:.2f} %. <span class='note'>{html.escape(f['evidence'])}"
+        f"Fit {fit_change(f['fit_before'], f['fit_after'], '&rarr;')}. <span class='note'>{html.escape(f['evidence'])}"
         "</span></li>" for f in doc["findings"])
     corrections = "".join(
         f"<li><b>outside the library</b>, {c['axis']}: {html.escape(c['sentence'])}. Prediction fit "
-        f"{fit_text(c['fit_before'])} &rarr; {fit_text(c['fit_after'])}. <span class='note'>held-out equation-error RSS "
+        f"{fit_change(c['fit_before'], c['fit_after'], '&rarr;')}. <span class='note'>held-out equation-error RSS "
         f"{-100 * c['held_out_gain']:+.1f} % (t = {c['t']:.1f}, p = {c['p']:.1e}); terms: "
         + html.escape(", ".join(f"{t['term']} = {t['coefficient']:.4g} {t['unit']}" for t in c["terms"]))
         + "</span></li>" for c in doc["corrections"])
