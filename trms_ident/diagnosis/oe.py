@@ -32,6 +32,7 @@ from ..log import Log
 from ..numerics.design import angle_noise_rad
 from ..numerics.refine import EFFECT_SLOTS, substeps
 from ..numerics.refine import refine as oe_refine
+from ..numerics.regressors import thrust
 from .model import Model
 from .select import MIN_SIGNAL_SHARE
 
@@ -86,7 +87,7 @@ def torque_share(key: str, value: float, log: Log, p: dict, law: str) -> float:
     u = log.u1_v if pitch else log.u2_v
     k, t0, a, b = (p["k1"], p["T10"], p["a1"], p["b1"]) if pitch else (p["k2"], p["T20"], p["a2"], p["b2"])
     tau = k / t0 * u
-    m = a * tau * (np.abs(tau) if law == "signed" else tau) + b * tau  # eq. (1) thrust law
+    m = thrust(tau, a, b, law)  # eq. (1) thrust law
     x = log.alpha_rad if pitch else log.beta_rad
     w = np.gradient(x, log.sample_time_s)
     rms = lambda v: float(np.sqrt(np.mean(np.square(v))))  # noqa: E731
@@ -107,6 +108,7 @@ class Fitter:
         self.log, self.p, self.law = log, p, law
         self.n = min(len(log), max(MAX_STEPS // substeps(log.sample_time_s), 10))
         self.noise = {"alpha": angle_noise_rad(log.alpha_rad[:self.n]), "beta": angle_noise_rad(log.beta_rad[:self.n])}
+        self.var = {"alpha": float(np.var(log.alpha_rad[:self.n])), "beta": float(np.var(log.beta_rad[:self.n]))}
         self._base: dict = {}
 
     def _fit(self, model: Model, values: dict, theta0: dict, extra_key: str | None):
@@ -145,9 +147,8 @@ class Fitter:
         t = f["estimate"] / se if se > 0 else math.inf
         dof = max(r.blocks - 1, 1)
         p = float(2.0 * stdtr(dof, -abs(t))) if math.isfinite(t) else 0.0
-        var = [float(np.var(y[:self.n])) for y in (self.log.alpha_rad, self.log.beta_rad)]
         explained = max((base.rms_rad[ax] ** 2 - r.rms_rad[ax] ** 2) / v if v > 0 else 0.0
-                        for ax, v in zip(("alpha", "beta"), var))
+                        for ax, v in self.var.items())
         floor = 2.0 * self.n  # the noise-weighted squared error of a model that fits to the noise level
         excess = max(base.cost - floor, MIN_COST_DROP * base.cost)
         return OEFit(key, float(f["estimate"]), float(se), float(t), p, float((base.cost - r.cost) / base.cost),

@@ -221,9 +221,11 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         refused.append({"effect": best["c"].effect, "axis": best["c"].axis, "parameter": best["value"],
                         "reason": why})
         current, reg_now, score_now = best["before"]
-    fits = _step_fits(log, p, law, findings, {0: (fit_before, over_before), len(findings): (fit_after, over_after)},
+    # (model, regression, score) before each finding (they are added in order), then the final one
+    states = [f[0]["before"] for f in findings] + [(current, reg_now, score_now)]
+    fits = _step_fits(log, p, law, states, {0: (fit_before, over_before), len(findings): (fit_after, over_after)},
                       seed.get("start_states"))
-    ests = [_estimates(sc, reg) for _, reg, sc in [f[0]["before"] for f in findings]] + [augmented]
+    ests = [_estimates(sc, reg) for _, reg, sc in states[:-1]] + [augmented]
     out = []
     for i, (best, alts) in enumerate(findings):
         c = best["c"]
@@ -250,8 +252,8 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
     residual = {}
     for axis in axes:
         x = getattr(log, AXIS_ANGLE[axis])
-        r0 = base_reg.g[axis] - base_reg.x[axis] @ base.theta[axis]
-        r1 = reg_now.g[axis] - reg_now.x[axis] @ score_now.theta[axis]
+        r0 = _residual(base_reg, base, axis)
+        r1 = _residual(reg_now, score_now, axis)
         u = log.u1_v if axis == "pitch" else log.u2_v
         vel = cache.get(("velocity", axis))
         if vel is None:
@@ -261,7 +263,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         seg[axis] = segments(log.t_s, r0, max(5.0 / a, 1.0), ctx)
         reg_stats[axis] = regimes(r0, vel, x, u)
         residual[axis] = (log.t_s, r0, r1)
-    steps = _finding_steps(log, p, law, findings, (current, reg_now, score_now), values, fits, cache, seg)
+    steps = _finding_steps(log, p, law, findings, states, values, fits, cache, seg)
     delay = next((r for r in tested if r["effect"] == "input_delay"), None)
     lag = lag_profile([delay["parameter"]], [delay["held_out_gain"]]) if delay else {}
     overlay = {axis: (log.t_s, getattr(log, AXIS_ANGLE[axis]), over_before[axis], over_after[axis]) for axis in axes}
@@ -284,21 +286,20 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                      corrections, steps, oe_tested)
 
 
-def _step_fits(log, p, law, findings, fits: dict, start) -> dict:
-    """Prediction fits and predictions of the model before each finding (index i: findings 0..i-1 added; the
-    findings are added in order), given those of the seed model (0) and the final one (len(findings))."""
-    for i in range(1, len(findings)):
-        model, reg, sc = findings[i][0]["before"]
+def _step_fits(log, p, law, states, fits: dict, start) -> dict:
+    """Prediction fits and predictions of each intermediate state (index i: findings 0..i-1 added), given those
+    of the seed model (0) and the final one (len(states) - 1)."""
+    for i in range(1, len(states) - 1):
+        model, reg, sc = states[i]
         fits[i] = _fits(log, p, law, model, _effect_values(model, sc, reg), _estimates(sc, reg), start=start)
     return fits
 
 
-def _finding_steps(log, p, law, findings, final, values, fits, cache, seg) -> list[dict]:
+def _finding_steps(log, p, law, findings, states, values, fits, cache, seg) -> list[dict]:
     """What each finding changed, for its own figures: on the finding's axes the measured angle and the
     predictions before and after it (_step_fits), the equation error before and after it over time (with the
     located segments) and against the effect's regime variable, and the fitted term's shape.  Series are
     thinned to about 4000 points."""
-    states = [f[0]["before"] for f in findings] + [final]  # (model, regression, score) before each, then last
     dt = log.sample_time_s
     th = thin(len(log))
     out = []
@@ -307,7 +308,7 @@ def _finding_steps(log, p, law, findings, final, values, fits, cache, seg) -> li
         axes = {}
         for axis in _axes_of(c):
             x = getattr(log, AXIS_ANGLE[axis])
-            r = [st[1].g[axis] - st[1].x[axis] @ st[2].theta[axis] for st in (states[i], states[i + 1])]
+            r = [_residual(reg, sc, axis) for _, reg, sc in (states[i], states[i + 1])]
             regime = {"velocity": (f"{axis} velocity [rad/s]", cache[("velocity", axis)]),
                       "angle": (f"{AXIS_ANGLE[axis].split('_')[0]} [rad]", x),
                       "pitch_angle": ("alpha [rad]", log.alpha_rad),
@@ -559,12 +560,17 @@ def _plausible(c: Candidate, v: float) -> bool:
     return math.isfinite(v)
 
 
+def _residual(reg, sc, axis: str) -> np.ndarray:
+    """The axis' equation error [N m] of a fitted regression: g - X theta."""
+    return reg.g[axis] - reg.x[axis] @ sc.theta[axis]
+
+
 def _alias(a: dict, b: dict) -> bool:
     """Do two fitted candidates change the residual in the same way?"""
     corr = []
     for axis in ("pitch", "yaw"):
-        ra = a["reg"].g[axis] - a["reg"].x[axis] @ a["score"].theta[axis]
-        rb = b["reg"].g[axis] - b["reg"].x[axis] @ b["score"].theta[axis]
+        ra = _residual(a["reg"], a["score"], axis)
+        rb = _residual(b["reg"], b["score"], axis)
         if np.std(ra) > 0 and np.std(rb) > 0:
             corr.append(float(np.corrcoef(ra, rb)[0, 1]))
     return bool(corr) and min(corr) >= ALIAS_CORRELATION
