@@ -57,3 +57,32 @@ def test_fused_kernel_equals_reference_path(law):
         # equal up to round-off of equivalent coefficients in poles near z = 1
         np.testing.assert_allclose(phi, mix.phi, atol=1e-9 * np.abs(mix.phi).max())
         np.testing.assert_allclose(eps, mix.eps, atol=1e-9 * np.abs(mix.eps).max())
+
+
+@pytest.mark.parametrize("gamma", [(None, None), (50.0, None)])
+def test_summaries_equal_estimator_and_interval_on_held_regressions(gamma):
+    """drem_summaries (phi, eps summed in passes, never held) gives eq. (8)'s trace and the batch-means interval
+    of the same regressions held whole (mixed_regressions -> gradient_estimator, confidence_interval)."""
+    from trms_ident.numerics.drem import gradient_estimator
+    from trms_ident.numerics.fused import drem_summaries
+    from trms_ident.numerics.stats import confidence_interval, interval_from_sums
+
+    r = sim_cached("multisine", 200.0, 40.0, 0.0, 2 * np.pi / 4096)
+    p, dt, block, step = defaults(), 1 / 200.0, 700, 7
+    args = (r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, dt, p, "quadratic", 1.0, 2.0, 1.0, 4.0)
+    held = mixed_regressions(*args)
+    summed = drem_summaries(*args, None, block=block, gamma={"pitch": gamma, "yaw": gamma}, rate_per_s=1.5, step=step)
+    for axis, (phi, eps) in held.items():
+        s = summed[axis]
+        trace, final = gradient_estimator(eps, phi, list(gamma), dt, rate_per_s=1.5, step=step)
+        np.testing.assert_allclose(s.trace, trace, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(s.final, final, rtol=1e-9)
+        assert s.block_sums.shape == (phi.size // block, 3)  # 11 whole blocks; the 300 left-over samples
+        assert s.energy == pytest.approx(float(np.dot(phi, phi)), rel=1e-12)  # count in the totals only
+        for i in range(2):
+            ref = confidence_interval(eps[:, i], phi, block, bias_bound=0.01)
+            got = interval_from_sums(s.energy, float(s.cross[i]), s.block_sums[:, 0], s.block_sums[:, 1 + i],
+                                     bias_bound=0.01)
+            assert got.blocks == ref.blocks == 11
+            for field in ("estimate", "low", "high"):
+                assert getattr(got, field) == pytest.approx(getattr(ref, field), rel=1e-9)

@@ -5,7 +5,6 @@ Pure: arrays and settings in, a Result out.  No files, no printing.
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -13,11 +12,10 @@ import numpy as np
 from .errors import IdentificationError, SettingsError
 from .log import Log
 from .numerics.design import FilterDesign, angle_noise_rad, design_filters
-from .numerics.drem import gradient_estimator
-from .numerics.fused import mixed_regressions
+from .numerics.fused import drem_summaries
 from .numerics.adequacy import RMS_OVER_NOISE, model_check
 from .numerics.refine import WINDOW_S, Refined, refine, substeps, suspect_known_values
-from .numerics.stats import IDENTIFIABLE_REL_HALF_WIDTH, MIN_BLOCKS, Interval, block_length, confidence_interval
+from .numerics.stats import IDENTIFIABLE_REL_HALF_WIDTH, MIN_BLOCKS, Interval, block_length, interval_from_sums
 from .params import ESTIMATED, merge
 from .settings import AXES, GAIN_CONVENTIONS, HEADLINES, MAX_TRACE_POINTS, REFINE_AUTO_MAX_STEPS, Settings
 
@@ -106,38 +104,31 @@ def identify(log: Log, settings: Settings | None = None) -> Result:
     settings, design = resolve_filters(grid_log, settings)
     dt = log.sample_time_s
     f_gain, h_gain = settings.filter_gains()
-    # eqs. (1), (3), (5)-(7) in one compiled pass per axis
-    mixed = mixed_regressions(grid_log.u1_v, grid_log.u2_v, grid_log.alpha_rad, grid_log.beta_rad, dt, params,
-                              settings.thrust_law, settings.filter_a_rad_s, settings.filter_b_rad_s, f_gain, h_gain,
-                              motor)
     block = block_length(len(log), dt, 1.0 / min(settings.filter_a_rad_s, settings.filter_b_rad_s))
     step = max(1, math.ceil(len(log) / MAX_TRACE_POINTS))
-    rate = math.log(100.0) / settings.settle_time_s
+    gamma = {axis: tuple(settings.gamma.get(name) if settings.gamma else None for name in AXES[axis]) for axis in AXES}
+    # eqs. (1), (3), (5)-(8) in compiled passes per axis, the axes in parallel; phi and eps are summed, not kept
+    summaries = drem_summaries(grid_log.u1_v, grid_log.u2_v, grid_log.alpha_rad, grid_log.beta_rad, dt, params,
+                               settings.thrust_law, settings.filter_a_rad_s, settings.filter_b_rad_s, f_gain, h_gain,
+                               motor, block=block, gamma=gamma, rate_per_s=math.log(100.0) / settings.settle_time_s,
+                               step=step)
+    # known bias bounds added to the interval: errors in variables (designed filters only) and the bilinear
+    # transform's relative magnitude error at the fastest filter pole, (w dt)^2 / 12
+    warp = (max(settings.filter_a_rad_s, settings.filter_b_rad_s) * dt) ** 2 / 12.0
     traces, drem_final, offline, intervals, axes = {}, {}, {}, {}, {}
-    for axis, (phi, _) in mixed.items():
-        if not np.all(np.isfinite(phi)) or not np.any(phi):
+    for axis, sm in summaries.items():
+        if not (math.isfinite(sm.energy) and sm.energy > 0):
             raise IdentificationError(
                 f"{log.source}: the {axis} axis is not excited: det M is zero over the whole log "
                 f"(constant input and angle?); {', '.join(AXES[axis])} cannot be identified")
-
-    def estimate_axis(axis: str) -> None:
-        phi, eps = mixed[axis]
-        # known bias bounds added to the interval: errors in variables (designed filters only) and the
-        # bilinear transform's relative magnitude error at the fastest filter pole, (w dt)^2 / 12
-        warp = (max(settings.filter_a_rad_s, settings.filter_b_rad_s) * dt) ** 2 / 12.0
         bias = (design.predicted_bias[axis] if design else 0.0) + warp
-        names = AXES[axis]
-        gammas = [settings.gamma.get(name) if settings.gamma else None for name in names]
-        trace, final = gradient_estimator(eps, phi, gammas, dt, rate_per_s=rate, step=step)  # eq. (8)
-        for i, name in enumerate(names):
-            traces[name], drem_final[name] = trace[:, i], float(final[i])
-            intervals[name] = confidence_interval(eps[:, i], phi, block, bias_bound=bias)
+        for i, name in enumerate(AXES[axis]):
+            traces[name], drem_final[name] = sm.trace[:, i], float(sm.final[i])  # eq. (8)
+            intervals[name] = interval_from_sums(sm.energy, float(sm.cross[i]), sm.block_sums[:, 0],
+                                                 sm.block_sums[:, 1 + i], bias_bound=bias)
             offline[name] = intervals[name].estimate
-        axes[axis] = AxisResult(axis, float(np.dot(phi, phi)) * dt)
-        mixed[axis] = None  # free phi, eps as soon as this axis is done
+        axes[axis] = AxisResult(axis, sm.energy * dt)
 
-    with ThreadPoolExecutor(max_workers=2) as pool:  # the compiled loops release the GIL
-        list(pool.map(estimate_axis, AXES))
     refined, note, usable = _refine(log, settings, params, offline)
     check, simulated = _model_check(log, settings, params, refined, offline)
     headline = settings.headline

@@ -42,12 +42,22 @@ def extend_and_mix(g: np.ndarray, m: np.ndarray, dt_s: float, b_rad_s: float,
     return MixedRegression(phi, eps, rms(phi) / scale if scale > 0 else 0.0)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def gradient_step(q, j, e, ph, gamma, norm, rate, dt):
+    """eq. (8) over one sample for q[j]: q moves towards e/ph by the fraction 1 - exp(-g ph^2 dt).
+
+    gamma < 0 selects the normalized gain g = rate / norm (norm: running mean of phi^2, floored)."""
+    g = gamma
+    if g < 0.0:
+        g = rate / norm if norm > 0.0 else 0.0
+    x = g * ph * ph * dt
+    if x > 0.0 and math.isfinite(x):
+        q[j] += -math.expm1(-x) * (e / ph - q[j])
+
+
 @njit(cache=True, nogil=True)
 def _gradient(eps, phi, gamma, rate, floor, dt, q0, out, step):
-    """eq. (8) stepped exactly for each column of eps (same phi, same gain).
-
-    gamma[j] < 0 selects the normalized gain rate / max(running mean phi^2, floor).
-    """
+    """eq. (8) stepped exactly for each column of eps (same phi, same gain)."""
     m = eps.shape[1]
     q = q0.copy()
     energy = 0.0
@@ -56,13 +66,7 @@ def _gradient(eps, phi, gamma, rate, floor, dt, q0, out, step):
         energy += ph * ph
         norm = max(energy / (k + 1), floor)
         for j in range(m):
-            g = gamma[j]
-            if g < 0.0:
-                g = rate / norm if norm > 0.0 else 0.0
-            x = g * ph * ph * dt
-            if x > 0.0 and math.isfinite(x):
-                w = -math.expm1(-x)
-                q[j] += w * (eps[k, j] / ph - q[j])
+            gradient_step(q, j, eps[k, j], ph, gamma[j], norm, rate, dt)
             if k % step == 0:
                 out[k // step, j] = q[j]
     return q

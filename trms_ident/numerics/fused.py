@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import math
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
 from .coefficients import bilinear_second_order, zoh_first_order, zoh_reaction
+from .drem import gradient_step
 
 # filter slots: motor lag, M_R path, F, F s^2, F s, H on g, H on m1, H on m2
 TAU, MR, F0, F2, F1, HG, HM1, HM2 = range(8)
@@ -34,46 +36,98 @@ def _step(b, a, i, x, z):
     return y
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _angle_part(k, x, b, a, z):
+    """Sample k of the regressor m = F [s^2 x, s x] (eq. 3) and H m (eq. 5): (m1, m2, Hm1, Hm2)."""
+    if k == 0:
+        _init(b, a, F2, x[0], z)
+        _init(b, a, F1, x[0], z)
+    m1 = _step(b, a, F2, x[k], z)
+    m2 = _step(b, a, F1, x[k], z)
+    if k == 0:
+        _init(b, a, HM1, m1, z)
+        _init(b, a, HM2, m2, z)
+    return m1, m2, _step(b, a, HM1, m1, z), _step(b, a, HM2, m2, z)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _sample(k, pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, z):
+    """Sample k of one axis' mixed regression: (phi, eps_J, eps_B); the filters' states z advance one step."""
+    n = x.size
+    first = k == 0
+    if first:
+        _init(b, a, TAU, u_tau[0], z)
+    tau = _step(b, a, TAU, u_tau[k], z)
+    m = th_a * tau * (abs(tau) if signed else tau) + th_b * tau  # eq. (1) thrust
+    if pitch:
+        # beta' by central difference (edges: second-order one-sided, as numpy.gradient)
+        if k == 0:
+            db = (-3.0 * beta[0] + 4.0 * beta[1] - beta[2]) / (2.0 * dt)
+        elif k == n - 1:
+            db = (3.0 * beta[k] - 4.0 * beta[k - 1] + beta[k - 2]) / (2.0 * dt)
+        else:
+            db = (beta[k + 1] - beta[k - 1]) / (2.0 * dt)
+        y = m - mg * math.sin(x[k]) - kg * m * db * math.cos(x[k])  # eq. (1), pitch
+    else:
+        if first:
+            _init(b, a, MR, u1[0], z)
+        y = m - _step(b, a, MR, u1[k], z)  # eq. (1), yaw: M2 - M_R
+    if first:
+        _init(b, a, F0, y, z)
+    g = _step(b, a, F0, y, z)  # eq. (3)
+    if first:
+        _init(b, a, HG, g, z)
+    hg = _step(b, a, HG, g, z)  # eq. (5)
+    m1, m2, hm1, hm2 = _angle_part(k, x, b, a, z)
+    # eq. (7): phi = det M, eps = adj(M) [g; Hg]
+    return m1 * hm2 - m2 * hm1, hm2 * g - m2 * hg, m1 * hg - hm1 * g
+
+
 @njit(cache=True, nogil=True)
 def _axis(pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, phi, eps):
+    z = np.zeros((8, 2))
+    for k in range(x.size):
+        phi[k], eps[k, 0], eps[k, 1] = _sample(k, pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, z)
+
+
+@njit(cache=True, nogil=True)
+def _axis_summary(pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, block, sums, totals,
+                  gamma, rate, floor_fraction, out, step):
+    """The axis' DREM results without holding phi and eps: two passes over the samples.
+
+    Pass 1, the angle's filters alone: phi's mean square (eq. 8's gain floor needs it before the first step).
+    Pass 2: totals = (sum phi^2, sum phi eps_J, sum phi eps_B), the same sums per block of ``block`` samples
+    (rows of ``sums``; the samples after the last whole block count in the totals only), and eq. (8) for both
+    parameters (drem.gradient_estimator's recursion), every ``step``-th value into ``out``.  Returns the final
+    estimates."""
     n = x.size
     z = np.zeros((8, 2))
+    energy = 0.0
     for k in range(n):
-        first = k == 0
-        if first:
-            _init(b, a, TAU, u_tau[0], z)
-        tau = _step(b, a, TAU, u_tau[k], z)
-        m = th_a * tau * (abs(tau) if signed else tau) + th_b * tau  # eq. (1) thrust
-        if pitch:
-            # beta' by central difference (edges: second-order one-sided, as numpy.gradient)
-            if k == 0:
-                db = (-3.0 * beta[0] + 4.0 * beta[1] - beta[2]) / (2.0 * dt)
-            elif k == n - 1:
-                db = (3.0 * beta[k] - 4.0 * beta[k - 1] + beta[k - 2]) / (2.0 * dt)
-            else:
-                db = (beta[k + 1] - beta[k - 1]) / (2.0 * dt)
-            y = m - mg * math.sin(x[k]) - kg * m * db * math.cos(x[k])  # eq. (1), pitch
-        else:
-            if first:
-                _init(b, a, MR, u1[0], z)
-            y = m - _step(b, a, MR, u1[k], z)  # eq. (1), yaw: M2 - M_R
-        if first:
-            _init(b, a, F0, y, z)
-            _init(b, a, F2, x[0], z)
-            _init(b, a, F1, x[0], z)
-        g = _step(b, a, F0, y, z)  # eq. (3)
-        m1 = _step(b, a, F2, x[k], z)
-        m2 = _step(b, a, F1, x[k], z)
-        if first:
-            _init(b, a, HG, g, z)
-            _init(b, a, HM1, m1, z)
-            _init(b, a, HM2, m2, z)
-        hg = _step(b, a, HG, g, z)  # eq. (5)
-        hm1 = _step(b, a, HM1, m1, z)
-        hm2 = _step(b, a, HM2, m2, z)
-        phi[k] = m1 * hm2 - m2 * hm1  # eq. (7): det M
-        eps[k, 0] = hm2 * g - m2 * hg  # eq. (7): adj(M) [g; Hg]
-        eps[k, 1] = m1 * hg - hm1 * g
+        m1, m2, hm1, hm2 = _angle_part(k, x, b, a, z)
+        ph = m1 * hm2 - m2 * hm1  # eq. (7)
+        energy += ph * ph
+    floor = floor_fraction * energy / max(n, 1)
+    z[:, :] = 0.0
+    q = np.zeros(2)
+    nb = sums.shape[0]
+    for k in range(n):
+        ph, e0, e1 = _sample(k, pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, z)
+        totals[0] += ph * ph
+        totals[1] += ph * e0
+        totals[2] += ph * e1
+        i = k // block
+        if i < nb:
+            sums[i, 0] += ph * ph
+            sums[i, 1] += ph * e0
+            sums[i, 2] += ph * e1
+        norm = max(totals[0] / (k + 1), floor)
+        gradient_step(q, 0, e0, ph, gamma[0], norm, rate, dt)  # eq. (8)
+        gradient_step(q, 1, e1, ph, gamma[1], norm, rate, dt)
+        if k % step == 0:
+            out[k // step, 0] = q[0]
+            out[k // step, 1] = q[1]
+    return q
 
 
 def _coefficients(pitch: bool, p: dict, dt: float, a_rad_s: float, b_rad_s: float, f_gain: float, h_gain: float):
@@ -90,6 +144,21 @@ def _coefficients(pitch: bool, p: dict, dt: float, a_rad_s: float, b_rad_s: floa
     return b, a
 
 
+def _axis_inputs(axis: str, u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str, a_rad_s: float,
+                 b_rad_s: float, f_gain: float, h_gain: float, motor) -> tuple:
+    """The leading arguments of the axis kernels (_axis, _axis_summary) for "pitch" or "yaw"."""
+    pitch = axis == "pitch"
+    b, a = _coefficients(pitch, p, dt_s, a_rad_s, b_rad_s, f_gain, h_gain)
+    drive, reaction = (u1_v if pitch else u2_v), u1_v
+    if motor is not None:
+        for slot in (TAU, MR):
+            b[slot], a[slot] = (1.0, 0.0, 0.0), (1.0, 0.0, 0.0)
+        drive, reaction = motor[0 if pitch else 1], motor[2]
+    th_a, th_b = (p["a1"], p["b1"]) if pitch else (p["a2"], p["b2"])
+    return (pitch, drive, reaction, alpha_rad if pitch else beta_rad, beta_rad, dt_s, b, a, th_a, th_b,
+            law == "signed", p["Mg"], p["Kg"])
+
+
 def mixed_regressions(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str,
                       a_rad_s: float, b_rad_s: float, f_gain: float, h_gain: float,
                       motor: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> dict:
@@ -101,18 +170,44 @@ def mixed_regressions(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law
     out = {}
 
     def run(axis: str):
-        pitch = axis == "pitch"
-        b, a = _coefficients(pitch, p, dt_s, a_rad_s, b_rad_s, f_gain, h_gain)
-        drive, reaction = (u1_v if pitch else u2_v), u1_v
-        if motor is not None:
-            for slot in (TAU, MR):
-                b[slot], a[slot] = (1.0, 0.0, 0.0), (1.0, 0.0, 0.0)
-            drive, reaction = motor[0 if pitch else 1], motor[2]
         phi, eps = np.empty(n), np.empty((n, 2))
-        th_a, th_b = (p["a1"], p["b1"]) if pitch else (p["a2"], p["b2"])
-        _axis(pitch, drive, reaction, alpha_rad if pitch else beta_rad, beta_rad, dt_s, b, a,
-              th_a, th_b, law == "signed", p["Mg"], p["Kg"], phi, eps)
+        _axis(*_axis_inputs(axis, u1_v, u2_v, alpha_rad, beta_rad, dt_s, p, law, a_rad_s, b_rad_s, f_gain, h_gain,
+                            motor), phi, eps)
         out[axis] = (phi, eps)
+
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        list(pool.map(run, ("pitch", "yaw")))
+    return out
+
+
+@dataclass(frozen=True)
+class AxisSummary:
+    """What identification needs of one axis' mixed regressions eps = phi q (eq. 7), without phi and eps."""
+
+    energy: float  # sum phi^2 over the log
+    cross: np.ndarray  # (2,) sum phi eps_J, sum phi eps_B
+    block_sums: np.ndarray  # (K, 3) the same three sums per block (stats.interval_from_sums)
+    trace: np.ndarray  # (m, 2) eq. (8)'s estimates of J, B at every step-th sample
+    final: np.ndarray  # (2,) eq. (8)'s last estimates
+
+
+def drem_summaries(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str, a_rad_s: float, b_rad_s: float,
+                   f_gain: float, h_gain: float, motor, *, block: int, gamma: dict, rate_per_s: float,
+                   step: int, floor_fraction: float = 0.02) -> dict[str, AxisSummary]:
+    """{axis: AxisSummary}: the same numbers as mixed_regressions followed by drem.gradient_estimator and
+    stats.confidence_interval (tested), in memory independent of the log's length (an hour at 1 kHz held
+    phi and eps as 174 MB).  ``gamma``: {axis: (gamma_J, gamma_B)}, None for the normalized gain."""
+    n = alpha_rad.size
+    out = {}
+
+    def run(axis: str):
+        sums, totals = np.zeros((n // block, 3)), np.zeros(3)
+        trace = np.empty(((n + step - 1) // step, 2))
+        gam = np.array([-1.0 if g is None else float(g) for g in gamma[axis]])
+        final = _axis_summary(*_axis_inputs(axis, u1_v, u2_v, alpha_rad, beta_rad, dt_s, p, law, a_rad_s, b_rad_s,
+                                            f_gain, h_gain, motor),
+                              block, sums, totals, gam, float(rate_per_s), float(floor_fraction), trace, int(step))
+        out[axis] = AxisSummary(float(totals[0]), totals[1:].copy(), sums, trace, final)
 
     with ThreadPoolExecutor(max_workers=2) as pool:
         list(pool.map(run, ("pitch", "yaw")))
@@ -143,16 +238,12 @@ def warm_up() -> None:
     The first load initialises numba's code generator (~0.5 s); commands call this in a
     background thread while the log is being read, so that the wait overlaps the parse.
     """
-    from .drem import gradient_estimator
-    from .stats import _block_scores
-
     x = np.linspace(0.0, 1.0, 16)
     p = {"k1": 1.0, "T11": 1.0, "T10": 1.0, "k2": 1.0, "T21": 1.0, "T20": 1.0, "kc": -0.2, "T0": 3.5, "Tp": 2.0,
          "a1": 0.01, "b1": 0.1, "a2": 0.01, "b2": 0.1, "Mg": 0.3, "Kg": 0.05}
-    mixed_regressions(x, x, x, x, 0.01, p, "quadratic", 1.0, 2.0, 1.0, 4.0)
+    drem_summaries(x, x, x, x, 0.01, p, "quadratic", 1.0, 2.0, 1.0, 4.0, None, block=4,
+                   gamma={"pitch": (None, None), "yaw": (None, None)}, rate_per_s=1.0, step=1)
     biquad(np.array([1.0, 0.0, 0.0]), np.array([1.0, 0.0, 0.0]), x)
-    gradient_estimator(np.column_stack([x, x]), x, [None, None], 0.01, rate_per_s=1.0)
-    _block_scores(x, x, 1.0, 4, 4)
 
 
 @njit(cache=True, nogil=True)

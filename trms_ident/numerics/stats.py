@@ -15,7 +15,6 @@ import numpy as np
 from numba import njit
 from scipy.special import stdtrit
 
-from .drem import offline_optimum
 
 #: a parameter whose 95 % half-width exceeds this fraction of its value is not identifiable
 IDENTIFIABLE_REL_HALF_WIDTH = 0.25
@@ -37,14 +36,13 @@ class Interval:
 
 
 @njit(cache=True, nogil=True)
-def _block_scores(eps, phi, q, block, k):
-    """S_b = sum over block b of phi (eps - phi q), without temporaries the size of the log."""
-    out = np.zeros(k)
+def _block_sums(eps, phi, block, k):
+    """Per block b < k of ``block`` samples: sum phi^2 and sum phi eps, without temporaries the size of the log."""
+    out = np.zeros((k, 2))
     for b in range(k):
-        acc = 0.0
         for i in range(b * block, (b + 1) * block):
-            acc += phi[i] * (eps[i] - phi[i] * q)
-        out[b] = acc
+            out[b, 0] += phi[i] * phi[i]
+            out[b, 1] += phi[i] * eps[i]
     return out
 
 
@@ -60,15 +58,27 @@ def confidence_interval(eps: np.ndarray, phi: np.ndarray, block: int, level: flo
     ``bias_bound`` (relative to the estimate) is a known bound on bias, e.g. errors in
     variables, added to the half-width.
     """
-    energy = float(np.dot(phi, phi))
+    k = phi.size // block
+    sums = _block_sums(np.ascontiguousarray(eps, dtype=float), np.ascontiguousarray(phi, dtype=float), block, k)
+    return interval_from_sums(float(np.dot(phi, phi)), float(np.dot(eps, phi)), sums[:, 0], sums[:, 1], level,
+                              bias_bound)
+
+
+def interval_from_sums(energy: float, cross: float, block_energy: np.ndarray, block_cross: np.ndarray,
+                       level: float = 0.95, bias_bound: float = 0.0) -> Interval:
+    """The same interval from sums alone (a log need not be held whole): ``energy`` = sum phi^2 and
+    ``cross`` = sum phi eps over the record, ``block_energy``, ``block_cross`` the same sums per block.
+
+    The optimum q = cross / energy; the block scores S_b = sum_b phi (eps - phi q) = (sum_b phi eps) -
+    q (sum_b phi^2)."""
     if not energy > 0:
         return Interval(math.nan, math.nan, math.nan, 0, False, "not excited: det M is zero throughout")
-    q = offline_optimum(eps, phi)
-    k = phi.size // block
+    q = cross / energy
+    k = block_energy.size
     if k < MIN_BLOCKS:
         return Interval(q, math.nan, math.nan, k, q > 0,
                         f"no interval: the log holds {k} independent blocks, {MIN_BLOCKS} are needed")
-    score = _block_scores(eps, phi, q, block, k)
+    score = block_cross - q * block_energy
     score -= score.mean()
     se = math.sqrt(k / (k - 1) * float(np.dot(score, score))) / energy
     half = float(stdtrit(k - 1, 0.5 + level / 2)) * se + abs(q) * bias_bound
