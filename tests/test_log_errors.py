@@ -116,3 +116,29 @@ def test_csv_column_mapping(tmp_path):
         np.testing.assert_array_equal(x, y)
     res = _run(other, "--signal", "alpha=pitch")
     assert res.exit_code == EXIT_BAD_LOG and "line 1: no column 'pitch' (for alpha); columns: time, um" in res.output
+
+
+@pytest.mark.parametrize("kind", ["rounded", "dropped", "jittered", "back_in_time"])
+def test_step_statistics_equal_numpy_on_the_whole_step_array(kind, monkeypatch):
+    """The validator's chunked step figures (no array the size of the log) are numpy's exactly: min, max, first
+    non-increasing sample, RMS about the mean step and median, across chunk boundaries and both median paths
+    (counted distinct steps, and the fallback that sorts them all)."""
+    import trms_ident.log as L
+
+    rng = np.random.default_rng(7)
+    for trial in range(40):
+        n = int(rng.integers(11, 2000))
+        steps = {"rounded": lambda: np.diff(np.round(np.arange(n + 1) * 0.001, 3)),
+                 "dropped": lambda: rng.choice([0.001, 0.002, 0.0015], size=n),
+                 "jittered": lambda: 0.001 + 1e-5 * rng.standard_normal(n),
+                 "back_in_time": lambda: rng.choice([0.001, -0.001, 0.002, 0.0], size=n)}[kind]()
+        t = np.concatenate([[0.0], np.cumsum(steps)])
+        monkeypatch.setattr(L, "STEP_CHUNK", int(rng.integers(1, 300)))
+        monkeypatch.setattr(L, "MAX_DISTINCT_STEPS", int(rng.integers(1, 60)))
+        mean = float((t[-1] - t[0]) / (t.size - 1))
+        lo, hi, back, spread, median = L._step_statistics(t, mean)
+        dt = np.diff(t)
+        bad = np.flatnonzero(dt <= 0)
+        assert (lo, hi, median) == (dt.min(), dt.max(), np.median(dt))
+        assert back == (int(bad[0]) + 1 if bad.size else None)
+        assert spread == pytest.approx(np.std(dt), rel=1e-9, abs=1e-15)
