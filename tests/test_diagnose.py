@@ -265,3 +265,51 @@ def test_fit_change_shows_the_change():
     assert fit_change(99.688, 99.694) == "99.688 % -> 99.694 %"  # 2 decimals would read 99.69 -> 99.69
     assert fit_change(96.64, 99.09) == "96.64 % -> 99.09 %"
     assert fit_change(float("nan"), 97.5).startswith("n/a (J or B not physical")
+
+
+@pytest.mark.parametrize("mid_run", [False, True])
+def test_start_basis_from_the_leading_samples_equals_the_full_length_one(mid_run):
+    """The start columns are built over the leading samples only (start_head): the same basis, to the bit, as
+    built over the whole log, on a log longer than the head (from rest, and cut mid-run)."""
+    from dataclasses import fields
+
+    from trms_ident.diagnosis import model as M
+    from trms_ident.numerics.filters import discretize, second_order_lowpass
+    from trms_ident.numerics.fused import plant_signals
+    from trms_ident.params import defaults
+
+    r = sim_cached("multisine", 100.0, 200.0, 0.0, Q12)
+    log = as_log(r)
+    if mid_run:
+        k = 3000
+        from trms_ident.log import validated
+        log = validated(r.t_s[k:], r.u1_v[k:], r.u2_v[k:], r.alpha_rad[k:], r.beta_rad[k:])
+    p, dt = defaults(), log.sample_time_s
+    ps = plant_signals(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, dt, p, "quadratic")
+    for a in (0.7, 3.0):
+        assert M.start_head(p, a, dt, len(log)) < len(log)  # the case under test
+        f = discretize(*second_order_lowpass(a, a * a), dt, "bilinear")
+        for axis in ("pitch", "yaw"):
+            q0, n0 = M._leading_basis(M.start_columns(axis, p, "quadratic", ps, log.alpha_rad, a, dt, f))
+            q1, n1 = M.start_basis(axis, p, "quadratic",
+                                   lambda m: M.PlantSignals(*(getattr(ps, x.name)[:m] for x in fields(ps))),
+                                   log.alpha_rad, a, dt, f)
+            assert n1 == n0 and 0 < n0 < len(log)
+            np.testing.assert_array_equal(q1, q0)
+
+
+def test_segments_locate_a_burst_of_equation_error_in_time():
+    """A residual ten times larger over 40-55 s of a 120 s log: one segment, covering the burst to within the
+    rolling window, with its RMS ratio against the median window (analytically 10)."""
+    from trms_ident.diagnosis.locate import segments
+
+    dt = 0.01
+    t = np.arange(12000) * dt
+    r = np.where((t >= 40.0) & (t < 55.0), 10.0, 1.0) * np.where(np.arange(t.size) % 2, 1.0, -1.0)
+    ctx = {"velocity": np.ones_like(t), "input": np.zeros_like(t), "angle": np.zeros_like(t), "input_limit": 1.0,
+           "angle_max": 1.0}
+    seg = segments(t, r, 2.0, ctx)
+    assert len(seg) == 1
+    assert 38.0 <= seg[0]["start_s"] <= 40.0 and 55.0 <= seg[0]["end_s"] <= 57.0
+    assert seg[0]["rms_ratio"] == pytest.approx(10.0)
+    assert segments(t, np.ones_like(t), 2.0, ctx) == []

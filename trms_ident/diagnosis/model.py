@@ -9,7 +9,7 @@ per unit parameter phi added to the right-hand side of eq. (1),
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 from scipy import signal
@@ -17,7 +17,7 @@ from scipy import signal
 from ..log import Log
 from ..numerics.filters import discretize, second_order_lowpass
 from ..numerics.fused import plant_signals  # compiled, equal to regressors.plant_signals to round-off
-from ..numerics.regressors import filtered_regression
+from ..numerics.regressors import PlantSignals, filtered_regression
 
 AXIS_ANGLE = {"pitch": "alpha_rad", "yaw": "beta_rad"}
 
@@ -65,23 +65,26 @@ def restart_velocity(x: np.ndarray, dt: float, window_s: float = 0.25) -> np.nda
 
 
 def modified_inputs(log: Log, mods: dict) -> tuple[np.ndarray, np.ndarray, dict]:
-    """Voltages as the plant would see them under the input modifications; parameter changes."""
-    u1, u2 = log.u1_v.copy(), log.u2_v.copy()
+    """Voltages as the plant would see them under the input modifications; parameter changes.
+
+    A voltage no modification touches is the log's own, as a read-only view (no copy: an hour at 1 kHz is
+    29 MB a column)."""
+    u = {"pitch": log.u1_v.view(), "yaw": log.u2_v.view()}
+    for v in u.values():
+        v.flags.writeable = False
     changes = {}
     dt = log.sample_time_s
     for key, v in mods.items():
         effect, axis = key.split(":")
         if effect == "input_delay":
-            u1, u2 = _delay(u1, v / dt), _delay(u2, v / dt)
+            u = {ax: _delay(x, v / dt) for ax, x in u.items()}
         elif effect == "dead_zone":
-            u = u1 if axis == "pitch" else u2
-            u[np.abs(u) < v] = 0.0
+            u[axis] = np.where(np.abs(u[axis]) < v, 0.0, u[axis])
         elif effect == "input_saturation":
-            u = u1 if axis == "pitch" else u2
-            np.clip(u, -v, v, out=u)
+            u[axis] = np.clip(u[axis], -v, v)
         elif effect == "motor_lag":
             changes["T11" if axis == "pitch" else "T21"] = v
-    return u1, u2, changes
+    return u["pitch"], u["yaw"], changes
 
 
 def _delay(u: np.ndarray, samples: float) -> np.ndarray:
@@ -134,9 +137,13 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
         mkey = ("m", axis, a_rad_s)
         skey = ("start", axis, a_rad_s)
         if skey not in cache:
-            base_ps = ps if not mods else plant_signals(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, dt, p, law,
-                                                        start=cache.get(("start_states",)))
-            cache[skey] = _leading_basis(start_columns(axis, p, law, base_ps, log.alpha_rad, a_rad_s, dt, f))
+            def head_signals(m: int, ps=ps):  # the seed model's signals over the first m samples
+                if ps is not None and not mods:
+                    return PlantSignals(*(getattr(ps, fl.name)[:m] for fl in fields(ps)))
+                return plant_signals(log.u1_v[:m], log.u2_v[:m], log.alpha_rad[:m], log.beta_rad[:m], dt, p, law,
+                                     start=cache.get(("start_states",)))
+
+            cache[skey] = start_basis(axis, p, law, head_signals, log.alpha_rad, a_rad_s, dt, f)
         basis = cache[skey]
         if mkey not in cache:
             _, jb = filtered_regression(np.zeros_like(x), x, dt, a_rad_s, a_rad_s * a_rad_s)
@@ -204,6 +211,37 @@ def start_columns(axis: str, p: dict, law: str, ps, alpha_rad: np.ndarray, a_rad
     return cols
 
 
+#: the start columns are built over the leading samples until k^2 r^k, r the slowest of their modes per sample,
+#: falls below this: beyond, they are far under the 1e-12 of their peak at which deflation ignores them
+START_TAIL = 1e-20
+
+
+def start_head(p: dict, a_rad_s: float, dt: float, n: int) -> int:
+    """How many leading samples can carry the start columns (their modes: F's double pole, the motors' lags)."""
+    z = (1.0 - a_rad_s * dt / 2.0) / (1.0 + a_rad_s * dt / 2.0)
+    r = max(abs(z), math.exp(-p["T10"] / p["T11"] * dt), math.exp(-p["T20"] / p["T21"] * dt), math.exp(-dt / p["Tp"]))
+    if not r < 1.0:
+        return n
+    rate, target, k = -math.log(r), -math.log(START_TAIL), 1.0
+    for _ in range(30):  # k rate - 2 log k = target, by fixed-point iteration from above
+        k = (target + 2.0 * math.log(max(k, 1.0))) / rate
+    return min(n, int(math.ceil(k)) + 1)
+
+
+def start_basis(axis: str, p: dict, law: str, head_signals, alpha_rad: np.ndarray, a_rad_s: float, dt: float,
+                f) -> tuple[np.ndarray, int]:
+    """_leading_basis of the start columns, built over the leading samples only (start_head; doubled while a
+    column is still alive at its end): on an hour at 1 kHz the full-length columns and their temporaries were
+    the diagnosis' peak memory.  ``head_signals(m)``: the seed model's PlantSignals over the first m samples."""
+    n = alpha_rad.size
+    head = start_head(p, a_rad_s, dt, n)
+    while True:
+        q, n0 = _leading_basis(start_columns(axis, p, law, head_signals(head), alpha_rad[:head], a_rad_s, dt, f))
+        if n0 < head or head >= n:
+            return q, n0
+        head = min(2 * head, n)
+
+
 def _leading_basis(cols: list[np.ndarray]) -> tuple[np.ndarray, int]:
     """Orthonormal basis of the start columns over the leading samples where they are not negligible."""
     s = np.column_stack(cols)
@@ -230,6 +268,14 @@ def deflate(col: np.ndarray, basis: tuple[np.ndarray, int] | None) -> np.ndarray
 #: the filtered targets and extra-regressor columns kept for reuse, in bytes (oldest dropped first): a bound
 #: that holds for any log length (an hour at 1 kHz is 29 MB per column)
 CACHE_BYTES = 96e6
+
+
+def drop_search_columns(cache: dict) -> None:
+    """After the search: forget the cached filtered targets, extra-regressor columns and sin, cos of the pitch
+    (recomputed if regression() is called again; the regressions kept for the findings hold their own
+    references).  On four hours at 1 kHz these were five columns of 115 MB at the prediction fits' peak."""
+    for k in [k for k in cache if k[0] in ("g", "phi", "trig")]:
+        del cache[k]
 
 
 def _bound(cache: dict, keep: tuple) -> None:
