@@ -6,20 +6,28 @@ import numpy as np
 
 def segments(t: np.ndarray, r: np.ndarray, window_s: float, context: dict[str, np.ndarray],
              limit: float = 2.0, most: int = 5) -> list[dict]:
-    """Time spans whose rolling RMS exceeds ``limit`` times the median rolling RMS, largest first."""
+    """Time spans whose rolling RMS exceeds ``limit`` times the median rolling RMS, largest first.
+
+    Temporaries of at most two arrays the size of the log at once (an hour at 1 kHz is 29 MB each: this ran
+    at the diagnosis' peak memory)."""
     dt = float(t[1] - t[0])
     w = max(int(window_s / dt), 1)
     if r.size < 2 * w:
         return []
-    c = np.concatenate([[0.0], np.cumsum(r * r)])
-    rms = np.sqrt((c[w:] - c[:-w]) / w)
-    centre = np.arange(rms.size) + w // 2
+    c = np.empty(r.size + 1)
+    c[0] = 0.0
+    np.cumsum(np.square(r), out=c[1:])
+    rms = c[w:] - c[:-w]  # the window sums of r^2
+    del c
+    rms /= w
+    np.sqrt(rms, out=rms)
     base = float(np.median(rms)) or 1e-300
-    hot = rms > limit * base
+    hot = np.concatenate([[False], rms > limit * base, [False]])
     out = []
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], hot.astype(int), [0]])))
+    edges = np.flatnonzero(hot[1:] != hot[:-1])  # starts and ends (exclusive) of the runs of hot windows
+    del hot
     for s, e in zip(edges[::2], edges[1::2]):
-        i0, i1 = centre[s] - w // 2, min(centre[e - 1] + w // 2, r.size - 1)
+        i0, i1 = s, min(e - 1 + 2 * (w // 2), r.size - 1)  # window k is centred on sample k + w // 2
         seg = slice(i0, i1 + 1)
         ctx = []
         vel = context["velocity"][seg]
@@ -45,8 +53,11 @@ def regimes(r: np.ndarray, velocity: np.ndarray, angle: np.ndarray, u: np.ndarra
     if pos.any() and neg.any():
         out["mean_residual_moving_positive"] = float(r[pos].mean())
         out["mean_residual_moving_negative"] = float(r[neg].mean())
-    if np.std(angle) > 0:
-        out["residual_slope_per_rad"] = float(np.polyfit(angle, r, 1)[0])
+    da = angle - angle.mean()
+    var = float(np.dot(da, da))
+    if var > 0:  # the least-squares slope of r against the angle (numpy.polyfit's, without its n x 2 matrix)
+        out["residual_slope_per_rad"] = float(np.dot(da, r)) / var
+    del da
     small = np.abs(u) < 0.3
     if small.any() and (~small).any():
         out["rms_residual_small_input"] = float(np.sqrt(np.mean(r[small] ** 2)))

@@ -16,9 +16,10 @@ from . import oe
 from .discriminate import PAIR, tell_offsets_apart
 from .effects import CANDIDATES, UNOBSERVABLE, Candidate
 from .locate import lag_profile, regimes, segments
-from .model import AXIS_ANGLE, Model, modified_inputs, regression, restart_velocity, smoothed_velocity
+from .model import (AXIS_ANGLE, Model, drop_search_columns, modified_inputs, regression, restart_velocity,
+                    smoothed_velocity)
 from .predict import HORIZON_S, fit_text, nrmse_fit, predict_fitted_start
-from .select import FAMILY_ALPHA, compare, score
+from .select import FAMILY_ALPHA, block_ids, compare, score
 from .shapes import term_shape, thin
 
 MAX_FINDINGS = 3
@@ -144,7 +145,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                              f"({MIN_BLOCKS_DIAGNOSE} blocks of five filter memories at a = {a:g} rad/s for its "
                              f"held-out tests, and {HORIZON_S:g} s prediction windows)")
     block = block_length(len(log), dt, 1.0 / a)
-    ids = np.minimum(np.arange(len(log)) // block, max(len(log) // block, 1) - 1)
+    ids = block_ids(len(log), block)
     axes = ("pitch", "yaw")
     start = _choose_start(log, p, law, a, seed.get("start_states"), ids)
     seed["start_states"] = start
@@ -204,6 +205,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         excluded.update(alts)
         findings.append((best, alts))
     del fitter  # its cached fits are not needed any more (memory on long logs)
+    drop_search_columns(cache)
     progress("prediction fits", _SEED_SHARE + _ROUNDS_SHARE)
     fit_before, over_before = _fits(log, p, law, Model(), {}, nominal, start=seed.get("start_states"))
     refused = []
@@ -600,6 +602,17 @@ def _effect_values(model: Model, sc, reg) -> dict:
     return vals
 
 
+def _yaw_inertia_signals(alpha_rad: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """sin^2(alpha) and sin(alpha) cos(alpha) alpha' of the measured pitch (the pitch-dependent yaw inertia's
+    terms), in place where numpy allows (the same operations, in the same order, as the plain expressions)."""
+    s = np.sin(alpha_rad)
+    scw = np.cos(alpha_rad)
+    scw *= s
+    scw *= smoothed_velocity(alpha_rad, dt)
+    s *= s
+    return s, scw
+
+
 def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, extra: dict | None = None,
           start: dict | None = None):
     """Prediction fit [%] and predictions per axis; ``extra``: axis -> extra torque [N m] per sample; ``start``:
@@ -609,13 +622,11 @@ def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, ex
     dt = log.sample_time_s
     u1, u2, changes = modified_inputs(log, dict(model.mods))
     pp = {**p, **changes}
-    ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, dt, pp, law, start=start)
+    ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, dt, pp, law, start=start, torques=False)
+    del u1, u2
     horizon = max(int(round(HORIZON_S / dt)), 1)
     fits, preds = {}, {}
-    a_meas = log.alpha_rad
-    s2 = np.sin(a_meas) ** 2
-    scw = np.sin(a_meas) * np.cos(a_meas) * smoothed_velocity(a_meas, dt)
-    zeros = np.zeros_like(s2)
+    zeros = np.zeros_like(log.alpha_rad)
     for axis in ("pitch", "yaw"):
         x = getattr(log, AXIS_ANGLE[axis])
         v = restart_velocity(x, dt)
@@ -634,11 +645,13 @@ def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, ex
             th = np.array([est["J1"], est["B1"], pp["a1"], pp["b1"], pp["Mg"], pp["Kg"], law == "signed"], dtype=float)
             drive, other = ps.tau1, ps.dbeta_rad_s
         if all(math.isfinite(q) and q > 0 for q in th[:2]):
-            aux = (zeros, zeros) if axis == "pitch" else (s2, scw)
+            aux = (zeros, zeros) if axis == "pitch" else _yaw_inertia_signals(log.alpha_rad, dt)
             ext = (extra or {}).get(axis, zeros)
             y = predict_fitted_start(axis == "pitch", x, v, drive, other, *aux, ext, dt, horizon, th, fx)
+            del aux
         else:  # J or B not physical: nothing to predict with, nothing to score
             y = np.full_like(x, np.nan)
+        del v
         fits[axis] = nrmse_fit(x, y)
         preds[axis] = y
     return fits, preds

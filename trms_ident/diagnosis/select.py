@@ -37,9 +37,10 @@ class Score:
 
 
 def block_ids(n: int, block: int) -> np.ndarray:
+    """Each sample's block (0..K-1, the last block takes the remainder), as int32: a column of the log's length
+    that lives through the whole diagnosis."""
     k = max(n // block, 1)
-    ids = np.minimum(np.arange(n) // block, k - 1)
-    return ids
+    return np.minimum(np.arange(n, dtype=np.int32) // np.int32(block), np.int32(k - 1))
 
 
 def score(reg, ids: np.ndarray, axes) -> Score:

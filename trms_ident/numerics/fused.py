@@ -261,10 +261,12 @@ def _motor_states(u1, u2, c1, c2, kc, t0, tp, x0, out):
 
 
 @njit(cache=True, nogil=True)
-def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed, mg, kg, delta, given, out):
-    """One pass of regressors.plant_signals (eq. 1): out rows tau1, tau2, M1, M2, M_R, beta', y_p, y_y.
+def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed, mg, kg, delta, given, torques,
+                   out):
+    """One pass of regressors.plant_signals (eq. 1): out rows tau1, tau2, M1, M2, M_R, beta', y_p, y_y; rows
+    M1, M2, y_p, y_y only when ``torques`` (else they are not touched, and sin_a, cos_a not read).
     sin_a, cos_a: sin and cos of alpha (computed once by the caller, reused across candidates)."""
-    n = sin_a.size
+    n = beta.size
     sd, cd = math.sin(delta), math.cos(delta)
     z = np.zeros((3, 2))
     for k in range(n):
@@ -286,26 +288,28 @@ def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed,
             db = (3.0 * beta[k] - 4.0 * beta[k - 1] + beta[k - 2]) / (2.0 * dt)
         else:
             db = (beta[k + 1] - beta[k - 1]) / (2.0 * dt)
-        m1 = a1 * t1 * (abs(t1) if signed else t1) + b1 * t1
-        m2 = a2 * t2 * (abs(t2) if signed else t2) + b2 * t2
         out[0, k] = t1
         out[1, k] = t2
-        out[2, k] = m1
-        out[3, k] = m2
         out[4, k] = mr
         out[5, k] = db
-        s_ad = sin_a[k] if delta == 0.0 else sin_a[k] * cd + cos_a[k] * sd  # sin(alpha + delta)
-        out[6, k] = m1 - mg * s_ad - kg * m1 * db * cos_a[k]  # eq. (1), pitch
-        out[7, k] = m2 - mr  # eq. (1), yaw
+        if torques:
+            m1 = a1 * t1 * (abs(t1) if signed else t1) + b1 * t1
+            m2 = a2 * t2 * (abs(t2) if signed else t2) + b2 * t2
+            out[2, k] = m1
+            out[3, k] = m2
+            s_ad = sin_a[k] if delta == 0.0 else sin_a[k] * cd + cos_a[k] * sd  # sin(alpha + delta)
+            out[6, k] = m1 - mg * s_ad - kg * m1 * db * cos_a[k]  # eq. (1), pitch
+            out[7, k] = m2 - mr  # eq. (1), yaw
 
 
 def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str, gravity_offset_rad: float = 0.0,
-                  trig: tuple | None = None, start: dict | None = None):
+                  trig: tuple | None = None, start: dict | None = None, torques: bool = True):
     """regressors.plant_signals in one compiled pass (the same ZOH coefficients, the same steady start);
     equal to the reference to round-off (tested).  For the diagnosis, which rebuilds these signals for
     every candidate and grid point; ``trig``: (sin alpha, cos alpha) when the caller keeps them; ``start``: the
     motor and reaction-lag states at the first sample (tau1_0, tau2_0, zeta_0, as the refinement estimates
-    them) instead of the steady state of the first voltage (a log that begins mid-run)."""
+    them) instead of the steady state of the first voltage (a log that begins mid-run).  ``torques=False``: the
+    motor states, M_R and beta' only (M1_nm, M2_nm, y_pitch_nm, y_yaw_nm are None; half the memory)."""
     from .filters import discretize
     from .regressors import PlantSignals
 
@@ -325,10 +329,15 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
         _motor_states(np.ascontiguousarray(u1_v, dtype=float), np.ascontiguousarray(u2_v, dtype=float), c1,
                       np.array([-aa[1], bb[1]]), p["kc"], p["T0"], p["Tp"],
                       np.array([start["tau1_0"], start["tau2_0"], start["zeta_0"]], dtype=float), out)
-    sin_a, cos_a = trig if trig is not None else (np.sin(alpha_rad), np.cos(alpha_rad))
+    if not torques:
+        sin_a = cos_a = np.empty(0)
+    else:
+        sin_a, cos_a = trig if trig is not None else (np.sin(alpha_rad), np.cos(alpha_rad))
     _plant_signals(np.ascontiguousarray(u1_v, dtype=float), np.ascontiguousarray(u2_v, dtype=float),
                    np.ascontiguousarray(sin_a, dtype=float), np.ascontiguousarray(cos_a, dtype=float),
                    np.ascontiguousarray(beta_rad, dtype=float),
                    float(dt_s), b, a, p["a1"], p["b1"], p["a2"], p["b2"], law == "signed", p["Mg"], p["Kg"],
-                   float(gravity_offset_rad), start is not None, out)
+                   float(gravity_offset_rad), start is not None, torques, out)
+    if not torques:  # rows 2, 3, 6, 7 never written: np.empty's pages there are never touched, so never resident
+        return PlantSignals(out[0], out[1], None, None, out[4], out[5], None, None)
     return PlantSignals(*out)
