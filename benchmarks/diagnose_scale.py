@@ -4,8 +4,9 @@
     python benchmarks/diagnose_scale.py --only 1h
 
 Each figure is a fresh process timed from outside (start-up included); peak memory is its max RSS
-(os.wait4).  The yardstick is the plain scipy pipeline on the same CSV: pandas.read_csv plus 16
-scipy.signal.lfilter passes (benchmarks/ratios.py), run right after the diagnose, once each.
+(os.wait4), the logs made in a child process (see ratios.py).  The yardstick is the plain scipy pipeline on
+the same CSV: pandas.read_csv plus 16 scipy.signal.lfilter passes (benchmarks/ratios.py), run right after the
+diagnose, once each.
 Targets: 1 h within 1.5 GB and at most 25x the yardstick; 4 h within 4 GB.  Writes the "Diagnose at
 scale" section of RESULTS.md.
 """
@@ -19,7 +20,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from ratios import PY, SCIPY_PIPELINE, make_csv, timed  # noqa: E402
+from ratios import PY, SCIPY_PIPELINE, make_logs, timed  # noqa: E402
 
 LENGTHS_S = {"10min": 600.0, "1h": 3600.0, "4h": 14400.0}
 TARGETS = {"1h": (1500.0, 25.0), "4h": (4000.0, None)}
@@ -36,7 +37,7 @@ def main() -> None:
             if args.only and name != args.only:
                 continue
             path = Path(tmp) / f"{name}.csv"
-            make_csv(path, seconds)
+            make_logs(path, seconds)  # in a child: this process stays small (see ratios.py)
             wall, peak = timed([PY, "-m", "trms_ident", "diagnose", str(path), "--json", str(Path(tmp) / "d.json")])
             base, _ = timed([PY, "-c", SCIPY_PIPELINE, str(path)])
             rows.append((name, wall, peak, base))

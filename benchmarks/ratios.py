@@ -5,7 +5,9 @@
 
 Every figure is a fresh process timed from outside (start-up and imports included), the tool's command and
 its yardstick run in turn (A B A B ...) and the ratio taken pair by pair, median over the pairs: the
-machine is shared and its speed drifts.  Peak memory is the child's max RSS (os.wait4).
+machine is shared and its speed drifts.  Peak memory is the child's max RSS (os.wait4).  The logs are made in
+a child process too: Linux counts a forked child's pages before exec in its max RSS, so a parent holding an hour
+of simulated data (~670 MB) had set the hour's figure itself (it read 667 MB until this was found).
 
 | tool command (A) | yardstick (B) | target |
 |---|---|---|
@@ -94,11 +96,23 @@ def make_csv(path: Path, seconds: float) -> dict:
     return cols
 
 
+def make_logs(csv: Path, seconds: float, mcap: Path | None = None) -> None:
+    """make_csv (and the same log as MCAP) in a child process, so that this one never holds the data."""
+    subprocess.run([PY, __file__, "--make", str(csv), str(seconds)] + ([str(mcap)] if mcap else []), check=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--make", nargs="+", metavar="ARG", help="CSV SECONDS [MCAP]: only write the log (internal)")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--out", default=str(Path(__file__).with_name("RESULTS.md")))
     args = ap.parse_args()
+    if args.make:
+        cols = make_csv(Path(args.make[0]), float(args.make[1]))
+        if len(args.make) > 2:
+            write_mcap_log(Path(args.make[2]), cols["t"], cols["u1"], cols["u2"], cols["alpha"], cols["beta"],
+                           encoding="cdr")
+        return
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -108,20 +122,17 @@ def main() -> None:
                      pairs(estimate_cmd(short, out), [PY, "-c", "import numpy, pandas, scipy.signal"], args.repeat)))
         print(rows[-1], file=sys.stderr)
         m10 = tmp / "10min.csv"
-        make_csv(m10, 600.0)
+        make_logs(m10, 600.0)
         rows.append(("estimate, 10 min at 1 kHz (refinement runs)",
                      "pandas.read_csv + 16 scipy.signal.lfilter passes", 1.0,
                      pairs(estimate_cmd(m10, out), [PY, "-c", SCIPY_PIPELINE, str(m10)], args.repeat)))
         print(rows[-1], file=sys.stderr)
         m10.unlink()
-        h1 = tmp / "1h.csv"
-        cols = make_csv(h1, 3600.0)
+        h1, h1m = tmp / "1h.csv", tmp / "1h.mcap"
+        make_logs(h1, 3600.0, h1m)
         rows.append(("estimate, 1 h at 1 kHz, CSV", "pyarrow.csv.read_csv + columns to numpy", 1.3,
                      pairs(estimate_cmd(h1, out), [PY, "-c", PYARROW_READ, str(h1)], args.repeat)))
         print(rows[-1], file=sys.stderr)
-        h1m = tmp / "1h.mcap"
-        write_mcap_log(h1m, cols["t"], cols["u1"], cols["u2"], cols["alpha"], cols["beta"], encoding="cdr")
-        del cols
         rows.append(("estimate, 1 h at 1 kHz, MCAP (ROS 2 CDR, zstd)", "estimate of the same log as CSV", 1.3,
                      pairs(estimate_cmd(h1m, out), estimate_cmd(h1, tmp / "out_csv"), args.repeat)))
         print(rows[-1], file=sys.stderr)

@@ -469,15 +469,18 @@ def _try(c, log, p, law, a, current, cache, ids, score_now, n_tests):
         gains = []
         for v in grid:
             model = current.with_mod(c.key, v)
+            reg = sc = None  # the last grid point's columns go before the next are built (memory on long logs)
             reg = regression(log, p, law, a, model, cache)
             sc = score(reg, ids, ("pitch", "yaw"))
             gains.append(compare(score_now, sc, reg, axes_c, n_tests).gain)
         i = int(np.argmax(gains))
         value = _refine(grid, gains, i)
         model = current.with_mod(c.key, value)
+        reg = sc = None
         reg = regression(log, p, law, a, model, cache)
         sc = score(reg, ids, ("pitch", "yaw"))
     if c.effect in EXACT_OFFSETS and value != 0.0:
+        reg = sc = None
         model, reg, sc, value = _exact_offset(c, value, log, p, law, a, current, cache, ids, score_now, n_tests)
     test = compare(score_now, sc, reg, axes_c, n_tests)
     return {"c": c, "model": model, "reg": reg, "score": sc, "test": test, "value": value}
@@ -493,11 +496,13 @@ def _exact_offset(c, delta0, log, p, law, a, current, cache, ids, score_now, n_t
     gains = []
     for d in grid:
         model = current.with_mod(c.key, d)
+        reg = sc = None  # as in _try: one grid point's columns at a time
         reg = regression(log, p, law, a, model, cache)
         sc = score(reg, ids, ("pitch", "yaw"))
         gains.append(compare(score_now, sc, reg, ("pitch",), n_tests).gain)
     best = _refine(grid, gains, int(np.argmax(gains)), log_space=False)  # offsets take either sign
     model = current.with_mod(c.key, best)
+    reg = sc = None
     reg = regression(log, p, law, a, model, cache)
     return model, reg, score(reg, ids, ("pitch", "yaw")), best
 
