@@ -8,7 +8,9 @@ Logs come from the simulator (multisine, 12-bit encoder) written at logger preci
 End to end = a fresh `python -m trms_ident estimate LOG --no-report` process (imports,
 reading and hashing the CSV, validation, identification, result.json and traces.csv);
 the HTML report is excluded as the issue states.  Peak memory is the child's max RSS.
-Estimation = `identify()` alone, in a warm process.  Median of --repeat runs.
+Estimation = `identify()` alone, in a warm process.  Median of --repeat runs.  The logs are made, and the
+estimation timed, in child processes: this one stays small, so that no child inherits its pages in its max
+RSS (Linux counts a forked child's pages before exec; see ratios.py).
 """
 from __future__ import annotations
 
@@ -21,12 +23,9 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from sim import SimSettings, simulate  # noqa: E402
-from trms_ident.io.csv_log import write_columns  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 LENGTHS_S = {"10min": 600.0, "1h": 3600.0, "4h": 14400.0}
 
@@ -44,10 +43,12 @@ print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)
 
 
 def make_log(path: Path, seconds: float) -> int:
-    r = simulate(SimSettings(ref="multisine", duration_s=seconds, quantization_rad=2 * np.pi / 4096, seed=5))
-    write_columns(path, {"t": np.round(r.t_s, 3), "u1": np.round(r.u1_v, 6), "u2": np.round(r.u2_v, 6),
-                         "alpha": np.round(r.alpha_rad, 9), "beta": np.round(r.beta_rad, 9)})
-    return r.t_s.size
+    """The log written by a child process (ratios.make_logs: the same simulation and rounding); its rows."""
+    from ratios import make_logs
+
+    make_logs(path, seconds)
+    with open(path, "rb") as f:
+        return sum(chunk.count(b"\n") for chunk in iter(lambda: f.read(1 << 22), b"")) - 1
 
 
 def end_to_end(path: Path, out: Path) -> tuple[float, float]:
@@ -60,6 +61,15 @@ def end_to_end(path: Path, out: Path) -> tuple[float, float]:
 
 
 def estimation_only(path: Path, refine: str = "auto") -> tuple[float, float, str]:
+    """_estimation_only in a child process."""
+    proc = subprocess.run([sys.executable, __file__, "--estimation-only", str(path), refine], capture_output=True,
+                          text=True)
+    if proc.returncode:
+        raise RuntimeError(proc.stderr)
+    return tuple(json.loads(proc.stdout.strip().splitlines()[-1]))
+
+
+def _estimation_only(path: Path, refine: str = "auto") -> tuple[float, float, str]:
     """identify() in a warm process: (total [s], DREM alone with --refine off [s], what the refinement did)."""
     from trms_ident.identify import Settings, identify
     from trms_ident.io.readers import read_log
@@ -81,7 +91,11 @@ def main():
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--skip-forced", action="store_true", help="skip the 1 h --refine on measurement")
     ap.add_argument("--out", default=str(Path(__file__).with_name("RESULTS.md")))
+    ap.add_argument("--estimation-only", nargs=2, metavar=("LOG", "REFINE"), help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.estimation_only:
+        print(json.dumps(_estimation_only(Path(args.estimation_only[0]), args.estimation_only[1])))
+        return
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for name, seconds in LENGTHS_S.items():

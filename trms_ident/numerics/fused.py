@@ -1,9 +1,11 @@
-"""One compiled pass per axis from the logged samples to the mixed regressions (eqs. 1, 3, 5-7).
+"""Compiled passes per axis from the logged samples to the mixed regressions (eqs. 1, 3, 5-7) and DREM's results.
 
-The same computation as ``regressors`` + ``drem.extend_and_mix`` (the reference path built
-on scipy.signal, kept for tests and diagnostics), fused into a single loop so that a
-one-hour 1 kHz log costs one pass over memory instead of some twenty.  Tested against
-the reference path to 1e-12.
+``mixed_regressions``: the same computation as ``regressors`` + ``drem.extend_and_mix`` (the reference path
+built on scipy.signal, kept for tests and diagnostics), fused into a single loop so that a one-hour 1 kHz log
+costs one pass over memory instead of some twenty; tested against the reference path to 1e-12.
+``drem_summaries`` (what identify uses): the same regressions summed as they are made, with eq. (8) run in
+the same loop, so that phi and eps are never held (tested against mixed_regressions + gradient_estimator +
+confidence_interval).
 """
 from __future__ import annotations
 
