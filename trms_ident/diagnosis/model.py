@@ -128,9 +128,13 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
             trig = cache.get(("trig",))
             if trig is None:
                 trig = cache[("trig",)] = (np.sin(log.alpha_rad), np.cos(log.alpha_rad))
+        # the targets alone unless a plant-dependent column or the start basis needs the motor states too
+        full = (any(k in model.linear for k in NEEDS_PLANT) or
+                any(("start", ax, a_rad_s) not in cache for ax in ("pitch", "yaw")))
         ps = plant_signals(u1, u2, log.alpha_rad - sensor, log.beta_rad, dt, pp, law,
                            gravity_offset_rad=mods.get("com_offset:pitch", 0.0), trig=trig,
-                           start=cache.get(("start_states",)))  # the motors mid-run when the log begins
+                           start=cache.get(("start_states",)),  # the motors mid-run when the log begins
+                           rows="all" if full else "targets")
     reg = Regression({}, {}, {})
     for axis in ("pitch", "yaw"):
         x = getattr(log, AXIS_ANGLE[axis])
@@ -138,7 +142,7 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
         skey = ("start", axis, a_rad_s)
         if skey not in cache:
             def head_signals(m: int, ps=ps):  # the seed model's signals over the first m samples
-                if ps is not None and not mods:
+                if ps is not None and ps.tau1 is not None and not mods:
                     return PlantSignals(*(getattr(ps, fl.name)[:m] for fl in fields(ps)))
                 return plant_signals(log.u1_v[:m], log.u2_v[:m], log.alpha_rad[:m], log.beta_rad[:m], dt, p, law,
                                      start=cache.get(("start_states",)))

@@ -627,7 +627,7 @@ def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, ex
     dt = log.sample_time_s
     u1, u2, changes = modified_inputs(log, dict(model.mods))
     pp = {**p, **changes}
-    ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, dt, pp, law, start=start, torques=False)
+    ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, dt, pp, law, start=start, rows="motors")
     del u1, u2
     horizon = max(int(round(HORIZON_S / dt)), 1)
     fits, preds = {}, {}

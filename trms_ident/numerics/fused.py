@@ -262,15 +262,24 @@ def _motor_states(u1, u2, c1, c2, kc, t0, tp, x0, out):
         t2 = c2[0] * t2 + c2[1] * u2[k]
 
 
+#: which rows _plant_signals writes (np.empty's pages in the others are never touched, never resident: each
+#: row is 29 MB an hour at 1 kHz, and writing all eight was most of a candidate's cost on long logs)
+ROWS_ALL, ROWS_MOTORS, ROWS_TARGETS = 0, 1, 2
+ROWS = {"all": ROWS_ALL, "motors": ROWS_MOTORS, "targets": ROWS_TARGETS}
+
+
 @njit(cache=True, nogil=True)
-def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed, mg, kg, delta, given, torques,
+def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed, mg, kg, delta, given, rows,
                    out):
-    """One pass of regressors.plant_signals (eq. 1): out rows tau1, tau2, M1, M2, M_R, beta', y_p, y_y; rows
-    M1, M2, y_p, y_y only when ``torques`` (else they are not touched, and sin_a, cos_a not read).
-    sin_a, cos_a: sin and cos of alpha (computed once by the caller, reused across candidates)."""
+    """One pass of regressors.plant_signals (eq. 1): out rows tau1, tau2, M1, M2, M_R, beta', y_p, y_y.
+    ``rows``: ROWS_ALL, ROWS_MOTORS (tau1, tau2, M_R, beta'; sin_a, cos_a not read) or ROWS_TARGETS (y_p, y_y);
+    the other rows are not touched.  sin_a, cos_a: sin and cos of alpha (computed once by the caller, reused
+    across candidates)."""
     n = beta.size
     sd, cd = math.sin(delta), math.cos(delta)
     z = np.zeros((3, 2))
+    motors = rows != ROWS_TARGETS
+    torques = rows != ROWS_MOTORS
     for k in range(n):
         if k == 0:
             _init(b, a, 0, u1[0], z)
@@ -290,28 +299,31 @@ def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed,
             db = (3.0 * beta[k] - 4.0 * beta[k - 1] + beta[k - 2]) / (2.0 * dt)
         else:
             db = (beta[k + 1] - beta[k - 1]) / (2.0 * dt)
-        out[0, k] = t1
-        out[1, k] = t2
-        out[4, k] = mr
-        out[5, k] = db
+        if motors:
+            out[0, k] = t1
+            out[1, k] = t2
+            out[4, k] = mr
+            out[5, k] = db
         if torques:
             m1 = a1 * t1 * (abs(t1) if signed else t1) + b1 * t1
             m2 = a2 * t2 * (abs(t2) if signed else t2) + b2 * t2
-            out[2, k] = m1
-            out[3, k] = m2
+            if rows == ROWS_ALL:
+                out[2, k] = m1
+                out[3, k] = m2
             s_ad = sin_a[k] if delta == 0.0 else sin_a[k] * cd + cos_a[k] * sd  # sin(alpha + delta)
             out[6, k] = m1 - mg * s_ad - kg * m1 * db * cos_a[k]  # eq. (1), pitch
             out[7, k] = m2 - mr  # eq. (1), yaw
 
 
 def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str, gravity_offset_rad: float = 0.0,
-                  trig: tuple | None = None, start: dict | None = None, torques: bool = True):
+                  trig: tuple | None = None, start: dict | None = None, rows: str = "all"):
     """regressors.plant_signals in one compiled pass (the same ZOH coefficients, the same steady start);
     equal to the reference to round-off (tested).  For the diagnosis, which rebuilds these signals for
     every candidate and grid point; ``trig``: (sin alpha, cos alpha) when the caller keeps them; ``start``: the
     motor and reaction-lag states at the first sample (tau1_0, tau2_0, zeta_0, as the refinement estimates
-    them) instead of the steady state of the first voltage (a log that begins mid-run).  ``torques=False``: the
-    motor states, M_R and beta' only (M1_nm, M2_nm, y_pitch_nm, y_yaw_nm are None; half the memory)."""
+    them) instead of the steady state of the first voltage (a log that begins mid-run).  ``rows="motors"``: the
+    motor states, M_R and beta' only (the other fields None); ``rows="targets"``: y_pitch_nm, y_yaw_nm only (a
+    candidate's regression targets; a quarter of the memory traffic)."""
     from .filters import discretize
     from .regressors import PlantSignals
 
@@ -331,7 +343,8 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
         _motor_states(np.ascontiguousarray(u1_v, dtype=float), np.ascontiguousarray(u2_v, dtype=float), c1,
                       np.array([-aa[1], bb[1]]), p["kc"], p["T0"], p["Tp"],
                       np.array([start["tau1_0"], start["tau2_0"], start["zeta_0"]], dtype=float), out)
-    if not torques:
+    mode = ROWS[rows]
+    if mode == ROWS_MOTORS:
         sin_a = cos_a = np.empty(0)
     else:
         sin_a, cos_a = trig if trig is not None else (np.sin(alpha_rad), np.cos(alpha_rad))
@@ -339,7 +352,9 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
                    np.ascontiguousarray(sin_a, dtype=float), np.ascontiguousarray(cos_a, dtype=float),
                    np.ascontiguousarray(beta_rad, dtype=float),
                    float(dt_s), b, a, p["a1"], p["b1"], p["a2"], p["b2"], law == "signed", p["Mg"], p["Kg"],
-                   float(gravity_offset_rad), start is not None, torques, out)
-    if not torques:  # rows 2, 3, 6, 7 never written: np.empty's pages there are never touched, so never resident
+                   float(gravity_offset_rad), start is not None, mode, out)
+    if mode == ROWS_MOTORS:
         return PlantSignals(out[0], out[1], None, None, out[4], out[5], None, None)
+    if mode == ROWS_TARGETS:
+        return PlantSignals(None, None, None, None, None, None, out[6], out[7])
     return PlantSignals(*out)
