@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from trms_ident.numerics.drem import extend_and_mix, gradient_estimator, offline_optimum
+from trms_ident.numerics.drem import extend_and_mix, gradient_estimator
 from trms_ident.numerics.filters import discretize, second_order_lowpass
 
 

@@ -103,9 +103,3 @@ def gradient_estimator(eps: np.ndarray, phi: np.ndarray, gamma, dt_s: float, q0=
     if single:
         return out[:, 0], float(final[0])
     return out, final
-
-
-def offline_optimum(eps: np.ndarray, phi: np.ndarray) -> float:
-    """Least-squares optimum of eps = phi q over the whole record: sum(eps phi) / sum(phi^2)."""
-    den = float(np.dot(phi, phi))
-    return float(np.dot(eps, phi)) / den if den > 0 else float("nan")

@@ -577,8 +577,8 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     free = tuple(free)
     m = len(free)
     effects = dict(effects or {})
-    theta = np.concatenate([[theta0[k] for k in NAMES], steady_motor_states(u1[0], u2[0], params),
-                            [params[k] if k in _P else effects.get(k, 0.0) for k in free]])
+    given = [float(params[k] if k in _P else effects.get(k, 0.0)) for k in free]  # the freed values' starts
+    theta = np.concatenate([[theta0[k] for k in NAMES], steady_motor_states(u1[0], u2[0], params), given])
     # what "negligible" means per unknown: J/B and freed values relative to themselves, start states to the
     # motors' range
     motor_range = np.abs(steady_motor_states(float(np.max(np.abs(u1))), float(np.max(np.abs(u2))), params))
@@ -644,7 +644,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     start_se = dict(zip(START_NAMES, map(float, se[4:NG])))
     freed = {k: {"estimate": float(theta[NG + j]), "ci95": [float(theta[NG + j] - tq * se[NG + j]),
                                                            float(theta[NG + j] + tq * se[NG + j])],
-                 "se": float(se[NG + j]), "table_or_file_value": float(params[k] if k in _P else effects.get(k, 0.0))}
+                 "se": float(se[NG + j]), "table_or_file_value": given[j]}
              for j, k in enumerate(free)}
     return Refined(dict(zip(NAMES, map(float, theta[:4]))),
                    {k: (float(theta[i] - half[i]), float(theta[i] + half[i])) for i, k in enumerate(NAMES)},
