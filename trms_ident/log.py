@@ -11,7 +11,7 @@ Validation is pure (arrays in, LogFormatError out); readers of each file format 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -78,6 +78,13 @@ class Log:
 
     def __len__(self) -> int:
         return int(self.t_s.size)
+
+    def head(self, n: int) -> "Log":
+        """The log's first n samples (views, no copies); the log itself when it is no longer."""
+        if n >= len(self):
+            return self
+        return replace(self, t_s=self.t_s[:n], u1_v=self.u1_v[:n], u2_v=self.u2_v[:n], alpha_rad=self.alpha_rad[:n],
+                       beta_rad=self.beta_rad[:n], u_switch_s=None if self.u_switch_s is None else self.u_switch_s[:n])
 
 
 #: steps taken at a time by _step_statistics, and the distinct step values it counts before it falls back

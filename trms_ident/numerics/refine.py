@@ -553,7 +553,7 @@ class _Problem:
 def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict, noise_rad: dict,
            window_s: float = WINDOW_S, gravity_offset_rad: float = 0.0, t_s: np.ndarray | None = None,
            free: tuple[str, ...] = (), switch_delay_s: np.ndarray | None = None,
-           effects: dict | None = None) -> Refined:
+           effects: dict | None = None, max_iterations: int = MAX_ITERATIONS) -> Refined:
     """Gauss-Newton on the noise-weighted angle errors, from theta0 (DREM's estimate).
 
     ``t_s``: the sample stamps [s] when they are not uniform (default: uniform steps of ``dt`` [s]); the
@@ -562,7 +562,8 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     estimate with J/B, started from ``params``.  ``gravity_offset_rad``: a centre-of-mass offset, gravity
     Mg sin(alpha + delta) (diagnose's extended model; an encoder offset is handled by the caller, shifting
     the logged angle).  ``effects``: effect key (EFFECT_SLOTS) -> value in the model; an effect key in ``free``
-    is estimated with J/B, started from its value there (or 0)."""
+    is estimated with J/B, started from its value there (or 0).  ``max_iterations``: Gauss-Newton's limit (a
+    profile over a candidate's value, diagnosis/oe.py, needs the cost near each trial value, not convergence)."""
     n = alpha.size
     t = np.arange(n) * dt if t_s is None else np.asarray(t_s, dtype=float)
     h = np.diff(t)
@@ -593,7 +594,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     out = np.empty((n, 2))
     cost, a, b, scores = prob.evaluate(theta, starts, out)
     converged, it = False, 0
-    for it in range(1, MAX_ITERATIONS + 1):
+    for it in range(1, max_iterations + 1):
         s_mat, s_rhs, per_window = _schur(a, b, ng)
         step = _scaled_inverse(s_mat) @ s_rhs
         step_starts = np.array([k[:, ng] - k[:, :ng] @ step for k in per_window])
