@@ -313,3 +313,40 @@ def test_segments_locate_a_burst_of_equation_error_in_time():
     assert 38.0 <= seg[0]["start_s"] <= 40.0 and 55.0 <= seg[0]["end_s"] <= 57.0
     assert seg[0]["rms_ratio"] == pytest.approx(10.0)
     assert segments(t, np.ones_like(t), 2.0, ctx) == []
+
+
+@pytest.mark.parametrize("effect, axis, value, ref, start", [
+    ("dead_zone", "yaw", 0.1, "chirp", 0.0),
+    ("input_saturation", "pitch", 1.6, "steps", 30.0),
+    ("input_delay", "both", 0.03, "square", 30.0),
+])
+def test_output_error_profile_fits_an_input_modification_and_leaves_a_clean_log_alone(effect, axis, value, ref,
+                                                                                       start):
+    # an input modification has no sensitivity to follow (a dead zone's cost is piecewise constant in its
+    # width): fitted by output error over its value, started 20 % off, it lands on the injected value, its
+    # held-out test passes with room and the simulation fit rises; the same profile on the log without the
+    # effect does not pass
+    from sim import SimSettings, simulate
+    from trms_ident.diagnosis import oe
+    from trms_ident.diagnosis.effects import BY_KEY
+    from trms_ident.diagnosis.model import Model
+    from trms_ident.diagnosis.run import FAMILY_ALPHA, _grid
+    from trms_ident.params import defaults
+
+    p = defaults()
+    theta0 = {k: p[k] for k in ("J1", "B1", "J2", "B2")}
+    key = f"{effect}:{axis}"
+    fits = {}
+    for effects in ([dict(effect=effect, axis=axis, value=value)], []):
+        log = as_log(simulate(SimSettings(ref=ref, sample_rate_hz=200.0, duration_s=60.0, quantization_rad=Q12,
+                                          seed=7, start_s=start, effects=effects)))
+        fits[bool(effects)] = oe.Fitter(log, p, "quadratic").profile(Model(), {}, theta0, key,
+                                                                     _grid(BY_KEY[key], log, p), 0.8 * value)
+    f = fits[True]
+    assert f.profiled and f.value == pytest.approx(value, rel=0.03)
+    assert oe.passes(f, 24, FAMILY_ALPHA) and f.t > 10 and f.cost_drop > 0.3
+    own = "pitch" if axis == "both" else axis
+    assert f.fits[own][1] > f.fits[own][0]
+    assert "held-out drop in angle error" in oe.evidence(f, 0.005)
+    g = fits[False]
+    assert g is None or not oe.passes(g, 24, FAMILY_ALPHA)

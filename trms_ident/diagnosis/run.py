@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -204,7 +204,6 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         reg_now, score_now = best["reg"], best["score"]
         excluded.update(alts)
         findings.append((best, alts))
-    del fitter  # its cached fits are not needed any more (memory on long logs)
     drop_search_columns(cache)
     progress("prediction fits", _SEED_SHARE + _ROUNDS_SHARE)
     fit_before, over_before = _fits(log, p, law, Model(), {}, nominal, start=seed.get("start_states"))
@@ -216,13 +215,22 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         fit_after, over_after = _fits(log, p, law, current, values, augmented, start=seed.get("start_states"))
         if not findings:
             break
-        why = _refusal(findings[-1][0]["c"], nominal, augmented, fit_before, fit_after)
+        why = _refusal(findings[-1][0]["c"], nominal, augmented, fit_before, fit_after, findings[-1][0].get("oe"))
         if why is None:
             break
+        last = findings[-1][0]
+        confirmed = None if "oe" in last or not why.startswith("it does not raise") else _oe_confirm(
+            last, log, p, law, a, cache, ids, n_tests, fitter, oe_tested)
+        if confirmed is not None:  # the output-error fit carries it and its held-out test passes: judged there
+            findings[-1] = (confirmed, findings[-1][1])
+            oe_values[confirmed["c"].key] = confirmed["value"]
+            current, reg_now, score_now = confirmed["model"], confirmed["reg"], confirmed["score"]
+            continue
         best, _ = findings.pop()
         refused.append({"effect": best["c"].effect, "axis": best["c"].axis, "parameter": best["value"],
                         "reason": why})
         current, reg_now, score_now = best["before"]
+    del fitter  # its cached fits are not needed any more (memory on long logs)
     # (model, regression, score) before each finding (they are added in order), then the final one
     states = [f[0]["before"] for f in findings] + [(current, reg_now, score_now)]
     fits = _step_fits(log, p, law, states, {0: (fit_before, over_before), len(findings): (fit_after, over_after)},
@@ -375,13 +383,23 @@ def _corrections(log, p, law, a, current, values, augmented, reg_now, score_now,
     return out
 
 
-def _refusal(c: Candidate, nominal: dict, augmented: dict, fit_before: dict, fit_after: dict) -> str | None:
+def _refusal(c: Candidate, nominal: dict, augmented: dict, fit_before: dict, fit_after: dict,
+             oe_fit: oe.OEFit | None = None) -> str | None:
     """Why the last finding cannot stand, or None: its refit J/B must stay physical (finite, positive) and
-    the prediction fit of every axis it acts on must rise."""
+    the prediction fit of every axis it acts on must rise.  A finding the output-error fit decided is judged
+    by that fit's simulation (its held-out test passed): no axis it acts on may fall, and one must rise."""
     axes_c = _axes_of(c)
     bad = [k for k in _params_of(axes_c) if not (math.isfinite(augmented[k]) and augmented[k] > 0)]
     if bad:
         return "refitting with it makes " + ", ".join(f"{k} = {augmented[k]:.3g}" for k in bad) + " (not physical)"
+    if oe_fit is not None:
+        fits = {x: oe_fit.fits.get(x, (math.nan, math.nan)) for x in axes_c}
+        fall = [x for x, (fb, fa) in fits.items() if not fa >= fb]
+        if fall or not any(fa > fb for fb, fa in fits.values()):
+            x = (fall or list(axes_c))[0]
+            return (f"it does not raise the {x} simulation fit ({fits[x][0]:.4g} % -> {fits[x][1]:.4g} %, "
+                    "output-error fit)")
+        return None
     for x in axes_c:
         fb, fa = fit_before.get(x, math.nan), fit_after.get(x, math.nan)
         if not math.isfinite(fa) or (math.isfinite(fb) and fa <= fb):
@@ -403,10 +421,7 @@ def _choose_start(log: Log, p: dict, law: str, a: float, estimated: dict | None,
     # the start is forgotten within a few motor time constants: judge on the leading START_JUDGE_S only (an
     # hour-long log would otherwise pay three full searches' worth of regressions and predictions)
     n = min(len(log), max(int(START_JUDGE_S / log.sample_time_s), 1))
-    if n < len(log):
-        log = replace(log, t_s=log.t_s[:n], u1_v=log.u1_v[:n], u2_v=log.u2_v[:n], alpha_rad=log.alpha_rad[:n],
-                      beta_rad=log.beta_rad[:n], u_switch_s=None if log.u_switch_s is None else log.u_switch_s[:n])
-        ids = ids[:n]
+    log, ids = log.head(n), ids[:n]
     best, best_cost = None, math.inf
     for opt in options:
         reg = regression(log, p, law, a, Model(), {("start_states",): opt})
@@ -474,16 +489,22 @@ def _try(c, log, p, law, a, current, cache, ids, score_now, n_tests):
             sc = score(reg, ids, ("pitch", "yaw"))
             gains.append(compare(score_now, sc, reg, axes_c, n_tests).gain)
         i = int(np.argmax(gains))
-        value = _refine(grid, gains, i)
-        model = current.with_mod(c.key, value)
         reg = sc = None
-        reg = regression(log, p, law, a, model, cache)
-        sc = score(reg, ids, ("pitch", "yaw"))
+        return _at_value(c, _refine(grid, gains, i), log, p, law, a, current, cache, ids, score_now, n_tests)
     if c.effect in EXACT_OFFSETS and value != 0.0:
         reg = sc = None
         model, reg, sc, value = _exact_offset(c, value, log, p, law, a, current, cache, ids, score_now, n_tests)
     test = compare(score_now, sc, reg, axes_c, n_tests)
     return {"c": c, "model": model, "reg": reg, "score": sc, "test": test, "value": value}
+
+
+def _at_value(c, value, log, p, law, a, current, cache, ids, score_now, n_tests):
+    """A grid candidate (an input modification) at ``value``: its model, regression and held-out test."""
+    model = current.with_mod(c.key, value)
+    reg = regression(log, p, law, a, model, cache)
+    sc = score(reg, ids, ("pitch", "yaw"))
+    return {"c": c, "model": model, "reg": reg, "score": sc, "test": compare(score_now, sc, reg, _axes_of(c), n_tests),
+            "value": value}
 
 
 #: offsets fitted linearly first, then exactly (sin(alpha + delta), or the whole pitch equation at
@@ -537,24 +558,57 @@ def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now,
     est = _estimates(score_now, reg_now)
     theta0 = est if all(math.isfinite(v) and v > 0 for v in est.values()) else {k: p[k] for k in est}
     values = _effect_values(current, score_now, reg_now)
-    order = sorted((r for r in results if r["c"].key in oe.OE_KEYS and r["c"].key not in current.keys),
+    fittable = oe.OE_KEYS + oe.PROFILE_KEYS
+    order = sorted((r for r in results if r["c"].key in fittable and r["c"].key not in current.keys),
                    key=lambda r: -r["test"].gain)[:OE_TOP_K]
     good = []
     for r in order:
-        f = fitter.candidate(current, values, theta0, r["c"].key)
-        ok = f is not None and oe.passes(f, n_tests, FAMILY_ALPHA) and _plausible(r["c"], f.value)
-        if f is not None:
-            tested.append({"effect": r["c"].effect, "axis": r["c"].axis, "after": list(current.keys),
-                           "parameter": f.value, "se": f.se, "t": f.t, "p": f.p, "cost_drop": f.cost_drop,
-                           "excess_share": f.excess_share, "torque_share": f.torque_share,
-                           "passed": bool(ok)})
+        f, ok = _oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested)
         if ok:
             good.append((r, f))
     if not good:
         return None
     r, f = max(good, key=lambda rf: rf[1].cost_drop)
-    res = _try(r["c"], log, p, law, a, current, cache, ids, score_now, n_tests)  # its regression (dropped before)
+    if r["c"].key in oe.PROFILE_KEYS:  # the model at the output error's value, with its regression
+        res = _at_value(r["c"], f.value, log, p, law, a, current, cache, ids, score_now, n_tests)
+    else:
+        res = _try(r["c"], log, p, law, a, current, cache, ids, score_now, n_tests)  # its regression (dropped before)
     res["oe"], res["value"] = f, f.value
+    return res
+
+
+def _oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested):
+    """Candidate c fitted by output error on top of ``current`` (an input modification by a profile over its
+    value, from the equation error's ``value0``); the fit (or None) and whether it passes.  Recorded in
+    ``tested``."""
+    if c.key in oe.PROFILE_KEYS:
+        f = fitter.profile(current, values, theta0, c.key, _grid(c, log, p), value0)
+    else:
+        f = fitter.candidate(current, values, theta0, c.key)
+    ok = f is not None and oe.passes(f, n_tests, FAMILY_ALPHA) and _plausible(c, f.value)
+    if f is not None:
+        tested.append({"effect": c.effect, "axis": c.axis, "after": list(current.keys), "parameter": f.value,
+                       "se": f.se, "t": f.t, "p": f.p, "cost_drop": f.cost_drop, "excess_share": f.excess_share,
+                       "torque_share": f.torque_share, "passed": bool(ok)})
+    return f, ok
+
+
+def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested):
+    """A finding the equation error passed but the prediction fit would refuse: when the output-error fit can
+    carry it, that fit judges (with its held-out test); the finding as _oe_rescue returns one, or None."""
+    c = best["c"]
+    before, reg_b, sc_b = best["before"]
+    if c.key not in oe.OE_KEYS + oe.PROFILE_KEYS or not oe.representable(before):
+        return None
+    est = _estimates(sc_b, reg_b)
+    theta0 = est if all(math.isfinite(v) and v > 0 for v in est.values()) else {k: p[k] for k in est}
+    f, ok = _oe_fit(c, best["value"], fitter, before, _effect_values(before, sc_b, reg_b), theta0, log, p, n_tests,
+                    tested)
+    if not ok:
+        return None
+    res = (_at_value(c, f.value, log, p, law, a, before, cache, ids, sc_b, n_tests) if c.key in oe.PROFILE_KEYS
+           else dict(best))
+    res.update(oe=f, value=f.value, before=best["before"], told_apart=best.get("told_apart"))
     return res
 
 

@@ -38,15 +38,21 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
             "estimates.augmented": "the same with the findings' terms added and refitted together",
             "output_error_tested": "when the equation-error test passes no candidate, its best output-error "
                                    "candidates fitted by output error (the effect's parameter free with J, B, the "
-                                   "findings' parameters and the motors' start states): value, batch-means "
-                                   "standard error, t, p (passes below 0.05 / candidates), the relative drop "
-                                   "of the noise-weighted squared angle error (passes from 1 %), the share of the "
-                                   "misfit above the noise floor it removes (information), and its torque over its "
-                                   "axis' thrust torque (passes from 0.5 %)",
+                                   "findings' parameters and the motors' start states; an input modification by a "
+                                   "profile over its value), and a finding the equation error passed whose "
+                                   "prediction fit did not rise: value, standard error (batch means; a "
+                                   "modification's from the profile's curvature), t, p (passes below 0.05 / "
+                                   "candidates; a modification's t is its held-out drop in angle error), the "
+                                   "relative drop of the noise-weighted squared angle error (passes from 1 %), the "
+                                   "share of the misfit above the noise floor it removes (information), and its "
+                                   "torque over its axis' thrust torque (passes from 0.5 %; a modification's "
+                                   "change of thrust torque from 0.1 %)",
             "estimate_shift_percent": "how far leaving the effect out (the findings before it in) had moved each "
                                       "estimate",
             "findings.fit_before, fit_after": "this finding's own step: the prediction fit [%] of its axes with the "
-                                              "findings before it, then with it added (worst axis)",
+                                              "findings before it, then with it added (worst axis); a finding "
+                                              "the output-error fit decided gives that fit's simulation fits, "
+                                              "which decided, in its evidence",
             "corrections": "physics outside the library: a sparse data-driven correction of an axis' residual torque "
                            "(terms from a small library, pysindy STLSQ, kept only when it lowers the held-out "
                            "residual beyond chance and raises the prediction fit); a description, not a named effect",
