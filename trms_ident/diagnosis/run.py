@@ -219,7 +219,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         if why is None:
             break
         last = findings[-1][0]
-        confirmed = None if "oe" in last or not why.startswith("it does not raise") else _oe_confirm(
+        confirmed = None if "oe" in last or _unphysical(last["c"], augmented) else _oe_confirm(
             last, log, p, law, a, cache, ids, n_tests, fitter, oe_tested)
         if confirmed is not None:  # the output-error fit carries it and its held-out test passes: judged there
             findings[-1] = (confirmed, findings[-1][1])
@@ -389,9 +389,9 @@ def _refusal(c: Candidate, nominal: dict, augmented: dict, fit_before: dict, fit
     the prediction fit of every axis it acts on must rise.  A finding the output-error fit decided is judged
     by that fit's simulation (its held-out test passed): no axis it acts on may fall, and one must rise."""
     axes_c = _axes_of(c)
-    bad = [k for k in _params_of(axes_c) if not (math.isfinite(augmented[k]) and augmented[k] > 0)]
-    if bad:
-        return "refitting with it makes " + ", ".join(f"{k} = {augmented[k]:.3g}" for k in bad) + " (not physical)"
+    unphysical = _unphysical(c, augmented)
+    if unphysical:
+        return unphysical
     if oe_fit is not None:
         fits = {x: oe_fit.fits.get(x, (math.nan, math.nan)) for x in axes_c}
         fall = [x for x, (fb, fa) in fits.items() if not fa >= fb]
@@ -404,6 +404,14 @@ def _refusal(c: Candidate, nominal: dict, augmented: dict, fit_before: dict, fit
         fb, fa = fit_before.get(x, math.nan), fit_after.get(x, math.nan)
         if not math.isfinite(fa) or (math.isfinite(fb) and fa <= fb):
             return f"it does not raise the {x} prediction fit ({fb:.4g} % -> {fa:.4g} %)"
+    return None
+
+
+def _unphysical(c: Candidate, augmented: dict) -> str | None:
+    """Why refitting J/B with finding c is not physical (a J or B of its axes not finite and positive), or None."""
+    bad = [k for k in _params_of(_axes_of(c)) if not (math.isfinite(augmented[k]) and augmented[k] > 0)]
+    if bad:
+        return "refitting with it makes " + ", ".join(f"{k} = {augmented[k]:.3g}" for k in bad) + " (not physical)"
     return None
 
 
