@@ -119,10 +119,7 @@ def torque_share(key: str, value: float, log: Log, p: dict, law: str) -> float:
     of the logged voltages), both over the log."""
     axis = key.split(":")[1]
     pitch = axis == "pitch"
-    u = log.u1_v if pitch else log.u2_v
-    k, t0, a, b = (p["k1"], p["T10"], p["a1"], p["b1"]) if pitch else (p["k2"], p["T20"], p["a2"], p["b2"])
-    tau = k / t0 * u
-    m = thrust(tau, a, b, law)  # eq. (1) thrust law
+    tau, m = _steady_thrust(log.u1_v if pitch else log.u2_v, pitch, p, law)
     x = log.alpha_rad if pitch else log.beta_rad
     w = np.gradient(x, log.sample_time_s)
     rms = lambda v: float(np.sqrt(np.mean(np.square(v))))  # noqa: E731
@@ -136,17 +133,24 @@ def torque_share(key: str, value: float, log: Log, p: dict, law: str) -> float:
     return torque / scale if scale > 0 else 0.0
 
 
+def _steady_thrust(u: np.ndarray, pitch: bool, p: dict, law: str) -> tuple[np.ndarray, np.ndarray]:
+    """tau at the steady state of the voltages u [V] and the axis' thrust torque M(tau) [N m] (eq. 1)."""
+    k, t0, a, b = (p["k1"], p["T10"], p["a1"], p["b1"]) if pitch else (p["k2"], p["T20"], p["a2"], p["b2"])
+    tau = k / t0 * u
+    return tau, thrust(tau, a, b, law)
+
+
 def modification_torque_share(key: str, value: float, log: Log, p: dict, law: str) -> float:
     """RMS of the change in thrust torque that input modification ``key`` at ``value`` makes (tau at the steady
     state of the voltages) over the RMS of the thrust torque, the larger of the axes it touches."""
     u1, u2, changes = modified_inputs(log, {key: value})
     pp = {**p, **changes}
     shares = []
-    for mod, raw, k, t0, a, b in ((u1, log.u1_v, "k1", "T10", "a1", "b1"), (u2, log.u2_v, "k2", "T20", "a2", "b2")):
+    for mod, raw, pitch in ((u1, log.u1_v, True), (u2, log.u2_v, False)):
         if mod is raw:  # untouched (a read-only view of the log's own column)
             continue
-        m = thrust(pp[k] / pp[t0] * raw, pp[a], pp[b], law)  # eq. (1) thrust law
-        dm = thrust(pp[k] / pp[t0] * mod, pp[a], pp[b], law) - m
+        m = _steady_thrust(raw, pitch, pp, law)[1]
+        dm = _steady_thrust(mod, pitch, pp, law)[1] - m
         scale = float(np.sqrt(np.mean(m * m)))
         shares.append(float(np.sqrt(np.mean(dm * dm))) / scale if scale > 0 else 0.0)
     return max(shares, default=0.0)
@@ -240,16 +244,17 @@ class Fitter:
         t = f["estimate"] / se if se > 0 else math.inf
         dof = max(r.blocks - 1, 1)
         p = float(2.0 * stdtr(dof, -abs(t))) if math.isfinite(t) else 0.0
-        explained = max((base.rms_rad[ax] ** 2 - r.rms_rad[ax] ** 2) / v if v > 0 else 0.0
+        return OEFit(key, float(f["estimate"]), float(se), float(t), p, *self._drops(base, r.cost, r.rms_rad),
+                     torque_share(key, float(f["estimate"]), self.log, self.p, self.law), dict(r.estimate), self.n,
+                     fits=self._simulation_fits(base.rms_rad, r.rms_rad))
+
+    def _drops(self, base, cost: float, rms_rad: dict) -> tuple[float, float, float]:
+        """A candidate's cost_drop, explained and excess_share (OEFit) against the current model's fit."""
+        explained = max((base.rms_rad[ax] ** 2 - rms_rad[ax] ** 2) / v if v > 0 else 0.0
                         for ax, v in self.var.items())
         floor = 2.0 * self.n  # the noise-weighted squared error of a model that fits to the noise level
         excess = max(base.cost - floor, MIN_COST_DROP * base.cost)
-        fits = self._simulation_fits(base.rms_rad, r.rms_rad)
-        return OEFit(key, float(f["estimate"]), float(se), float(t), p, float((base.cost - r.cost) / base.cost),
-                     float(explained), float((base.cost - r.cost) / excess),
-                     torque_share(key, float(f["estimate"]), self.log, self.p, self.law), dict(r.estimate), self.n,
-                     fits=fits)
-
+        return float((base.cost - cost) / base.cost), float(explained), float((base.cost - cost) / excess)
 
     def profile(self, model: Model, values: dict, theta0: dict, key: str, grid: tuple, value0: float) -> OEFit | None:
         """Input modification ``key`` (PROFILE_KEYS, a positive value) fitted by output error over its value:
@@ -321,12 +326,7 @@ class Fitter:
         total = float(np.sum(drop))
         t = total / scale if scale > 0 else (math.inf if total > 0 else 0.0)
         p = float(stdtr(max(nb - 1, 1), -t)) if math.isfinite(t) else (0.0 if t > 0 else 1.0)
-        explained = max((base.rms_rad[ax] ** 2 - rms_best[ax] ** 2) / v if v > 0 else 0.0
-                        for ax, v in self.var.items())
-        floor = 2.0 * self.n
-        excess = max(base.cost - floor, MIN_COST_DROP * base.cost)
-        return OEFit(key, float(best), float(se), t, p, float((base.cost - c_best) / base.cost), float(explained),
-                     float((base.cost - c_best) / excess),
+        return OEFit(key, float(best), float(se), t, p, *self._drops(base, c_best, rms_best),
                      modification_torque_share(key, float(best), self.log.head(self.n), self.p, self.law),
                      dict(est_best), self.n, profiled=True, fits=self._simulation_fits(base.rms_rad, rms_best))
 

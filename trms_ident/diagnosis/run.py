@@ -563,8 +563,7 @@ def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now,
     and value, as _try returns them, with "oe": the fit), or None."""
     if not oe.representable(current):
         return None
-    est = _estimates(score_now, reg_now)
-    theta0 = est if all(math.isfinite(v) and v > 0 for v in est.values()) else {k: p[k] for k in est}
+    theta0 = _oe_start(score_now, reg_now, p)
     values = _effect_values(current, score_now, reg_now)
     fittable = oe.OE_KEYS + oe.PROFILE_KEYS
     order = sorted((r for r in results if r["c"].key in fittable and r["c"].key not in current.keys),
@@ -583,6 +582,12 @@ def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now,
         res = _try(r["c"], log, p, law, a, current, cache, ids, score_now, n_tests)  # its regression (dropped before)
     res["oe"], res["value"] = f, f.value
     return res
+
+
+def _oe_start(sc, reg, p: dict) -> dict:
+    """J/B the output-error fits start from: the equation error's, or the table's when those are not physical."""
+    est = _estimates(sc, reg)
+    return est if all(math.isfinite(v) and v > 0 for v in est.values()) else {k: p[k] for k in est}
 
 
 def _oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested):
@@ -608,10 +613,8 @@ def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested):
     before, reg_b, sc_b = best["before"]
     if c.key not in oe.OE_KEYS + oe.PROFILE_KEYS or not oe.representable(before):
         return None
-    est = _estimates(sc_b, reg_b)
-    theta0 = est if all(math.isfinite(v) and v > 0 for v in est.values()) else {k: p[k] for k in est}
-    f, ok = _oe_fit(c, best["value"], fitter, before, _effect_values(before, sc_b, reg_b), theta0, log, p, n_tests,
-                    tested)
+    f, ok = _oe_fit(c, best["value"], fitter, before, _effect_values(before, sc_b, reg_b), _oe_start(sc_b, reg_b, p),
+                    log, p, n_tests, tested)
     if not ok:
         return None
     res = (_at_value(c, f.value, log, p, law, a, before, cache, ids, sc_b, n_tests) if c.key in oe.PROFILE_KEYS
