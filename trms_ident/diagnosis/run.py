@@ -433,7 +433,9 @@ def _choose_start(log: Log, p: dict, law: str, a: float, estimated: dict | None,
     best, best_cost = None, math.inf
     for opt in options:
         reg = regression(log, p, law, a, Model(), {("start_states",): opt})
-        fits, _ = _fits(log, p, law, Model(), {}, _estimates(score(reg, ids, ("pitch", "yaw")), reg), start=opt)
+        # J/B of the table when the equation error's are not physical (a missed delay drives B1 below 0): with no
+        # prediction to score, every option would cost the same and the first (the steady state) would stand
+        fits, _ = _fits(log, p, law, Model(), {}, _oe_start(score(reg, ids, ("pitch", "yaw")), reg, p), start=opt)
         cost = sum((1.0 - fits[ax] / 100.0) ** 2 if math.isfinite(fits[ax]) else math.inf for ax in fits)
         if cost < best_cost:
             best, best_cost = opt, cost
