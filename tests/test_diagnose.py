@@ -319,6 +319,7 @@ def test_segments_locate_a_burst_of_equation_error_in_time():
     ("dead_zone", "yaw", 0.1, "chirp", 0.0),
     ("input_saturation", "pitch", 1.6, "steps", 30.0),
     ("input_delay", "both", 0.03, "square", 30.0),
+    ("motor_lag", "yaw", 1.3, "multisine", 0.0),
 ])
 def test_output_error_profile_fits_an_input_modification_and_leaves_a_clean_log_alone(effect, axis, value, ref,
                                                                                        start):

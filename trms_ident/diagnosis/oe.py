@@ -17,20 +17,25 @@ square-wave log); the practical size decides there.
 
 Which effects the output-error model carries: numerics.refine.EFFECT_SLOTS (Coulomb friction and quadratic
 drag on either axis, the yaw cable, a reversed rotor's thrust asymmetry, the centre-of-mass offset); the
-other findings (the encoder offset, the pitch-dependent yaw inertia, a motor's time constant) are not in it
-with a free parameter, so once one of them is a finding only the equation error judges.
+other findings (the encoder offset, the pitch-dependent yaw inertia) are not in it with a free parameter, so
+once one of them is a finding only the equation error judges.
 
-Input modifications (PROFILE_KEYS: dead zone, saturation, transport delay) change the voltages the plant
-sees, not its equations: each is fitted by a profile over its value, the output-error fit repeated on the
-modified voltages at each trial value (a dead zone's cost is piecewise constant in its width: there is no
-sensitivity to follow).  Their test holds data out: the value is chosen on the even 1 s blocks and scored on
-the odd ones, and the other way round; t is that held-out drop in noise-weighted squared angle error over the
-batch-means scale of its noise part (2 e'd per block, e the candidate's error, d its change from the current
-model: pure noise when the candidate is right, inflated by the misfit it leaves when it is not), one-sided,
-with the same family correction; the practical sizes are those of the torques, the torque share measured on
-the thrust torque the modification changes (MIN_MODIFICATION_SHARE).  Once one is a finding the model is no
-longer one the output-error fit carries with every parameter free (representable), and later rounds are the
-equation error's alone.
+Input modifications (PROFILE_KEYS: dead zone, saturation, transport delay, and a motor's time constant, which
+changes how the motor follows the voltages) change what drives the plant, not its equations: each is fitted by
+a profile over its value, the output-error fit repeated on the modified voltages at each trial value (a dead
+zone's cost is piecewise constant in its width: there is no sensitivity to follow). Their test holds data out:
+the value is chosen on the even 1 s blocks and scored on the odd ones, and the other way round; t is that
+held-out drop in noise-weighted squared angle error over the batch-means scale of its noise part (2 e'd per
+block, e the candidate's error, d its change from the current model: pure noise when the candidate is right,
+inflated by the misfit it leaves when it is not), one-sided, with the same family correction; the practical
+sizes are those of the torques, the torque share measured on the thrust torque the modification changes
+(MIN_MODIFICATION_SHARE). Once one is a finding the model is no longer one the output-error fit carries with
+every parameter free (representable), and later rounds are the equation error's alone.
+
+Where the output-error fit decides (diagnosis/run.py): when the equation error passes no candidate (its best
+OE_TOP_K fitted here), when it cannot tell its best candidate from look-alikes (each fitted here; the one that
+leaves the least misfit wins), when a finding it passed does not raise the prediction fit, and when an earlier
+finding is judged again given the later ones.
 """
 from __future__ import annotations
 
@@ -61,7 +66,7 @@ MAX_STEPS = 250_000
 
 #: input modifications fitted by a profile over their value (module docstring)
 PROFILE_KEYS = ("dead_zone:pitch", "dead_zone:yaw", "input_saturation:pitch", "input_saturation:yaw",
-                "input_delay:both")
+                "input_delay:both", "motor_lag:pitch", "motor_lag:yaw")
 #: a profile tries the equation error's value and this many steps of the search grid's spacing either side, then
 #: halves the (geometric) spacing around the best PROFILE_BISECTIONS times and takes the parabola's vertex: a
 #: dead zone's cost is sharply peaked (3 % off its width gave back 3 % of an 80 % drop in angle error)
@@ -93,6 +98,8 @@ class OEFit:
     profiled: bool = False  # an input modification: se from the profile's curvature, t and p held out
     #: axis -> (simulation fit of the current model, with the candidate) [%, NRMSE] over the fitted samples
     fits: dict = field(default_factory=dict)
+    #: the motors' states at the first sample estimated with the candidate in (refine's START_NAMES)
+    start_states: dict = field(default_factory=dict)
 
 
 def representable(model: Model) -> bool:
@@ -140,11 +147,27 @@ def _steady_thrust(u: np.ndarray, pitch: bool, p: dict, law: str) -> tuple[np.nd
     return tau, thrust(tau, a, b, law)
 
 
+def _motor_lag_share(log: Log, p: dict, pp: dict, law: str, pitch: bool) -> float:
+    """RMS of the change in the axis' thrust torque when the motor states follow the logged voltages with the
+    parameters ``pp`` instead of ``p`` (a motor time constant changed), over the RMS of the thrust torque."""
+    from ..numerics.fused import plant_signals
+
+    a, b = (p["a1"], p["b1"]) if pitch else (p["a2"], p["b2"])
+    m = []
+    for q in (p, pp):
+        ps = plant_signals(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, log.sample_time_s, q, law, rows="motors")
+        m.append(thrust(ps.tau1 if pitch else ps.tau2, a, b, law))
+    scale = float(np.sqrt(np.mean(m[0] * m[0])))
+    return float(np.sqrt(np.mean((m[1] - m[0]) ** 2))) / scale if scale > 0 else 0.0
+
+
 def modification_torque_share(key: str, value: float, log: Log, p: dict, law: str) -> float:
     """RMS of the change in thrust torque that input modification ``key`` at ``value`` makes (tau at the steady
     state of the voltages) over the RMS of the thrust torque, the larger of the axes it touches."""
     u1, u2, changes = modified_inputs(log, {key: value})
     pp = {**p, **changes}
+    if changes:  # a motor's time constant: the voltages stay, the motor states' dynamics change
+        return _motor_lag_share(log, p, pp, law, "T11" in changes)
     shares = []
     for mod, raw, pitch in ((u1, log.u1_v, True), (u2, log.u2_v, False)):
         if mod is raw:  # untouched (a read-only view of the log's own column)
@@ -246,7 +269,7 @@ class Fitter:
         p = float(2.0 * stdtr(dof, -abs(t))) if math.isfinite(t) else 0.0
         return OEFit(key, float(f["estimate"]), float(se), float(t), p, *self._drops(base, r.cost, r.rms_rad),
                      torque_share(key, float(f["estimate"]), self.log, self.p, self.law), dict(r.estimate), self.n,
-                     fits=self._simulation_fits(base.rms_rad, r.rms_rad))
+                     fits=self._simulation_fits(base.rms_rad, r.rms_rad), start_states=motor_start(r))
 
     def _drops(self, base, cost: float, rms_rad: dict) -> tuple[float, float, float]:
         """A candidate's cost_drop, explained and excess_share (OEFit) against the current model's fit."""
@@ -272,7 +295,8 @@ class Fitter:
             if v not in tried:
                 try:
                     r = self._fit(model, values, base.estimate, None, (key, v), PROFILE_ITERATIONS)
-                    tried[v] = ((r.cost, self._block_costs(r.prediction, base.prediction), r.rms_rad, r.estimate)
+                    tried[v] = ((r.cost, self._block_costs(r.prediction, base.prediction), r.rms_rad, r.estimate,
+                                 motor_start(r))
                                 if math.isfinite(r.cost) else None)  # not the fit itself (memory on long logs)
                 except _FAILED:
                     tried[v] = None
@@ -308,7 +332,7 @@ class Fitter:
             k = np.polyfit(x, y, 2)[0]  # cost ~ k (v - v*)^2 + c: for noise-weighted squares, var(v*) = 1 / k
             se = 1.0 / math.sqrt(k) if k > 0 else math.inf
         best = min((v for v in tried if tried[v] is not None), key=cost)
-        c_best, _, rms_best, est_best = tried[best]
+        c_best, _, rms_best, est_best, start_best = tried[best]
         # held out: the value chosen on the even blocks scores the odd ones, and the other way round.  The drop
         # in squared error per block is d'd + 2 e'd (e the candidate's error, d its change from the base): when
         # the candidate is right e is noise and the second term is the drop's noise, whose block sums give the
@@ -328,7 +352,14 @@ class Fitter:
         p = float(stdtr(max(nb - 1, 1), -t)) if math.isfinite(t) else (0.0 if t > 0 else 1.0)
         return OEFit(key, float(best), float(se), t, p, *self._drops(base, c_best, rms_best),
                      modification_torque_share(key, float(best), self.log.head(self.n), self.p, self.law),
-                     dict(est_best), self.n, profiled=True, fits=self._simulation_fits(base.rms_rad, rms_best))
+                     dict(est_best), self.n, profiled=True, fits=self._simulation_fits(base.rms_rad, rms_best),
+                     start_states=start_best)
+
+
+def motor_start(r) -> dict:
+    """The motors' start states of a refinement result (tau1_0, tau2_0, zeta_0), {} when not all finite."""
+    s = {k: float(r.start_states.get(k, math.nan)) for k in ("tau1_0", "tau2_0", "zeta_0")}
+    return s if all(math.isfinite(v) for v in s.values()) else {}
 
 
 def passes(fit: OEFit, n_tests: int, alpha: float) -> bool:
