@@ -351,3 +351,81 @@ def test_output_error_profile_fits_an_input_modification_and_leaves_a_clean_log_
     assert "held-out drop in angle error" in oe.evidence(f, 0.005)
     g = fits[False]
     assert g is None or not oe.passes(g, 24, FAMILY_ALPHA)
+
+
+def test_each_model_predicts_from_its_own_motor_start_states():
+    # a square-wave log cut 30 s into the run with a 0.02 s input delay: the seed model's least-squares B1 is not
+    # physical, and the motors' start states chosen for it (and estimated without the delay) had left the yaw
+    # prediction of the findings' model at 80 % for its first seconds and the verdict "partly explained"
+    from sim import SimSettings, simulate
+
+    r = simulate(SimSettings(ref="square", sample_rate_hz=1000.0, duration_s=90.0, quantization_rad=Q12, seed=91,
+                             start_s=30.0, effects=[dict(effect="input_delay", axis="both", value=0.02)]))
+    d = diagnose(as_log(r))
+    assert [(f.effect, f.axis) for f in d.findings] == [("input_delay", "both")]
+    assert d.findings[0].parameter["value"] == pytest.approx(0.02, rel=0.05)
+    assert d.verdict == "explained", d.verdict_sentence
+    assert min(d.fit_after.values()) > 99.0
+    assert d.settings["start_states_after"] is not None  # estimated (not the steady state of the first volts)
+
+
+def test_output_error_fit_decides_between_close_rivals():
+    # yaw Coulomb friction and a yaw cable, square wave cut mid-run: the equation error ranks a yaw motor time
+    # constant 2 % off its table value (gain 0.62) just above the cable (0.60); fitted by output error, the
+    # cable leaves a third of the misfit the time constant leaves, and both injected effects are named
+    from sim import SimSettings, simulate
+
+    r = simulate(SimSettings(ref="square", sample_rate_hz=1000.0, duration_s=90.0, quantization_rad=Q12, seed=92,
+                             start_s=30.0, effects=[dict(effect="coulomb_friction", axis="yaw", value=0.004),
+                                                    dict(effect="cable_stiffness", axis="yaw", value=0.01)]))
+    d = diagnose(as_log(r))
+    named = {(f.effect, f.axis): f for f in d.findings}
+    assert set(named) == {("cable_stiffness", "yaw"), ("coulomb_friction", "yaw")}, list(named)
+    assert named["cable_stiffness", "yaw"].parameter["value"] == pytest.approx(0.01, rel=0.1)
+    assert named["coulomb_friction", "yaw"].parameter["value"] == pytest.approx(0.004, rel=0.1)
+    assert "the output-error fit told it apart from motor_lag:yaw" in named["cable_stiffness", "yaw"].evidence
+    assert d.verdict == "explained", d.verdict_sentence
+
+
+@pytest.mark.parametrize("first, value, second, kept", [
+    ("dead_zone:yaw", 0.15, None, ["input_delay:both"]),
+    ("coulomb_friction:yaw", None, dict(effect="coulomb_friction", axis="yaw", value=5e-3),
+     ["coulomb_friction:yaw", "input_delay:both"])])
+def test_an_earlier_finding_is_judged_again_given_the_later_ones(first, value, second, kept):
+    # findings come one per round; one that no longer helps once a later one is in (here a yaw dead zone the log
+    # does not have, put first by hand) must go, a real one (a yaw friction beside the delay) must stay
+    from trms_ident.diagnosis import oe
+    from trms_ident.diagnosis.effects import BY_KEY
+    from trms_ident.diagnosis.model import Model, regression
+    from trms_ident.diagnosis.run import (_at_value, _backward, _effect_values, _estimates, _fits, _try, block_ids,
+                                          block_length, score)
+    from trms_ident.numerics.design import design_filters
+    from trms_ident.params import defaults
+
+    effects = [dict(effect="input_delay", axis="both", value=0.03)] + ([second] if second else [])
+    r = sim_cached("multisine", 100.0, 90.0, 0.0, Q12, 11, tuple(tuple(sorted(e.items())) for e in effects))
+    log = as_log(r)
+    p, law, n = defaults(), "quadratic", 17
+    a = design_filters(log.alpha_rad, log.beta_rad, log.sample_time_s).a_rad_s
+    ids = block_ids(len(log), block_length(len(log), log.sample_time_s, 1.0 / a))
+    cache = {("start_states",): None}
+    reg0 = regression(log, p, law, a, Model(), cache)
+    sc0 = score(reg0, ids, ("pitch", "yaw"))
+    c = BY_KEY[first]
+    res = (_try(c, log, p, law, a, Model(), cache, ids, sc0, n) if value is None else
+           _at_value(c, value, log, p, law, a, Model(), cache, ids, sc0, n))
+    res["before"] = (Model(), reg0, sc0)
+    last = _at_value(BY_KEY["input_delay:both"], 0.03, log, p, law, a, res["model"], cache, ids, res["score"], n)
+    last["before"] = (res["model"], res["reg"], res["score"])
+    findings = [(res, []), (last, [])]
+    current, augmented = last["model"], _estimates(last["score"], last["reg"])
+    values = _effect_values(current, last["score"], last["reg"])
+    fit_after, _ = _fits(log, p, law, current, values, augmented)
+    dropped = _backward(findings, current, augmented, values, fit_after, log, p, law, a, cache, ids, n,
+                        oe.Fitter(log, p, law), [], {}, None)
+    assert [f[0]["c"].key for f in findings] == kept
+    if second is None:
+        assert [(x["effect"], x["axis"]) for x in dropped] == [("dead_zone", "yaw")]
+        assert dropped[0]["reason"].startswith("given the later findings, it does not raise the yaw prediction fit")
+    else:
+        assert dropped == []

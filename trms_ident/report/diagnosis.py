@@ -53,6 +53,15 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                                               "findings before it, then with it added (worst axis); a finding "
                                               "the output-error fit decided gives that fit's simulation fits, "
                                               "which decided, in its evidence",
+            "refused": "findings taken back: the last one when refitting J/B with it is not physical or it does "
+                       "not raise the prediction fit of its axes (unless the output-error fit confirms it); an "
+                       "earlier one when, given the later findings, the same test fails ('given the later "
+                       "findings')",
+            "settings.start_states_before, start_states_after": "the motors' states at the first sample the seed "
+                                                                "model and the findings' model predict from (each "
+                                                                "chosen by its fit over the first 60 s among the "
+                                                                "seed model's choice, steady state, rest and the "
+                                                                "estimates; null: steady state)",
             "corrections": "physics outside the library: a sparse data-driven correction of an axis' residual torque "
                            "(terms from a small library, pysindy STLSQ, kept only when it lowers the held-out "
                            "residual beyond chance and raises the prediction fit); a description, not a named effect",
