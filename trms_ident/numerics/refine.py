@@ -33,7 +33,6 @@ correlated errors, e.g. quantization).
 from __future__ import annotations
 
 import math
-import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
@@ -348,10 +347,9 @@ THREAD_MIN_SAMPLES = 50_000
 
 
 def _threads() -> int:
-    try:
-        return max(1, min(len(os.sched_getaffinity(0)), 4))
-    except AttributeError:  # not on Linux
-        return max(1, min(os.cpu_count() or 1, 4))
+    from .._threads import budget
+
+    return budget()
 
 
 def motor_response(free, m0):
