@@ -103,19 +103,3 @@ def test_earlier_outputs_are_never_inputs(folder, tmp_path, monkeypatch):
     doc = json.loads((tmp_path / "results_b" / "summary.json").read_text())
     assert len(doc["files"]) == 20, [f["path"] for f in doc["files"]]
     assert all(os.path.isabs(f["output"]) for f in doc["files"]) and again.exit_code == EXIT_SOME_FAILED
-
-
-def test_each_worker_gets_its_share_of_the_cores(monkeypatch):
-    # -jN workers must not each start a thread per core (pyarrow's parser, the refinement's windows, the axes)
-    from trms_ident import _threads, batch
-
-    monkeypatch.delenv(_threads.ENV, raising=False)
-    monkeypatch.setattr(_threads, "cores", lambda: 2)
-    assert _threads.budget() == 2 and _threads.share(1) == 2 and _threads.share(2) == 1 and _threads.share(8) == 1
-    monkeypatch.setattr(_threads, "cores", lambda: 16)
-    assert _threads.budget() == _threads.MAX_THREADS and _threads.share(2) == 8
-    batch._worker_threads(_threads.share(8))  # what the pool's initializer runs in each worker
-    assert _threads.budget() == 2
-    for junk in ("", "0", "two"):  # not a positive count: the default holds
-        monkeypatch.setenv(_threads.ENV, junk)
-        assert _threads.budget() == _threads.MAX_THREADS

@@ -16,7 +16,6 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Callable, Iterable
 
-from ._threads import ENV as THREADS_ENV, share
 from .errors import SettingsError, TrmsError
 from .io.atomic import write_text
 from .io.readers import LOG_SUFFIXES
@@ -107,11 +106,6 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
     return row
 
 
-def _worker_threads(threads: int) -> None:
-    """A batch worker process' thread budget (_threads.budget)."""
-    os.environ[THREADS_ENV] = str(threads)
-
-
 def run(paths: list[Path], out_dir: Path, settings: Settings, options: dict, jobs: int = 1,
         scheduler: str | None = None, on_done: Callable[[dict], None] | None = None) -> list[dict]:
     """Process every log; rows come back in the order of ``paths``."""
@@ -138,9 +132,7 @@ def run(paths: list[Path], out_dir: Path, settings: Settings, options: dict, job
     elif jobs > 1:
         from concurrent.futures import ProcessPoolExecutor, as_completed as done_first
 
-        # each worker gets its share of the cores: unchecked, two workers each ran a thread per core (pyarrow's
-        # parser, the refinement's windows, the two axes) and -j2 was 1.09x -j1 on 2 cores
-        with ProcessPoolExecutor(max_workers=jobs, initializer=_worker_threads, initargs=(share(jobs),)) as pool:
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
             futures = {pool.submit(process_one, p, o, settings, options): i for i, (p, o) in enumerate(work)}
             for fut in done_first(futures):
                 rows[futures[fut]] = fut.result()

@@ -162,16 +162,13 @@ def _parse_fast(path: Path, names: list[str], delim: str, first_data_line: int,
     import pyarrow as pa
     import pyarrow.csv as pc
 
-    from .._threads import budget
-
     unique = [n if n in wanted else f"_extra{i}" for i, n in enumerate(names)]
     cols = {c: np.empty(_expected_rows(path)) for c in wanted}
     n = blocks = 0
     try:
         reader = pc.open_csv(
             path,
-            read_options=pc.ReadOptions(column_names=unique, skip_rows=first_data_line - 1, block_size=BLOCK_BYTES,
-                                        use_threads=budget() > 1),
+            read_options=pc.ReadOptions(column_names=unique, skip_rows=first_data_line - 1, block_size=BLOCK_BYTES),
             parse_options=pc.ParseOptions(delimiter=delim, ignore_empty_lines=False),
             convert_options=pc.ConvertOptions(column_types={c: pa.float64() for c in wanted},
                                               include_columns=list(wanted)),

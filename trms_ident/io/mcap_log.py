@@ -21,7 +21,6 @@ from pathlib import Path
 
 import numpy as np
 
-from .._threads import budget
 from ..errors import LogFormatError, SettingsError
 from ..log import Log, validated
 from .atomic import atomic_path
@@ -212,7 +211,7 @@ def scan(path: Path, wanted: dict[str, list[SignalSource]] | None, time_source: 
         # reads the file and collects the results in file order, a few chunks behind at most, so memory
         # stays bounded.
         pending: deque = deque()
-        with ThreadPoolExecutor(max_workers=min(2, budget())) as pool:
+        with ThreadPoolExecutor(max_workers=2) as pool:
             for rec in _records(path, fh, warnings):
                 if isinstance(rec, Chunk):
                     compression.add(rec.compression or "none")

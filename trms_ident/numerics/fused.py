@@ -16,7 +16,6 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from .._threads import budget
 from .coefficients import bilinear_second_order, zoh_first_order, zoh_reaction
 from .drem import gradient_step
 
@@ -178,7 +177,7 @@ def mixed_regressions(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law
                             motor), phi, eps)
         out[axis] = (phi, eps)
 
-    with ThreadPoolExecutor(max_workers=min(2, budget())) as pool:
+    with ThreadPoolExecutor(max_workers=2) as pool:
         list(pool.map(run, ("pitch", "yaw")))
     return out
 
@@ -212,7 +211,7 @@ def drem_summaries(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: s
                               block, sums, totals, gam, float(rate_per_s), float(floor_fraction), trace, int(step))
         out[axis] = AxisSummary(float(totals[0]), totals[1:].copy(), sums, trace, final)
 
-    with ThreadPoolExecutor(max_workers=min(2, budget())) as pool:
+    with ThreadPoolExecutor(max_workers=2) as pool:
         list(pool.map(run, ("pitch", "yaw")))
     return out
 

@@ -33,6 +33,7 @@ correlated errors, e.g. quantization).
 from __future__ import annotations
 
 import math
+import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
@@ -347,9 +348,10 @@ THREAD_MIN_SAMPLES = 50_000
 
 
 def _threads() -> int:
-    from .._threads import budget
-
-    return budget()
+    try:
+        return max(1, min(len(os.sched_getaffinity(0)), 4))
+    except AttributeError:  # not on Linux
+        return max(1, min(os.cpu_count() or 1, 4))
 
 
 def motor_response(free, m0):
