@@ -255,7 +255,8 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                                              f[0]["oe"].start_states]
         if oe.representable(current):  # the output-error fit of the findings' model estimates them too
             fit = fitter.base(current, values, _oe_start(score_now, reg_now, p))
-            starts += [oe.motor_start(fit)] if fit is not None and oe.motor_start(fit) else []
+            fitted = oe.motor_start(fit) if fit is not None else {}
+            starts += [fitted] if fitted else []
         starts = [x for i, x in enumerate(starts) if x not in starts[:i]]
         start_before = _start_after(log, p, law, Model(), {}, nominal, starts)
         if start_before != start:
@@ -525,15 +526,24 @@ def _start_after(log: Log, p: dict, law: str, model: Model, values: dict, est: d
     left the yaw prediction of a log cut mid-run 10x its noise level for its first 5 s."""
     if len(options) == 1:
         return options[0]
-    n = min(len(log), max(int(START_JUDGE_S / log.sample_time_s), 1))
-    head = log.head(n)
+    head = log.head(_start_samples(log))
     best, best_cost = options[0], math.inf
     for opt in options:
-        fits, _ = _fits(head, p, law, model, values, est, start=opt)
-        cost = sum((1.0 - fits[ax] / 100.0) ** 2 if math.isfinite(fits[ax]) else math.inf for ax in fits)
+        cost = _start_cost(_fits(head, p, law, model, values, est, start=opt)[0])
         if cost < best_cost:
             best, best_cost = opt, cost
     return best
+
+
+def _start_samples(log: Log) -> int:
+    """How many leading samples judge the motors' start states: START_JUDGE_S of the log (the start is forgotten
+    within a few motor time constants; an hour-long log would otherwise pay full regressions and predictions)."""
+    return min(len(log), max(int(START_JUDGE_S / log.sample_time_s), 1))
+
+
+def _start_cost(fits: dict) -> float:
+    """What a start-state option costs: the sum over axes of (1 - prediction fit)^2, infinite without a fit."""
+    return sum((1.0 - fits[ax] / 100.0) ** 2 if math.isfinite(fits[ax]) else math.inf for ax in fits)
 
 
 def _choose_start(log: Log, p: dict, law: str, a: float, estimated: dict | None, ids: np.ndarray) -> dict | None:
@@ -542,9 +552,7 @@ def _choose_start(log: Log, p: dict, law: str, a: float, estimated: dict | None,
     whose seed-model predictions fit the angles best is used (the equation error cannot tell: its start-state
     regressors absorb the difference)."""
     options = [None, REST] + ([estimated] if estimated is not None else [])
-    # the start is forgotten within a few motor time constants: judge on the leading START_JUDGE_S only (an
-    # hour-long log would otherwise pay three full searches' worth of regressions and predictions)
-    n = min(len(log), max(int(START_JUDGE_S / log.sample_time_s), 1))
+    n = _start_samples(log)
     log, ids = log.head(n), ids[:n]
     best, best_cost = None, math.inf
     for opt in options:
@@ -552,7 +560,7 @@ def _choose_start(log: Log, p: dict, law: str, a: float, estimated: dict | None,
         # J/B of the table when the equation error's are not physical (a missed delay drives B1 below 0): with no
         # prediction to score, every option would cost the same and the first (the steady state) would stand
         fits, _ = _fits(log, p, law, Model(), {}, _oe_start(score(reg, ids, ("pitch", "yaw")), reg, p), start=opt)
-        cost = sum((1.0 - fits[ax] / 100.0) ** 2 if math.isfinite(fits[ax]) else math.inf for ax in fits)
+        cost = _start_cost(fits)
         if cost < best_cost:
             best, best_cost = opt, cost
     return best
@@ -565,10 +573,7 @@ def _seed_check(log: Log, overrides: dict | None, law: str) -> dict:
     from ..identify import Settings, identify
 
     res = identify(log, Settings(thrust_law=law, overrides=dict(overrides or {})))
-    start = None
-    if res.refined is not None and all(np.isfinite(res.refined.start_states.get(k, np.nan))
-                                       for k in ("tau1_0", "tau2_0", "zeta_0")):
-        start = {k: float(res.refined.start_states[k]) for k in ("tau1_0", "tau2_0", "zeta_0")}
+    start = (oe.motor_start(res.refined) or None) if res.refined is not None else None
     return {**res.model_check, "start_states": start}
 
 
