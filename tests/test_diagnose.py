@@ -429,3 +429,46 @@ def test_an_earlier_finding_is_judged_again_given_the_later_ones(first, value, s
         assert dropped[0]["reason"].startswith("given the later findings, it does not raise the yaw prediction fit")
     else:
         assert dropped == []
+
+
+def test_a_rugged_dead_zone_profile_is_scanned_and_a_wrong_width_is_never_called_explained(monkeypatch):
+    # a 0.4 V yaw dead zone on a square-wave log whose yaw input sits at its limit most of the time: the
+    # profile over the width is rugged (a basin a few % wide, local minima elsewhere).  From 0.15 V the coarse
+    # steps stop in a local minimum; the scan over the whole range finds the width.  diagnose sets the width
+    # by that profile; left at the equation error's grid value (0.386 V) the findings' model does not fit, and
+    # the verdict must say so rather than "explained"
+    from sim import SimSettings, simulate
+    from trms_ident.diagnosis import oe, run
+    from trms_ident.diagnosis.effects import BY_KEY
+    from trms_ident.diagnosis.model import Model
+    from trms_ident.params import defaults
+
+    log = as_log(simulate(SimSettings(ref="square", sample_rate_hz=1000.0, duration_s=60.0, quantization_rad=Q12,
+                                      seed=94, start_s=30.0,
+                                      effects=[dict(effect="dead_zone", axis="yaw", value=0.4)])))
+    p = defaults()
+    theta0 = {k: p[k] for k in ("J1", "B1", "J2", "B2")}
+    key = "dead_zone:yaw"
+
+    def profiled():
+        fitter = oe.Fitter(log, p, "quadratic")
+        f = fitter.profile(Model(), {}, theta0, key, run._grid(BY_KEY[key], log, p), 0.15)
+        return f, fitter.check(Model().with_mod(key, f.value), {}, theta0)
+
+    f, check = profiled()
+    assert f.value == pytest.approx(0.4, rel=0.01) and check["beta"] < 1.2
+    assert f.se > 1e-5  # no finer than the gap between the logged voltages either side of the width
+    d = diagnose(log)
+    assert [(x.effect, x.axis) for x in d.findings] == [("dead_zone", "yaw")] and d.verdict == "explained"
+    assert d.findings[0].parameter["value"] == pytest.approx(0.4, rel=0.01)
+    assert d.settings["output_error_check"]["rms_over_noise"]["beta"] < 1.2
+
+    monkeypatch.setattr(oe, "PROFILE_SCAN_OVER_FLOOR", math.inf)
+    f, check = profiled()
+    assert abs(f.value / 0.4 - 1) > 0.3 and check["beta"] > 1.5
+    monkeypatch.setattr(run, "STEP_MODIFICATIONS", ())
+    d = diagnose(log)
+    assert [(x.effect, x.axis) for x in d.findings] == [("dead_zone", "yaw")]
+    assert abs(d.findings[0].parameter["value"] / 0.4 - 1) > 0.02
+    assert d.verdict == "partly_explained" and "simulated by output error" in d.verdict_sentence
+    assert d.settings["output_error_check"]["rms_over_noise"]["beta"] > 1.5
