@@ -202,14 +202,15 @@ class Fitter:
 
     def _fit(self, model: Model, values: dict, theta0: dict, extra_key: str | None, mods: dict | None = None,
              max_iterations: int | None = None):
-        """The refinement of the log's first n samples with the model's effects (representable: linear ones and
-        the centre-of-mass offset, all free) and, when given, ``extra_key`` free from 0; ``mods``: key -> value
-        of input modifications the plant's voltages go through (fixed)."""
+        """The refinement of the log's first n samples with the model's torque effects (linear ones and the
+        centre-of-mass offset, all free) and, when given, ``extra_key`` free from 0; the voltages go through the
+        model's input modifications at their values, ``mods`` (key -> value) added or replacing them (fixed)."""
         n, log = self.n, self.log
         effects = {k: values[k] for k in model.linear}
         effects.update({k: v for k, v in model.mods if k == "com_offset:pitch"})
         free = tuple(effects) + ((extra_key,) if extra_key else ())
         u1, u2, p = log.u1_v[:n], log.u2_v[:n], self.p
+        mods = {**{k: v for k, v in model.mods if k != "com_offset:pitch"}, **(mods or {})}
         if mods:
             u1, u2, changes = modified_inputs(log.head(n), mods)
             p = {**p, **changes}
@@ -269,15 +270,7 @@ class Fitter:
         carry (the encoder offset, the pitch-dependent yaw inertia) or the fit fails."""
         if any(k not in OE_KEYS for k in model.linear):
             return None
-        mods = {k: v for k, v in model.mods if k != "com_offset:pitch"}
-        if mods:
-            try:
-                r = self._fit(Model(tuple((k, v) for k, v in model.mods if k == "com_offset:pitch"), model.linear),
-                              values, theta0, None, mods)
-            except _FAILED:
-                return None
-        else:
-            r = self.base(model, values, theta0)
+        r = self.base(model, values, theta0)
         if r is None or not all(math.isfinite(r.rms_rad[a]) for a in self.noise):
             return None
         return {a: float(r.rms_rad[a] / self.noise_floor[a]) for a in self.noise}

@@ -55,8 +55,11 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                                               "which decided, in its evidence",
             "refused": "findings taken back: the last one when refitting J/B with it is not physical or it does "
                        "not raise the prediction fit of its axes (unless the output-error fit confirms it); an "
-                       "earlier one when, given the later findings, the same test fails ('given the later "
-                       "findings')",
+                       "earlier one when, given the later findings, the same test fails, and any torque term "
+                       "whose value given the others is below practical size ('given the other findings')",
+            "settings.output_error_check": "the findings' model simulated by output error: each angle's error "
+                                           "RMS over its noise floor and the threshold 'explained' needs (null: "
+                                           "that fit cannot carry the findings)",
             "settings.start_states_before, start_states_after": "the motors' states at the first sample the seed "
                                                                 "model and the findings' model predict from (each "
                                                                 "chosen by its fit over the first 60 s among the "
