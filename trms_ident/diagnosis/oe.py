@@ -385,7 +385,6 @@ class Fitter:
                      dict(est_best), self.n, profiled=True, fits=self._simulation_fits(base.rms_rad, rms_best),
                      start_states=start_best)
 
-
     def _resolution(self, key: str, value: float) -> float:
         """A dead zone's or saturation's value is resolved only to the gap between the logged |voltages| either
         side of it (every value in that gap modifies the same samples: same cost); that gap's standard deviation
