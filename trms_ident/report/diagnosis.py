@@ -218,11 +218,15 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
     verdict = (f'<span style="background:{colour};padding:2px 6px;border-radius:4px">'
                f'{html.escape(doc["verdict"].replace("_", " ").upper())}</span> '
                f'{html.escape(doc["verdict_sentence"])} {len(doc["findings"])} finding(s)')
+    check = doc["settings"].get("output_error_check")
+    oe_line = ("" if check is None else " Output-error check of the findings' model: error RMS over the noise level "
+               + ", ".join(f"{ang} {r:.2f}x" for ang, r in check["rms_over_noise"].items())
+               + f" ({check['threshold']:g}x allowed for 'explained').")
     return f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident diagnose</title>
 <style>body{{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto}}img{{max-width:100%}}
 table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px}}.note{{color:#555;font-size:.9em}}</style>
 </head><body><h1>Diagnosis of {html.escape(log.source)}</h1><p><b>{verdict}</b>.
-Fit measure: {html.escape(doc['fit']['measure'])}.</p><ol>{items}{corrections}</ol>
+Fit measure: {html.escape(doc['fit']['measure'])}.{html.escape(oe_line)}</p><ol>{items}{corrections}</ol>
 <table><tr><th>parameter</th><th>seed model</th><th>with findings</th>{est_head}</tr>{est}</table>{imgs}
 <p class="note">sha256 {log.sha256}; versions {html.escape(str(doc['versions']))}</p></body></html>
 """
