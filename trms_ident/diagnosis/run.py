@@ -232,10 +232,8 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
     fit_before, over_before = _fits(log, p, law, Model(), {}, nominal, start=seed.get("start_states"))
     refused = []
     while True:  # accept only findings that keep J/B physical and raise the fit of every axis they touch
-        augmented = _estimates(score_now, reg_now)
-        values = _effect_values(current, score_now, reg_now)
-        values.update({k: v for k, v in oe_values.items() if k in current.keys})  # the output-error fit's value
-        fit_after, over_after = _fits(log, p, law, current, values, augmented, start=seed.get("start_states"))
+        augmented, values, fit_after, over_after = _model_fits(log, p, law, current, reg_now, score_now, oe_values,
+                                                               seed.get("start_states"))
         if not findings:
             break
         why = _refusal(findings[-1][0]["c"], nominal, augmented, fit_before, fit_after, findings[-1][0].get("oe"))
@@ -257,20 +255,16 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         polished = _polish(findings, current, values, oe_values, fitter, log, p, _oe_start(score_now, reg_now, p))
         if polished is not current:
             current, reg_now, score_now = _rebuild(findings, polished, log, p, law, a, cache, ids)
-            augmented = _estimates(score_now, reg_now)
-            values = _effect_values(current, score_now, reg_now)
-            values.update({k: v for k, v in oe_values.items() if k in current.keys})
-            fit_after, over_after = _fits(log, p, law, current, values, augmented, start=seed.get("start_states"))
+            augmented, values, fit_after, over_after = _model_fits(log, p, law, current, reg_now, score_now,
+                                                                   oe_values, seed.get("start_states"))
     if findings:  # each earlier finding re-judged given the later ones, each one's size given all (_backward)
         dropped = _backward(findings, current, augmented, values, fit_after, log, p, law, a, cache, ids, n_tests,
                             fitter, oe_tested, oe_values, seed.get("start_states"))
         if dropped:
             refused.extend(dropped)
             current, reg_now, score_now = _rebuild(findings, current, log, p, law, a, cache, ids)
-            augmented = _estimates(score_now, reg_now)
-            values = _effect_values(current, score_now, reg_now)
-            values.update({k: v for k, v in oe_values.items() if k in current.keys})
-            fit_after, over_after = _fits(log, p, law, current, values, augmented, start=seed.get("start_states"))
+            augmented, values, fit_after, over_after = _model_fits(log, p, law, current, reg_now, score_now,
+                                                                   oe_values, seed.get("start_states"))
     # the motors' start states are unknowns of each model: each model the report predicts with picks its own
     # among the estimates at hand (_start_after), the findings' output-error fits' among them
     starts = [start]
@@ -494,8 +488,8 @@ def _backward(findings, current, augmented, values, fit_after, log, p, law, a, c
     judged again (the prediction fit can fall slightly with a right input modification).  After a removal the
     remaining findings are judged again against the smaller model.  Every finding, the last too, whose value
     given all the others shrank to less than half its own must also keep a torque of practical size
-    (oe.MIN_TORQUE_SHARE of its axis' thrust torque) (measured: a pitch thrust asymmetry of 0.009 that stood in for a motor lag's misfit went to -4e-5
-    once the lag's value was fitted again)."""
+    (oe.MIN_TORQUE_SHARE of its axis' thrust torque; measured: a pitch thrust asymmetry of 0.009 that stood in
+    for a motor lag's misfit went to -4e-5 once the lag's value was fitted again)."""
     dropped: list[dict] = []
     i = 0
     while i < len(findings):
@@ -507,17 +501,16 @@ def _backward(findings, current, augmented, values, fit_after, log, p, law, a, c
         without = _without(current, (c.key,))
         reg = regression(log, p, law, a, without, cache)
         sc = score(reg, ids, ("pitch", "yaw"))
-        vals = _effect_values(without, sc, reg)
-        vals.update({k: v for k, v in oe_values.items() if k in without.keys})
-        est_wo = _estimates(sc, reg)
-        fit_wo, _ = _fits(log, p, law, without, vals, est_wo, start=start)
-        why = small or _refusal(c, {}, augmented, fit_wo, fit_after)
-        if small is None and why is not None and c.key in oe.OE_KEYS + oe.PROFILE_KEYS and oe.representable(without):
-            value0 = oe_values.get(c.key, best["value"])
-            _, ok = _oe_fit(c, value0, fitter, without, vals, _oe_start(sc, reg, p), log, p, n_tests, tested)
-            why = None if ok else why + "; the output-error held-out test given the others does not pass"
-        elif small is None and why is not None and "oe" in best:
-            why = None
+        est_wo, vals, fit_wo, _ = _model_fits(log, p, law, without, reg, sc, oe_values, start)
+        why = small
+        if why is None:
+            why = _refusal(c, {}, augmented, fit_wo, fit_after)
+            if why is not None and c.key in oe.OE_KEYS + oe.PROFILE_KEYS and oe.representable(without):
+                value0 = oe_values.get(c.key, best["value"])
+                _, ok = _oe_fit(c, value0, fitter, without, vals, _oe_start(sc, reg, p), log, p, n_tests, tested)
+                why = None if ok else why + "; the output-error held-out test given the others does not pass"
+            elif why is not None and "oe" in best:
+                why = None
         reg = sc = None
         if why is None:
             i += 1
@@ -567,6 +560,15 @@ def _negligible(c: Candidate, value: float, found: float, log: Log, p: dict, law
     unit = "" if c.unit in ("", "1") else " " + c.unit
     return (f"its value {value:.3g}{unit} is negligible: its torque is {100 * share:.2g} % of the {c.axis} thrust "
             f"torque ({100 * oe.MIN_TORQUE_SHARE:g} % needed)")
+
+
+def _model_fits(log: Log, p: dict, law: str, model: Model, reg, sc, oe_values: dict, start: dict | None):
+    """For ``model`` with its regression and score: J/B, the findings' values (the output-error fits' where
+    they decided), and the prediction fits and predictions from the motors' ``start`` states (_fits)."""
+    est = _estimates(sc, reg)
+    values = _effect_values(model, sc, reg)
+    values.update({k: v for k, v in oe_values.items() if k in model.keys})  # the output-error fit's value
+    return (est, values, *_fits(log, p, law, model, values, est, start=start))
 
 
 def _rebuild(findings, current, log, p, law, a, cache, ids):
