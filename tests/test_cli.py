@@ -130,3 +130,20 @@ def test_simulate_says_the_log_length_and_where_its_stamps_begin(tmp_path):
                                    "30", "-o", str(out)])
     assert res.exit_code == 0, res.output
     assert "(1201 samples, 12 s at 100 Hz, stamps from 30 s into the run)" in res.output
+
+
+TWO = str(min(2, os.cpu_count() or 1))  # OpenBLAS starts no more threads than cores
+
+
+@pytest.mark.parametrize("given, expected", [({}, "1"), ({"OPENBLAS_NUM_THREADS": "2"}, TWO),
+                                             ({"OMP_NUM_THREADS": "2"}, TWO)])
+def test_the_command_line_runs_blas_on_one_thread_unless_told(given, expected):
+    """Before numpy loads, the CLI asks BLAS for one thread; a thread count the user set wins."""
+    env = {k: v for k, v in os.environ.items() if k not in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS",
+                                                            "MKL_NUM_THREADS")}
+    code = ("import trms_ident.cli, numpy\nfrom threadpoolctl import threadpool_info\n"
+            "print(max(i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas'))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env={**env, **given},
+                          timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == expected
