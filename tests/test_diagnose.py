@@ -494,3 +494,26 @@ def test_an_input_modification_is_fitted_again_given_the_later_findings():
     assert got[("quadratic_drag", "yaw")].parameter["value"] == pytest.approx(0.005, rel=0.1)
     assert any(r["effect"] == "thrust_asymmetry" and "negligible" in r["reason"] for r in d.refused)
     assert d.verdict == "explained"
+
+
+def test_a_pitch_offset_of_no_practical_size_is_not_a_finding():
+    """The equation error passes any consistent residual on a clean log; a pitch offset must also move the
+    gravity torque by oe.MIN_TORQUE_SHARE of the thrust torque, as the output-error fit asks of its candidates."""
+    from trms_ident.diagnosis import oe
+    from trms_ident.diagnosis.effects import CANDIDATES
+    from trms_ident.diagnosis.run import _practical
+    from trms_ident.params import defaults
+
+    r = sim_cached("square", 100.0, 90.0, 0.0, 0.0, 7, ())
+    log, p = as_log(r), defaults()
+    by_key = {c.key: c for c in CANDIDATES}
+    for key in ("sensor_offset:pitch", "com_offset:pitch"):
+        c = by_key[key]
+        share = oe.torque_share(key, 0.005, log, p, "quadratic")
+        per_n_m = oe.torque_share("coulomb_friction:pitch", 1.0, log, p, "quadratic")  # 1 / RMS thrust torque
+        assert share == pytest.approx(0.005 * p["Mg"] * np.sqrt(np.mean(np.cos(r.alpha_rad) ** 2)) * per_n_m,
+                                      rel=1e-9)
+        assert _practical(c, 0.005, log, p, "quadratic") and _practical(c, -0.04, log, p, "quadratic")
+        assert not _practical(c, 2.6e-5, log, p, "quadratic") and not _practical(c, -2.6e-5, log, p, "quadratic")
+    # the floor is the offsets' only: other equation-error findings keep the tests that passed them
+    assert _practical(by_key["quadratic_drag:pitch"], 1e-6, log, p, "quadratic")

@@ -146,7 +146,9 @@ def torque_share(key: str, value: float, log: Log, p: dict, law: str) -> float:
               "quadratic_drag": lambda: abs(value) * rms(w * np.abs(w)),
               "cable_stiffness": lambda: abs(value) * rms(x),
               "thrust_asymmetry": lambda: abs(value) * rms(np.where(tau < 0, m, 0.0)),
-              "com_offset": lambda: abs(value) * p["Mg"] * rms(np.cos(x))}[effect]()
+              "com_offset": lambda: abs(value) * p["Mg"] * rms(np.cos(x)),
+              # an encoder offset moves the gravity torque as a centre-of-mass offset of the same angle does
+              "sensor_offset": lambda: abs(value) * p["Mg"] * rms(np.cos(x))}[effect]()
     scale = rms(m)
     return torque / scale if scale > 0 else 0.0
 
