@@ -114,6 +114,10 @@ def test_csv_column_mapping(tmp_path):
     b = read_csv_log(other, signals=["t=time", "u1=um", "u2=ut", "alpha=pitch_rad", "beta=yaw_rad"])
     for x, y in ((a.t_s, b.t_s), (a.u1_v, b.u1_v), (a.alpha_rad, b.alpha_rad), (a.beta_rad, b.beta_rad)):
         np.testing.assert_array_equal(x, y)
+    from trms_ident.io.readers import read_log
+    listed = read_log(other, signals=["t=time,u1=um", "u2=ut, alpha=pitch_rad,beta=yaw_rad"])  # as --signal takes
+    for x, y in ((a.t_s, listed.t_s), (a.u2_v, listed.u2_v), (a.alpha_rad, listed.alpha_rad)):
+        np.testing.assert_array_equal(x, y)
     res = _run(other, "--signal", "alpha=pitch")
     assert res.exit_code == EXIT_BAD_LOG and "line 1: no column 'pitch' (for alpha); columns: time, um" in res.output
 

@@ -49,6 +49,10 @@ def test_a_matrix_with_a_column_mapping_and_a_rate(tmp_path, run):
     res = runner.invoke(app, ["estimate", str(p), *signals, "-o", str(tmp_path / "o"), "--no-report"])
     assert res.exit_code == 4 and "no time vector" in res.output and "--rate HZ" in res.output
     _same(read_log(p, signals=signals[1::2], rate_hz=100.0), run)
+    listed = runner.invoke(app, ["estimate", str(p), "--signal", "u1=data[0],u2=data[1],alpha=data[2],beta=data[3]",
+                                 "--rate", "100", "-o", str(tmp_path / "l"), "--no-report", "--json", "-"])
+    assert listed.exit_code == 0, listed.output
+    assert json.loads(listed.stdout)["input"]["samples"] == run.t_s.size
 
 
 def test_simulink_structure_with_time(tmp_path, run):

@@ -15,8 +15,11 @@ def read_log(path: str | Path, angle_unit: str = "auto", signals: list[str] | No
              rate_hz: float | None = None) -> Log:
     """Read a CSV or MCAP log; ``signals``/``time_source`` apply to MCAP (see mcap_log), ``time_unit`` to CSV
     (MCAP stamps are nanoseconds by the format)."""
+    from .signals import split_signals
+
     path = Path(path)
     suffix = path.suffix.lower()
+    signals = split_signals(signals)
     if suffix == ".mcap":
         from .mcap_log import read_mcap_log  # mcap and its decoders only when needed
 

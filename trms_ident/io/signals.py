@@ -65,6 +65,18 @@ def parse_signal(text: str) -> SignalSource:
     return SignalSource(name, topic.strip(), field.strip())
 
 
+#: a comma that starts the next NAME= of a --signal list (a field path or column name keeps its own commas)
+_NEXT_SIGNAL = re.compile(r",\s*(?=(?:t|t_u|u1|u2|alpha|beta)\s*=)")
+
+
+def split_signals(texts: list[str] | None) -> list[str] | None:
+    """``--signal`` values as single NAME=SOURCE items: one value may list several, comma-separated
+    (``alpha=psi,beta=phi``), as well as the option being repeated."""
+    if texts is None:
+        return None
+    return [x.strip() for t in texts for x in _NEXT_SIGNAL.split(t) if x.strip()]
+
+
 def mapping(texts: list[str] | None, defaults: dict[str, SignalSource]) -> dict[str, SignalSource]:
     out = dict(defaults)
     for t in texts or []:
