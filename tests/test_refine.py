@@ -8,7 +8,6 @@ from typer.testing import CliRunner
 import trms_ident.identify as identify_mod
 from trms_ident.cli import app
 from trms_ident.identify import Settings, identify
-from trms_ident.io.csv_log import write_csv_log
 from trms_ident.numerics import refine as R
 from trms_ident.numerics.filters import discretize
 from trms_ident.numerics.hold import motor_states_on_grid
