@@ -517,3 +517,24 @@ def test_a_pitch_offset_of_no_practical_size_is_not_a_finding():
         assert not _practical(c, 2.6e-5, log, p, "quadratic") and not _practical(c, -2.6e-5, log, p, "quadratic")
     # the floor is the offsets' only: other equation-error findings keep the tests that passed them
     assert _practical(by_key["quadratic_drag:pitch"], 1e-6, log, p, "quadratic")
+
+
+def test_a_friction_the_equation_error_cannot_fit_physically_is_judged_by_output_error():
+    # a 0.008 N m pitch friction on a bench with little viscous friction (B1 = 0.0095, known values off Table 1):
+    # the equation error's refit with the friction makes B1 = -0.023 (friction and B1 omega alike over this
+    # excitation) and the finding was refused, leaving "unexplained"; the output-error fit, J/B free, passes its
+    # held-out test with J/B physical and right, and those are the model's J/B
+    from sim import SimSettings, simulate
+
+    bench = {"J1": 0.1, "B1": 0.0095, "J2": 0.0171, "B2": 0.105}
+    known = {"Mg": 0.318, "a1": 0.01355, "b2": 0.0941, "kc": -0.1758}
+    r = simulate(SimSettings(ref="multisine", sample_rate_hz=200.0, duration_s=90.0, quantization_rad=Q12, seed=97,
+                             overrides={**bench, **known},
+                             effects=[dict(effect="coulomb_friction", axis="pitch", value=0.008)]))
+    d = diagnose(as_log(r), known)
+    assert [(f.effect, f.axis) for f in d.findings] == [("coulomb_friction", "pitch")]
+    assert d.findings[0].parameter["value"] == pytest.approx(0.008, rel=0.05)
+    assert any(t["effect"] == "coulomb_friction" and t["axis"] == "pitch" and t["passed"] for t in d.oe_tested)
+    for k, v in bench.items():
+        assert d.augmented[k] == pytest.approx(v, rel=0.05), k
+    assert d.verdict == "explained", d.verdict_sentence
