@@ -147,7 +147,8 @@ SignalOpt = Annotated[Optional[list[str]], typer.Option("--signal", help="MCAP: 
                                                         "NAME=TOPIC:FIELD, e.g. alpha=/arm/joint_states:position[pitch]; "
                                                         "MATLAB: NAME=VARIABLE, e.g. alpha=psi, alpha=data[2], "
                                                         "alpha=yout.signals[0]; CSV: NAME=COLUMN, e.g. "
-                                                        "alpha=pitch_rad (repeatable, or several comma-separated: alpha=psi,beta=phi; see `inspect`).")]
+                                                        "alpha=pitch_rad (repeatable, or several comma-separated: "
+                                                        "alpha=psi,beta=phi; see `inspect`).")]
 RateOpt = Annotated[Optional[float], typer.Option("--rate", help="MATLAB logs without a time vector: the sample "
                                                   "rate [Hz].")]
 TimeSourceOpt = Annotated[str, typer.Option("--time-source", help="MCAP message time: auto (header.stamp when "

@@ -241,7 +241,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         if why is None:
             break
         last = findings[-1][0]  # the output-error fit judges it again (also when the equation error's J/B with it
-        # are not physical: measured, a 0.008 N m pitch friction on a bench with B1 = 0.0095 gave B1 = -0.015)
+        # are not physical: measured, a 0.008 N m pitch friction on a bench with B1 = 0.0095 gave B1 = -0.015 to -0.023)
         confirmed = None if "oe" in last else _oe_confirm(last, log, p, law, a, cache, ids, n_tests, fitter, oe_tested)
         if confirmed is not None:  # the output-error fit carries it and its held-out test passes: judged there
             findings[-1] = (confirmed, findings[-1][1])
