@@ -161,6 +161,7 @@ def test_cli_json_contract_and_report(tmp_path):
     assert isinstance(f["fit_before"], float) and f["fit_after"] > f["fit_before"] and f["evidence"]
     for key in ("nominal", "augmented"):
         assert set(doc["estimates"][key]) == {"J1", "B1", "J2", "B2"}
+    assert doc["settings"]["estimates_augmented_from"] == "equation_error"
     assert "1. coulomb_friction on yaw: Fc = " in res.stderr
     html = (tmp_path / "rep" / "report.html").read_text()
     assert html.count("data:image/png;base64,") == 4  # residual, regime, overlay; one set for the finding
@@ -537,4 +538,5 @@ def test_a_friction_the_equation_error_cannot_fit_physically_is_judged_by_output
     assert any(t["effect"] == "coulomb_friction" and t["axis"] == "pitch" and t["passed"] for t in d.oe_tested)
     for k, v in bench.items():
         assert d.augmented[k] == pytest.approx(v, rel=0.05), k
+    assert d.settings["estimates_augmented_from"] == "output_error"
     assert d.verdict == "explained", d.verdict_sentence

@@ -355,6 +355,8 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                       "start_states_after": start_after,
                       "output_error_check": ({"rms_over_noise": oe_check, "threshold": EXPLAINED_OE_OVER_NOISE}
                                              if oe_check is not None else None),
+                      "estimates_augmented_from": ("equation_error" if augmented == _estimates(score_now, reg_now)
+                                                   else "output_error"),
                       "unobservable": UNOBSERVABLE}, residual, overlay,
                      {axis: cache[("velocity", axis)] for axis in axes}, verdict, sentence, refused, seed,
                      corrections, steps, oe_tested)

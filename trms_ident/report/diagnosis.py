@@ -35,7 +35,9 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
         "versions": versions(),
         "meaning": {
             "estimates.nominal": "J, B by least squares on the filtered regression (3) of the seed model",
-            "estimates.augmented": "the same with the findings' terms added and refitted together",
+            "estimates.augmented": "the same with the findings' terms added and refitted together; where those are "
+                                   "not physical, the J, B of the output-error fit that decided the last finding "
+                                   "(settings.estimates_augmented_from)",
             "output_error_tested": "when the equation-error test passes no candidate, its best output-error "
                                    "candidates fitted by output error (the effect's parameter free with J, B, the "
                                    "findings' parameters and the motors' start states; an input modification by a "
