@@ -6,9 +6,10 @@ Each run is a fresh `python -m trms_ident batch DIR -o OUT --force --no-report` 
 computed run by run (j1 / j2) because the machine is shared.  Writes the "Batch scaling" section of
 benchmarks/RESULTS.md.
 
-Measured on 2 cores: -j1 already keeps about 1.5 cores busy (7.7 s CPU in 5.2 s wall: the CSV is parsed by
+Measured on 2 cores: -j1 already keeps about 1.45 cores busy (5.6 s CPU in 3.8 s wall: the CSV is parsed by
 pyarrow's threads while the file is hashed and the kernels load, and the two axes run in parallel), so -j2
-can be at most ~1.35x faster here; it measured 1.02-1.14x.
+can be at most ~1.4x faster here; it measured 1.18-1.23x.  Before the command line asked BLAS for one thread,
+-j1 took 7.7 s of CPU in 5.2 s and -j2 was 1.02-1.14x faster: OpenBLAS's idle threads spun on both cores.
 """
 from __future__ import annotations
 
