@@ -540,3 +540,7 @@ def test_a_friction_the_equation_error_cannot_fit_physically_is_judged_by_output
         assert d.augmented[k] == pytest.approx(v, rel=0.05), k
     assert d.settings["estimates_augmented_from"] == "output_error"
     assert d.verdict == "explained", d.verdict_sentence
+    from trms_ident.report.diagnosis import render, to_doc
+
+    page = render(to_doc(d, as_log(r)), d, as_log(r))
+    assert "with findings (output-error fit: the equation error's were not physical)" in page

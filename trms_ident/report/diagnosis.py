@@ -214,6 +214,8 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
                   + (f"<td>{corrected[k]:.6g}</td>" if k in corrected else ("<td></td>" if corrected else ""))
                   + "</tr>" for k in ("J1", "B1", "J2", "B2"))
     est_head = "<th>with the correction</th>" if corrected else ""
+    aug_from = (" (output-error fit: the equation error's were not physical)"
+                if doc["settings"].get("estimates_augmented_from") == "output_error" else "")
     imgs = "".join(f"<h2>{html.escape(title)}</h2><img alt='{html.escape(title)}' src='{uri}'>" for title, uri in figs)
     colour = {"consistent": "#e8f5e9", "explained": "#e8f5e9", "partly_explained": "#fff4e0"}.get(doc["verdict"],
                                                                                                    "#fdecea")
@@ -229,6 +231,6 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
 table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px}}.note{{color:#555;font-size:.9em}}</style>
 </head><body><h1>Diagnosis of {html.escape(log.source)}</h1><p><b>{verdict}</b>.
 Fit measure: {html.escape(doc['fit']['measure'])}.{html.escape(oe_line)}</p><ol>{items}{corrections}</ol>
-<table><tr><th>parameter</th><th>seed model</th><th>with findings</th>{est_head}</tr>{est}</table>{imgs}
+<table><tr><th>parameter</th><th>seed model</th><th>with findings{aug_from}</th>{est_head}</tr>{est}</table>{imgs}
 <p class="note">sha256 {log.sha256}; versions {html.escape(str(doc['versions']))}</p></body></html>
 """
