@@ -142,13 +142,13 @@ def torque_share(key: str, value: float, log: Log, p: dict, law: str) -> float:
     w = np.gradient(x, log.sample_time_s)
     rms = lambda v: float(np.sqrt(np.mean(np.square(v))))  # noqa: E731
     effect = key.split(":")[0]
+    # an encoder offset moves the gravity torque as a centre-of-mass offset of the same angle does
+    gravity = lambda: abs(value) * p["Mg"] * rms(np.cos(x))  # noqa: E731
     torque = {"coulomb_friction": lambda: abs(value),
               "quadratic_drag": lambda: abs(value) * rms(w * np.abs(w)),
               "cable_stiffness": lambda: abs(value) * rms(x),
               "thrust_asymmetry": lambda: abs(value) * rms(np.where(tau < 0, m, 0.0)),
-              "com_offset": lambda: abs(value) * p["Mg"] * rms(np.cos(x)),
-              # an encoder offset moves the gravity torque as a centre-of-mass offset of the same angle does
-              "sensor_offset": lambda: abs(value) * p["Mg"] * rms(np.cos(x))}[effect]()
+              "com_offset": gravity, "sensor_offset": gravity}[effect]()
     scale = rms(m)
     return torque / scale if scale > 0 else 0.0
 

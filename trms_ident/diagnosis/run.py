@@ -240,8 +240,9 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         why = _refusal(findings[-1][0]["c"], nominal, augmented, fit_before, fit_after, findings[-1][0].get("oe"))
         if why is None:
             break
-        last = findings[-1][0]  # the output-error fit judges it again (also when the equation error's J/B with it
-        # are not physical: measured, a 0.008 N m pitch friction on a bench with B1 = 0.0095 gave B1 = -0.015 to -0.023)
+        # the output-error fit judges it again, also when the equation error's J/B with it are not physical
+        # (measured: a 0.008 N m pitch friction on a bench with B1 = 0.0095 gave B1 = -0.015 to -0.023)
+        last = findings[-1][0]
         confirmed = None if "oe" in last else _oe_confirm(last, log, p, law, a, cache, ids, n_tests, fitter, oe_tested)
         if confirmed is not None:  # the output-error fit carries it and its held-out test passes: judged there
             findings[-1] = (confirmed, findings[-1][1])
@@ -598,13 +599,18 @@ def _rebuild(findings, current, log, p, law, a, cache, ids):
     return current, reg, score(reg, ids, ("pitch", "yaw"))
 
 
+def _not_physical(est: dict, keys=("J1", "B1", "J2", "B2")) -> list[str]:
+    """Which of J/B ``keys`` in ``est`` are not finite and positive."""
+    return [k for k in keys if not (math.isfinite(est[k]) and est[k] > 0)]
+
+
 def _physical(est: dict) -> bool:
-    return all(math.isfinite(est[k]) and est[k] > 0 for k in ("J1", "B1", "J2", "B2"))
+    return not _not_physical(est)
 
 
 def _unphysical(c: Candidate, augmented: dict) -> str | None:
     """Why refitting J/B with finding c is not physical (a J or B of its axes not finite and positive), or None."""
-    bad = [k for k in _params_of(_axes_of(c)) if not (math.isfinite(augmented[k]) and augmented[k] > 0)]
+    bad = _not_physical(augmented, _params_of(_axes_of(c)))
     if bad:
         return "refitting with it makes " + ", ".join(f"{k} = {augmented[k]:.3g}" for k in bad) + " (not physical)"
     return None

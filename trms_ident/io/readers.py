@@ -6,6 +6,7 @@ from pathlib import Path
 from ..errors import LogFormatError
 from ..log import Log
 from .csv_log import check_readable, read_csv_log
+from .signals import split_signals
 
 LOG_SUFFIXES = (".csv", ".mcap", ".mat")
 
@@ -15,8 +16,6 @@ def read_log(path: str | Path, angle_unit: str = "auto", signals: list[str] | No
              rate_hz: float | None = None) -> Log:
     """Read a CSV or MCAP log; ``signals``/``time_source`` apply to MCAP (see mcap_log), ``time_unit`` to CSV
     (MCAP stamps are nanoseconds by the format)."""
-    from .signals import split_signals
-
     path = Path(path)
     suffix = path.suffix.lower()
     signals = split_signals(signals)

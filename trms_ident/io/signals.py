@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 from ..errors import SettingsError
 from ..log import COLUMNS
+from .csv_log import VOLTAGE_TIME
 
 SIGNALS = ("alpha", "beta", "u1", "u2")
 _STEP = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)(?:\[([^\]]+)\])?")
@@ -66,7 +67,7 @@ def parse_signal(text: str) -> SignalSource:
 
 
 #: a comma that starts the next NAME= of a --signal list (a field path or column name keeps its own commas)
-_NEXT_SIGNAL = re.compile(r",\s*(?=(?:t|t_u|u1|u2|alpha|beta)\s*=)")
+_NEXT_SIGNAL = re.compile(r",\s*(?=(?:" + "|".join(map(re.escape, (*COLUMNS, VOLTAGE_TIME))) + r")\s*=)")
 
 
 def split_signals(texts: list[str] | None) -> list[str] | None:
