@@ -120,6 +120,8 @@ def test_csv_column_mapping(tmp_path):
         np.testing.assert_array_equal(x, y)
     res = _run(other, "--signal", "alpha=pitch")
     assert res.exit_code == EXIT_BAD_LOG and "line 1: no column 'pitch' (for alpha); columns: time, um" in res.output
+    res = _run(other, "--signal", "t=time,beta=pitch")  # the file's own names, not those mapped before
+    assert res.exit_code == EXIT_BAD_LOG and "no column 'pitch' (for beta); columns: time, um, ut" in res.output
 
 
 @pytest.mark.parametrize("kind", ["rounded", "dropped", "jittered", "back_in_time"])

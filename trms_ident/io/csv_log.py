@@ -80,14 +80,14 @@ def _is_number(token: str) -> bool:
 
 def _mapped(names: list[str], signals: list[str] | None, path: Path) -> list[str]:
     """Header names with ``--signal NAME=COLUMN`` applied (NAME one of t, u1, u2, alpha, beta, t_u)."""
-    names = list(names)
+    header, names = list(names), list(names)
     for text in signals or []:
         name, sep, column = (x.strip() for x in text.partition("="))
         if not sep or name not in (*COLUMNS, VOLTAGE_TIME):
             raise SettingsError(f"--signal {text!r}: expected NAME=COLUMN with NAME one of "
                                 f"{', '.join((*COLUMNS, VOLTAGE_TIME))}")
         if column.lower() not in names:
-            raise LogFormatError(f"{path}: line 1: no column {column!r} (for {name}); columns: {', '.join(names)}")
+            raise LogFormatError(f"{path}: line 1: no column {column!r} (for {name}); columns: {', '.join(header)}")
         if name in names and names.index(name) != names.index(column.lower()):
             names[names.index(name)] = f"_unused_{name}"  # the file's own column of that name steps aside
         names[names.index(column.lower())] = name
