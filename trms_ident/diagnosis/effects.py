@@ -1,11 +1,25 @@
-"""The library of candidate effects the seed model leaves out (shared notes, model.md).
+"""The library of candidate effects the seed model leaves out (shared notes, model.md): the model room.
 
 Kept apart from the simulator's own effect code (sim/effects.py): the diagnosis must find
 what the simulator injected without sharing its implementation.
+
+A new torque effect is one entry here: a Candidate of kind "linear" with ``torque``, its torque per unit
+parameter as a function of the measured and reconstructed signals (model.state_signals: angles, smoothed
+rates, the motor states and thrust torques of eq. 1).  From that one function every stage derives it: the
+equation-error regressor (model.phi, eq. 3), the output-error fit and its held-out test (the torque enters the
+simulation of eq. 1 as an input computed from the measured states: numerics.refine's exogenous torques), the
+prediction fit, its torque share (the practical-size floor), the report's shape of the term, and the
+plausible range (``bounds``).  The effects written before this interface carry hand-written code in those
+stages instead (compiled into the output-error kernel with the simulated states, numerics.refine.EFFECT_SLOTS);
+that is faster and exact in the states, and tests check the two agree (tests/test_model_room.py).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import Callable
+
+INF = math.inf
 
 
 @dataclass(frozen=True)
@@ -20,10 +34,22 @@ class Candidate:
     #: the variable the effect's residual shows against: "velocity" or "angle" of its axis, "pitch_angle", or
     #: "input" (the axis' voltage)
     regime: str = "input"
+    #: the parameter's plausible values, an open interval (a friction torque is positive, ...)
+    bounds: tuple[float, float] = (-INF, INF)
+    #: a torque effect declared by its torque alone (module docstring): signals dict -> torque [N m] per unit
+    #: parameter, added to the right-hand side of its axis' eq. (1); None for the hand-written effects
+    torque: Callable | None = None
 
     @property
     def key(self) -> str:
         return f"{self.effect}:{self.axis}"
+
+    def plausible(self, value: float) -> bool:
+        return math.isfinite(value) and self.bounds[0] < value < self.bounds[1]
+
+
+#: positive parameters (a torque's size, a width, a delay)
+POSITIVE = (0.0, INF)
 
 
 def _geom(lo: float, hi: float, n: int) -> tuple[float, ...]:
@@ -34,18 +60,19 @@ def _geom(lo: float, hi: float, n: int) -> tuple[float, ...]:
 CANDIDATES: tuple[Candidate, ...] = (
     Candidate("coulomb_friction", "pitch", "Fc", "N m", "linear",
               sentence="a constant friction torque of {value:.3g} {unit} opposes the pitch motion and flips sign "
-                       "when the velocity reverses", regime="velocity"),
+                       "when the velocity reverses", regime="velocity", bounds=POSITIVE),
     Candidate("coulomb_friction", "yaw", "Fc", "N m", "linear",
               sentence="a constant friction torque of {value:.3g} {unit} opposes the yaw motion and flips sign when "
-                       "the velocity reverses", regime="velocity"),
+                       "the velocity reverses", regime="velocity", bounds=POSITIVE),
     Candidate("quadratic_drag", "pitch", "c", "N m s^2/rad^2", "linear",
               sentence="aerodynamic drag c*omega*|omega| with c = {value:.3g} {unit} brakes fast pitch motion",
-              regime="velocity"),
+              regime="velocity", bounds=POSITIVE),
     Candidate("quadratic_drag", "yaw", "c", "N m s^2/rad^2", "linear",
               sentence="aerodynamic drag c*omega*|omega| with c = {value:.3g} {unit} brakes fast yaw motion",
-              regime="velocity"),
+              regime="velocity", bounds=POSITIVE),
     Candidate("cable_stiffness", "yaw", "k", "N m/rad", "linear",
-              sentence="the cable pulls the beam back towards beta = 0 with {value:.3g} {unit}", regime="angle"),
+              sentence="the cable pulls the beam back towards beta = 0 with {value:.3g} {unit}", regime="angle",
+              bounds=POSITIVE),
     Candidate("com_offset", "pitch", "delta", "rad", "linear",
               sentence="the centre of mass sits {value:.3g} {unit} off the beam axis, so gravity acts as "
                        "Mg sin(alpha + delta)", regime="angle"),
@@ -54,23 +81,27 @@ CANDIDATES: tuple[Candidate, ...] = (
               regime="angle"),
     Candidate("thrust_asymmetry", "pitch", "s", "1", "linear",
               sentence="the main rotor turning backwards (tau1 < 0) pushes {value:+.2%} relative to the table's "
-                       "thrust law (thrust asymmetry of a reversed rotor)"),
+                       "thrust law (thrust asymmetry of a reversed rotor)", bounds=(-1.0, 10.0)),
     Candidate("thrust_asymmetry", "yaw", "s", "1", "linear",
               sentence="the tail rotor turning backwards (tau2 < 0) pushes {value:+.2%} relative to the table's "
-                       "thrust law (thrust asymmetry of a reversed rotor)"),
+                       "thrust law (thrust asymmetry of a reversed rotor)", bounds=(-1.0, 10.0)),
     Candidate("yaw_inertia_pitch", "yaw", "dJ", "kg m^2", "linear",
               sentence="the yaw inertia depends on the pitch angle: J2 - {value:.3g} {unit} x sin^2(alpha) (the "
-                       "beam's inertia about the vertical falls as it tilts)", regime="pitch_angle"),
+                       "beam's inertia about the vertical falls as it tilts)", regime="pitch_angle",
+              bounds=POSITIVE),  # a tilted beam's inertia about the vertical can only fall
     Candidate("dead_zone", "pitch", "w", "V", "grid", _geom(0.02, 0.6, 16),
-              sentence="main-motor voltages below {value:.3g} {unit} in magnitude move nothing (dead zone)"),
+              sentence="main-motor voltages below {value:.3g} {unit} in magnitude move nothing (dead zone)",
+              bounds=POSITIVE),
     Candidate("dead_zone", "yaw", "w", "V", "grid", _geom(0.02, 0.6, 16),
-              sentence="tail-motor voltages below {value:.3g} {unit} in magnitude move nothing (dead zone)"),
+              sentence="tail-motor voltages below {value:.3g} {unit} in magnitude move nothing (dead zone)",
+              bounds=POSITIVE),
     Candidate("input_saturation", "pitch", "U", "V", "grid", tuple(2.45 - 0.1 * i for i in range(16)),
               sentence="the main motor saturates at {value:.3g} {unit}, below the logged command"),
     Candidate("input_saturation", "yaw", "U", "V", "grid", tuple(2.45 - 0.1 * i for i in range(16)),
               sentence="the tail motor saturates at {value:.3g} {unit}, below the logged command"),
     Candidate("input_delay", "both", "d", "s", "grid", (),
-              sentence="the motors act on the logged voltages {value:.3g} {unit} late (transport delay)"),
+              sentence="the motors act on the logged voltages {value:.3g} {unit} late (transport delay)",
+              bounds=POSITIVE),
     Candidate("motor_lag", "pitch", "T", "s", "grid", (),
               sentence="the main motor's time constant is {value:.3g} {unit}, not the table's value"),
     Candidate("motor_lag", "yaw", "T", "s", "grid", (),
@@ -83,3 +114,14 @@ UNOBSERVABLE = {"sensor_offset:yaw": "the yaw equation contains no term in beta,
                                      "changes nothing the model can see"}
 
 BY_KEY = {c.key: c for c in CANDIDATES}
+
+
+def by_key(key: str) -> Candidate | None:
+    """The entry of CANDIDATES with this key, read when called (BY_KEY is the library as imported)."""
+    return next((c for c in CANDIDATES if c.key == key), None)
+
+
+def generic(key: str) -> bool:
+    """Is ``key`` a torque effect declared by its torque alone (the module docstring's one-entry effects)?"""
+    c = by_key(key)
+    return c is not None and c.torque is not None

@@ -18,6 +18,7 @@ from ..log import Log
 from ..numerics.filters import discretize, second_order_lowpass
 from ..numerics.fused import plant_signals  # compiled, equal to regressors.plant_signals to round-off
 from ..numerics.regressors import PlantSignals, filtered_regression
+from . import effects
 
 AXIS_ANGLE = {"pitch": "alpha_rad", "yaw": "beta_rad"}
 
@@ -115,7 +116,7 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
         f = cache[("F", a_rad_s)] = discretize(num, den, dt, "bilinear")
     keys = {"pitch": ("g", "pitch", a_rad_s, tuple(sorted((k, v) for k, v in mods.items() if k in _PITCH_MODS))),
             "yaw": ("g", "yaw", a_rad_s, tuple(sorted(mods.items())))}
-    need_ps = any(keys[ax] not in cache for ax in keys) or any(k in model.linear for k in NEEDS_PLANT)
+    need_ps = any(keys[ax] not in cache for ax in keys) or any(needs_plant(k) for k in model.linear)
     ps = pp = None
     if need_ps:
         u1, u2, changes = modified_inputs(log, mods)
@@ -129,7 +130,7 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
             if trig is None:
                 trig = cache[("trig",)] = (np.sin(log.alpha_rad), np.cos(log.alpha_rad))
         # the targets alone unless a plant-dependent column or the start basis needs the motor states too
-        full = (any(k in model.linear for k in NEEDS_PLANT) or
+        full = (any(needs_plant(k) for k in model.linear) or
                 any(("start", ax, a_rad_s) not in cache for ax in ("pitch", "yaw")))
         ps = plant_signals(u1, u2, log.alpha_rad - sensor, log.beta_rad, dt, pp, law,
                            gravity_offset_rad=mods.get("com_offset:pitch", 0.0), trig=trig,
@@ -164,7 +165,7 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
             if ax != axis and not (effect == "yaw_inertia_pitch" and axis == "pitch"):
                 continue
             ck = ("phi", key, axis, a_rad_s)
-            if key in NEEDS_PLANT:  # depends on the input modifications: not cached
+            if needs_plant(key):  # depends on the input modifications: not cached
                 col = deflate(-f.apply(phi(effect, axis, log, pp, ps, cache)), basis)
             elif effect == "yaw_inertia_pitch" and axis == "pitch":  # its centrifugal torque on pitch
                 if ck not in cache:
@@ -293,8 +294,33 @@ def _bound(cache: dict, keep: tuple) -> None:
             total -= cache.pop(k).nbytes
 
 
+def state_signals(log: Log, ps, p: dict, cache: dict) -> dict:
+    """Measured and reconstructed signals a torque is made of (effects.Candidate.torque, sparse.LIBRARY): angles
+    [rad], rates smoothed as the candidates' [rad/s] (and the scale below which a rate's sign is noise), the
+    motor states and thrust torques [N m] of ``ps`` (plant_signals with rows="all")."""
+    dt = log.sample_time_s
+    vel = {}
+    for axis in ("pitch", "yaw"):
+        key = ("velocity", axis)
+        if key not in cache:
+            cache[key] = smoothed_velocity(getattr(log, AXIS_ANGLE[axis]), dt)
+        vel[axis] = cache[key]
+    scale = {a: max(3.0 * float(np.median(np.abs(np.diff(v)))), 1e-4) for a, v in vel.items()}
+    return {"alpha": log.alpha_rad, "beta": log.beta_rad, "dalpha": vel["pitch"], "dbeta": vel["yaw"],
+            "scale_alpha": scale["pitch"], "scale_beta": scale["yaw"], "tau1": ps.tau1, "tau2": ps.tau2,
+            "M1": ps.M1_nm, "M2": ps.M2_nm, "MR": ps.MR_nm,
+            "gyro_factor": 1.0 - p["Kg"] * vel["yaw"] * np.cos(log.alpha_rad)}
+
+
+def needs_plant(key: str) -> bool:
+    """Is the extra regressor of ``key`` made from the motor states (which the input modifications change)?"""
+    return key in NEEDS_PLANT or effects.generic(key)
+
+
 def phi(effect: str, axis: str, log: Log, p: dict, ps, cache: dict) -> np.ndarray:
     """Torque per unit parameter that the effect adds to the right-hand side of eq. (1) [N m / unit]."""
+    if effects.generic(f"{effect}:{axis}"):  # declared by its torque alone (effects.py)
+        return np.asarray(effects.by_key(f"{effect}:{axis}").torque(state_signals(log, ps, p, cache)), dtype=float)
     dt = log.sample_time_s
     x = getattr(log, AXIS_ANGLE[axis])
     vkey = ("velocity", axis)

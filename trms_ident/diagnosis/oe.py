@@ -16,7 +16,9 @@ The batch-means t alone is optimistic on noise-free quantized logs (t ~ 5 for a 
 square-wave log); the practical size decides there.
 
 Which effects the output-error model carries: numerics.refine.EFFECT_SLOTS (Coulomb friction and quadratic
-drag on either axis, the yaw cable, a reversed rotor's thrust asymmetry, the centre-of-mass offset); the
+drag on either axis, the yaw cable, a reversed rotor's thrust asymmetry, the centre-of-mass offset), compiled
+with the simulated states, and every effect the model room declares by its torque alone (effects.py), whose
+torque is computed from the measured states and enters the simulation as an exogenous torque; the
 other findings (the encoder offset, the pitch-dependent yaw inertia) are not in it with a free parameter, so
 once one of them is a finding only the equation error judges.
 
@@ -51,10 +53,11 @@ from ..numerics.refine import BLOCK_S
 from ..numerics.refine import EFFECT_SLOTS, substeps
 from ..numerics.refine import refine as oe_refine
 from ..numerics.regressors import thrust
-from .model import Model, modified_inputs
+from . import effects as room
+from .model import Model, modified_inputs, state_signals
 from .select import MIN_SIGNAL_SHARE
 
-#: candidates the output-error fit can carry
+#: candidates the output-error fit carries compiled into its kernel (others: carries())
 OE_KEYS = tuple(EFFECT_SLOTS)
 #: a passing candidate must lower the noise-weighted squared angle error by this fraction of the current one
 #: (a practical size: on clean logs the drop was at most 2e-4 of it, on a 0.002 N m pitch friction 3e-2)
@@ -113,11 +116,21 @@ class OEFit:
     start_states: dict = field(default_factory=dict)
 
 
+def carries(key: str) -> bool:
+    """Can the output-error fit carry torque effect ``key`` with its parameter free?"""
+    return key in OE_KEYS or room.generic(key)
+
+
+def fittable(key: str) -> bool:
+    """Can the output-error fit judge candidate ``key`` (a torque effect it carries or a profiled modification)?"""
+    return carries(key) or key in PROFILE_KEYS
+
+
 def representable(model: Model) -> bool:
     """Can the output-error fit carry the model's findings with every parameter free?  (An input
     modification's value would stay at the equation error's estimate, and a fixed, slightly wrong dead zone or
     saturation leaves yaw drift that a tiny extra term then absorbs: measured, "cable 8e-5 N m/rad".)"""
-    return all(k == "com_offset:pitch" for k, _ in model.mods) and all(k in OE_KEYS for k in model.linear)
+    return all(k == "com_offset:pitch" for k, _ in model.mods) and all(carries(k) for k in model.linear)
 
 
 #: a candidate's torque must reach this share of its axis' thrust torque (RMS over the log): in 40 s windows
@@ -138,9 +151,13 @@ def torque_share(key: str, value: float, log: Log, p: dict, law: str) -> float:
     axis = key.split(":")[1]
     pitch = axis == "pitch"
     tau, m = _steady_thrust(log.u1_v if pitch else log.u2_v, pitch, p, law)
+    rms = lambda v: float(np.sqrt(np.mean(np.square(v))))  # noqa: E731
+    if room.generic(key):  # declared by its torque: that torque over the log
+        scale = rms(m)
+        return abs(value) * rms(unit_torques(log, p, law, (key,))[key][:, 0 if pitch else 1]) / scale if scale > 0 \
+            else 0.0
     x = log.alpha_rad if pitch else log.beta_rad
     w = np.gradient(x, log.sample_time_s)
-    rms = lambda v: float(np.sqrt(np.mean(np.square(v))))  # noqa: E731
     effect = key.split(":")[0]
     # an encoder offset moves the gravity torque as a centre-of-mass offset of the same angle does
     gravity = lambda: abs(value) * p["Mg"] * rms(np.cos(x))  # noqa: E731
@@ -151,6 +168,27 @@ def torque_share(key: str, value: float, log: Log, p: dict, law: str) -> float:
               "com_offset": gravity, "sensor_offset": gravity}[effect]()
     scale = rms(m)
     return torque / scale if scale > 0 else 0.0
+
+
+def unit_torques(log: Log, p: dict, law: str, keys, u1=None, u2=None, cache: dict | None = None) -> dict:
+    """key -> (n, 2) torque per unit parameter [N m / unit] on pitch and yaw of each effect the model room
+    declares by its torque (effects.py), from the log's measured states and the motor states that the voltages
+    (u1, u2: the log's unless given, e.g. through input modifications) drive in the seed model ``p``."""
+    from ..numerics.fused import plant_signals
+
+    keys = [k for k in keys if room.generic(k)]
+    if not keys:
+        return {}
+    u1 = log.u1_v if u1 is None else u1
+    u2 = log.u2_v if u2 is None else u2
+    ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, log.sample_time_s, p, law, rows="all")
+    sig = state_signals(log, ps, p, {} if cache is None else cache)
+    out = {}
+    for k in keys:
+        t = np.zeros((len(log), 2))
+        t[:, 0 if room.by_key(k).axis == "pitch" else 1] = room.by_key(k).torque(sig)
+        out[k] = t
+    return out
 
 
 def _steady_thrust(u: np.ndarray, pitch: bool, p: dict, law: str) -> tuple[np.ndarray, np.ndarray]:
@@ -201,6 +239,8 @@ class Fitter:
         self.noise = {"alpha": angle_noise_rad(log.alpha_rad[:self.n]), "beta": angle_noise_rad(log.beta_rad[:self.n])}
         self.var = {"alpha": float(np.var(log.alpha_rad[:self.n])), "beta": float(np.var(log.beta_rad[:self.n]))}
         self._base: dict = {}
+        self._torques: dict = {}  # (key, input modifications) -> unit_torques of the fitted samples
+        self._signals: dict = {}  # the fitted samples' smoothed rates (state_signals' cache)
 
     def _fit(self, model: Model, values: dict, theta0: dict, extra_key: str | None, mods: dict | None = None,
              max_iterations: int | None = None):
@@ -217,8 +257,14 @@ class Fitter:
             u1, u2, changes = modified_inputs(log.head(n), mods)
             p = {**p, **changes}
         kw = {} if max_iterations is None else {"max_iterations": max_iterations}
+        torques = {}
+        for k in (k for k in free if room.generic(k)):
+            ck = (k, tuple(sorted(mods.items())))
+            if ck not in self._torques:
+                self._torques[ck] = unit_torques(log.head(n), p, self.law, (k,), u1, u2, self._signals)[k]
+            torques[k] = self._torques[ck]
         return oe_refine(u1, u2, log.alpha_rad[:n], log.beta_rad[:n], log.sample_time_s, p, self.law, theta0,
-                         self.noise, free=free, effects=effects, **kw)
+                         self.noise, free=free, effects=effects, torques=torques or None, **kw)
 
     def _blocks(self, v: np.ndarray) -> np.ndarray:
         """Per-sample values summed over BLOCK_S blocks (a last partial block left out)."""
@@ -270,7 +316,7 @@ class Fitter:
         error with its input modifications at their values, J/B, its torque terms' parameters and the start
         states free; angle -> error RMS over the angle's noise floor.  None when a finding is one the fit cannot
         carry (the encoder offset, the pitch-dependent yaw inertia) or the fit fails."""
-        if any(k not in OE_KEYS for k in model.linear):
+        if not all(carries(k) for k in model.linear):
             return None
         r = self.base(model, values, theta0)
         if r is None or not all(math.isfinite(r.rms_rad[a]) for a in self.noise):

@@ -13,15 +13,15 @@ from ..numerics.adequacy import AXIS_OF, RMS_OVER_NOISE
 from ..numerics.design import design_filters
 from ..numerics.stats import block_length
 from ..params import merge
-from . import oe
+from . import effects, oe
 from .discriminate import PAIR, tell_offsets_apart
-from .effects import CANDIDATES, UNOBSERVABLE, Candidate
+from .effects import UNOBSERVABLE, Candidate
 from .locate import lag_profile, regimes, segments
 from .model import (AXIS_ANGLE, Model, drop_search_columns, modified_inputs, regression, restart_velocity,
                     smoothed_velocity)
 from .predict import HORIZON_S, fit_text, nrmse_fit, predict_fitted_start
 from .select import FAMILY_ALPHA, block_ids, compare, score
-from .shapes import term_shape, thin
+from .shapes import declared_shape, term_shape, thin
 
 MAX_FINDINGS = 3
 #: two candidates whose fitted contributions correlate this much and whose gains are this close
@@ -167,7 +167,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
     base = score(base_reg, ids, axes)
     nominal = _estimates(base, base_reg)
     tested, findings = [], []
-    cands = [c for c in CANDIDATES]
+    cands = list(effects.CANDIDATES)  # read when called: the model room's entries
     n_tests = len(cands)
     reg_now, score_now = base_reg, base
     excluded: set[str] = set()  # look-alikes already named as a finding's alternatives
@@ -398,8 +398,12 @@ def _finding_steps(log, p, law, findings, states, values, fits, cache, seg) -> l
                           "residual_before": r[0][th], "residual_after": r[1][th],
                           "regime_label": regime[0], "regime": regime[1][th], "segments": seg[axis]}
         first = _axes_of(c)[0]
-        shape = term_shape(c, values[c.key], p, law, cache[("velocity", first)], getattr(log, AXIS_ANGLE[first]),
-                           log.alpha_rad, log.u2_v if c.axis == "yaw" else log.u1_v, dt)
+        if effects.generic(c.key):  # declared by its torque alone: that torque against its regime variable
+            torque = oe.unit_torques(log, p, law, (c.key,))[c.key][:, 0 if c.axis == "pitch" else 1]
+            shape = declared_shape(c, values[c.key], axes[c.axis]["regime_label"], regime[1], values[c.key] * torque)
+        else:
+            shape = term_shape(c, values[c.key], p, law, cache[("velocity", first)], getattr(log, AXIS_ANGLE[first]),
+                               log.alpha_rad, log.u2_v if c.axis == "yaw" else log.u1_v, dt)
         out.append({"key": c.key, "t": log.t_s[th], "axes": axes, "shape": shape})
     return out
 
@@ -511,7 +515,7 @@ def _backward(findings, current, augmented, values, fit_after, log, p, law, a, c
         why = small
         if why is None:
             why = _refusal(c, {}, augmented, fit_wo, fit_after)
-            if why is not None and c.key in oe.OE_KEYS + oe.PROFILE_KEYS and oe.representable(without):
+            if why is not None and oe.fittable(c.key) and oe.representable(without):
                 value0 = oe_values.get(c.key, best["value"])
                 _, ok = _oe_fit(c, value0, fitter, without, vals, _oe_start(sc, reg, p), log, p, n_tests, tested)
                 why = None if ok else why + "; the output-error held-out test given the others does not pass"
@@ -536,7 +540,7 @@ def _polish(findings, current, values, oe_values, fitter, log, p, theta0) -> Mod
     findings explain (measured: a 1.32 s pitch motor lag fitted at 1.24 s before a yaw drag was in the model,
     both axes sharing the cost).  The model with the new values (the same object when nothing moved); the
     findings' records and ``oe_values`` are updated in place.  Skipped when the fit cannot carry a finding."""
-    if any(k not in oe.OE_KEYS for k in current.linear):
+    if not all(oe.carries(k) for k in current.linear):
         return current
     model = current
     for best, _ in findings:
@@ -558,7 +562,7 @@ def _negligible(c: Candidate, value: float, found: float, log: Log, p: dict, law
     after it shrank to less than half the value it was ``found`` with, or None.  A finding that keeps its value
     is left to the tests that passed it (measured: a right 0.03 pitch drag on a 100 Hz multisine sits at
     0.48 % of the thrust torque)."""
-    if c.key not in oe.OE_KEYS or not abs(value) < 0.5 * abs(found):
+    if not oe.carries(c.key) or not abs(value) < 0.5 * abs(found):
         return None
     share = oe.torque_share(c.key, value, log, p, law)
     if share >= oe.MIN_TORQUE_SHARE:
@@ -801,10 +805,9 @@ def _alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache
     equation error's best stays the finding if it is among them, else the one that leaves the least; the other
     close ones become alternatives (beside look-alikes the fit cannot carry), the rest are told apart.  (best,
     alternatives, what told them apart or None); unchanged when no rival passes or the fit cannot decide."""
-    fittable = oe.OE_KEYS + oe.PROFILE_KEYS
-    rivals = sorted((r for r in ok if r is not best and r["c"].key in fittable and
+    rivals = sorted((r for r in ok if r is not best and oe.fittable(r["c"].key) and
                      r["test"].gain >= ALIAS_GAIN_RATIO * best["test"].gain), key=lambda r: -r["test"].gain)
-    if best["c"].key not in fittable or not rivals or not oe.representable(current):
+    if not oe.fittable(best["c"].key) or not rivals or not oe.representable(current):
         return best, alts, None
     pool = [best] + rivals[:OE_TOP_K]
     theta0 = _oe_start(score_now, reg_now, p)
@@ -856,8 +859,7 @@ def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now,
         return None
     theta0 = _oe_start(score_now, reg_now, p)
     values = _effect_values(current, score_now, reg_now)
-    fittable = oe.OE_KEYS + oe.PROFILE_KEYS
-    order = sorted((r for r in results if r["c"].key in fittable and r["c"].key not in current.keys),
+    order = sorted((r for r in results if oe.fittable(r["c"].key) and r["c"].key not in current.keys),
                    key=lambda r: -r["test"].gain)[:OE_TOP_K]
     good = []
     for r in order:
@@ -903,7 +905,7 @@ def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested):
     value; the finding as _oe_rescue returns one, or None."""
     c = best["c"]
     before, reg_b, sc_b = best["before"]
-    if c.key not in oe.OE_KEYS + oe.PROFILE_KEYS or not oe.representable(before):
+    if not oe.fittable(c.key) or not oe.representable(before):
         return None
     f, ok = _oe_fit(c, best["value"], fitter, before, _effect_values(before, sc_b, reg_b), _oe_start(sc_b, reg_b, p),
                     log, p, n_tests, tested)
@@ -916,12 +918,7 @@ def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested):
 
 
 def _plausible(c: Candidate, v: float) -> bool:
-    if c.effect in ("coulomb_friction", "quadratic_drag", "cable_stiffness", "dead_zone", "input_delay",
-                    "yaw_inertia_pitch"):  # a tilted beam's inertia about the vertical can only fall
-        return v > 0
-    if c.effect == "thrust_asymmetry":  # a reversed rotor still pushes the way it turns
-        return -1.0 < v < 10.0
-    return math.isfinite(v)
+    return c.plausible(v)  # the model room's bounds (a reversed rotor still pushes the way it turns, ...)
 
 
 #: the pitch offsets, found by the equation error (the output-error fit cannot carry an encoder offset, and the
@@ -999,6 +996,11 @@ def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, ex
     u1, u2, changes = modified_inputs(log, dict(model.mods))
     pp = {**p, **changes}
     ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, dt, pp, law, start=start, rows="motors")
+    extra = {axis: (extra or {}).get(axis) for axis in ("pitch", "yaw")}
+    for key, t in oe.unit_torques(log, pp, law, [k for k in model.linear if k in values], u1, u2).items():
+        for j, axis in enumerate(("pitch", "yaw")):  # the model room's torque effects (effects.py)
+            if np.any(t[:, j]):
+                extra[axis] = values[key] * t[:, j] + (0.0 if extra[axis] is None else extra[axis])
     del u1, u2
     horizon = max(int(round(HORIZON_S / dt)), 1)
     fits, preds = {}, {}
@@ -1022,7 +1024,7 @@ def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, ex
             drive, other = ps.tau1, ps.dbeta_rad_s
         if all(math.isfinite(q) and q > 0 for q in th[:2]):
             aux = (zeros, zeros) if axis == "pitch" else _yaw_inertia_signals(log.alpha_rad, dt)
-            ext = (extra or {}).get(axis, zeros)
+            ext = zeros if extra[axis] is None else extra[axis]
             y = predict_fitted_start(axis == "pitch", x, v, drive, other, *aux, ext, dt, horizon, th, fx)
             del aux
         else:  # J or B not physical: nothing to predict with, nothing to score

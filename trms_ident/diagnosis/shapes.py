@@ -35,10 +35,34 @@ def _span(v: np.ndarray, symmetric: bool = True) -> np.ndarray:
     return np.linspace(lo, hi if symmetric or not v.size else float(np.max(v)), 300)
 
 
+#: a torque effect declared by its torque alone is drawn as its mean torque in this many bins of its regime
+BINS = 60
+
+
+def declared_shape(c: Candidate, value: float, regime_label: str, regime: np.ndarray, torque_nm: np.ndarray
+                   ) -> Shape:
+    """A torque effect the model room declares by its torque alone (effects.py): its torque over the log
+    (``torque_nm`` [N m] per sample at the finding's value) as the mean in BINS bins of its regime variable."""
+    ok = np.isfinite(regime) & np.isfinite(torque_nm)
+    x, t = regime[ok], torque_nm[ok]
+    if x.size == 0 or float(np.ptp(x)) == 0.0:
+        x, t = np.zeros(1), np.array([float(np.mean(t))]) if t.size else np.zeros(1)
+    else:
+        edges = np.linspace(float(x.min()), float(x.max()), BINS + 1)
+        idx = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, BINS - 1)
+        count = np.bincount(idx, minlength=BINS)
+        keep = count > 0
+        x = (0.5 * (edges[:-1] + edges[1:]))[keep]
+        t = (np.bincount(idx, weights=t, minlength=BINS) / np.maximum(count, 1))[keep]
+    return Shape(regime_label, x, "torque [N m], mean per bin of the log", t, np.zeros_like(t),
+                 f"{c.effect.replace('_', ' ')} on {c.axis}: {c.parameter} = {value:.3g} {c.unit}")
+
+
 def term_shape(c: Candidate, value: float, p: dict, law: str, velocity: np.ndarray, angle: np.ndarray,
                pitch_rad: np.ndarray, u_v: np.ndarray, dt_s: float) -> Shape:
     """The finding's term over the log's range: ``velocity`` [rad/s] and ``angle`` [rad] of the finding's axis,
-    ``pitch_rad`` the pitch angle, ``u_v`` the axis' voltage (u1 for effects on both axes), ``dt_s`` the step."""
+    ``pitch_rad`` the pitch angle, ``u_v`` the axis' voltage (u1 for effects on both axes), ``dt_s`` the step.
+    (A torque effect declared by its torque alone: declared_shape.)"""
     e, ax = c.effect, c.axis
     name = {"pitch": "pitch", "yaw": "yaw", "both": "motor"}[ax]
     if e == "coulomb_friction":

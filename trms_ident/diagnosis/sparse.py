@@ -29,7 +29,7 @@ from typing import Callable
 
 import numpy as np
 
-from .model import AXIS_ANGLE, Regression, deflate, smoothed_velocity
+from .model import Regression, deflate, state_signals
 from .select import FAMILY_ALPHA, compare, score
 
 #: STLSQ thresholds tried, on columns and target scaled to unit norm (a term must carry about this share
@@ -120,20 +120,8 @@ class Correction:
     prediction: np.ndarray  # the axis' multi-step predictions with the correction [rad]
 
 
-def signals(log, ps, p: dict, cache: dict) -> dict:
-    """Measured and reconstructed signals the library is made of (rates smoothed as the candidates')."""
-    dt = log.sample_time_s
-    vel = {}
-    for axis in ("pitch", "yaw"):
-        key = ("velocity", axis)
-        if key not in cache:
-            cache[key] = smoothed_velocity(getattr(log, AXIS_ANGLE[axis]), dt)
-        vel[axis] = cache[key]
-    scale = {a: max(3.0 * float(np.median(np.abs(np.diff(v)))), 1e-4) for a, v in vel.items()}
-    return {"alpha": log.alpha_rad, "beta": log.beta_rad, "dalpha": vel["pitch"], "dbeta": vel["yaw"],
-            "scale_alpha": scale["pitch"], "scale_beta": scale["yaw"], "tau1": ps.tau1, "tau2": ps.tau2,
-            "M1": ps.M1_nm, "M2": ps.M2_nm, "MR": ps.MR_nm,
-            "gyro_factor": 1.0 - p["Kg"] * vel["yaw"] * np.cos(log.alpha_rad)}
+#: the measured and reconstructed signals the library is made of (the model room's, shared with the named effects)
+signals = state_signals
 
 
 def fit_correction(axis: str, reg: Regression, base_score, ids: np.ndarray, sig: dict, filt, n_tests: int,

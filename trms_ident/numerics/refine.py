@@ -121,10 +121,11 @@ def _thrust_slope(tau, a, b, signed):
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
-def _rhs(x, u1, u2, p, signed, d):
+def _rhs(x, u1, u2, e1, e2, p, signed, d):
     """Paper eq. (1) with the motor lags, M_R's lag state and the effects in p's slots, and the exact forward
     sensitivities (layout above): for every unknown c, d/dt S_c = A(t) S_c + df/dtheta_c, with A the Jacobian
-    of (alpha', alpha'', beta', beta'') in (alpha, alpha', beta, beta')."""
+    of (alpha', alpha'', beta', beta'') in (alpha, alpha', beta, beta').  e1, e2: exogenous torques [N m] on
+    pitch and yaw (effects declared by their torque from the measured states; 0 without)."""
     j1, b1, j2, b2 = p[0], p[1], p[2], p[3]
     eps = FRICTION_SMOOTH_RAD_S
     m1 = _thrust(x[4], p[4], p[5], signed)
@@ -140,8 +141,8 @@ def _rhs(x, u1, u2, p, signed, d):
     th1, th2 = math.tanh(x[1] / eps), math.tanh(x[3] / eps)
     fr1 = -p[20] * th1 - p[22] * x[1] * abs(x[1])  # friction beyond B: Coulomb (smoothed) and drag
     fr2 = -p[21] * th2 - p[23] * x[3] * abs(x[3])
-    f1 = (m1 - b1 * x[1] - p[8] * sg - p[9] * m1 * x[3] * ca + fr1) / j1  # eq. (1), pitch
-    f3 = (m2 - b2 * x[3] - mr - p[24] * x[2] + fr2) / j2  # eq. (1), yaw (with a cable: -k beta)
+    f1 = (m1 - b1 * x[1] - p[8] * sg - p[9] * m1 * x[3] * ca + fr1 + e1) / j1  # eq. (1), pitch
+    f3 = (m2 - b2 * x[3] - mr - p[24] * x[2] + fr2 + e2) / j2  # eq. (1), yaw (with a cable: -k beta)
     d[0] = x[1]
     d[1] = f1
     d[2] = x[3]
@@ -185,21 +186,22 @@ def _rhs(x, u1, u2, p, signed, d):
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
-def _rk4(x, xt, k1, k2, k3, k4, v1, v2, p, signed, dur, max_sub):
-    """Advance x (with its sensitivities) by dur [s] with the voltages v1, v2 held, RK4 sub-steps <= max_sub."""
+def _rk4(x, xt, k1, k2, k3, k4, v1, v2, e1, e2, p, signed, dur, max_sub):
+    """Advance x (with its sensitivities) by dur [s] with the voltages v1, v2 and exogenous torques e1, e2 held,
+    RK4 sub-steps <= max_sub."""
     nsub = max(1, int(math.ceil(dur / max_sub - 1e-9)))
     hs = dur / nsub
     for _ in range(nsub):
-        _rhs(x, v1, v2, p, signed, k1)
+        _rhs(x, v1, v2, e1, e2, p, signed, k1)
         for i in range(_NS):
             xt[i] = x[i] + 0.5 * hs * k1[i]
-        _rhs(xt, v1, v2, p, signed, k2)
+        _rhs(xt, v1, v2, e1, e2, p, signed, k2)
         for i in range(_NS):
             xt[i] = x[i] + 0.5 * hs * k2[i]
-        _rhs(xt, v1, v2, p, signed, k3)
+        _rhs(xt, v1, v2, e1, e2, p, signed, k3)
         for i in range(_NS):
             xt[i] = x[i] + hs * k3[i]
-        _rhs(xt, v1, v2, p, signed, k4)
+        _rhs(xt, v1, v2, e1, e2, p, signed, k4)
         for i in range(_NS):
             x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
@@ -280,13 +282,15 @@ _MOTOR_P = np.array([_P.index(k) for k in ("k1", "k2", "T11", "T10", "T21", "T20
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
-def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block, w0, w1, out, extra,
-                 costs, a_mat, b_vec, scores):
+def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block, ext, w0, w1, out,
+                 extra, costs, a_mat, b_vec, scores):
     """Windows w0..w1-1 of one pass: predictions (out), each window's weighted cost (costs), normal equations
     (a_mat, b_vec) and its blocks' scores, written into the caller's arrays (disjoint slices: windows can run
     in threads).  Each window starts from its fitted angles and rates (starts) and the motor states of
-    motor_starts (mstart)."""
+    motor_starts (mstart).  ``ext`` (n, 2): exogenous torques [N m] held over each sample interval, or (0, 2)
+    for none."""
     n = u1.size
+    has_ext = ext.shape[0] > 0
     nw = starts.shape[0]
     nb = scores.shape[0]
     m = extra.shape[2]
@@ -333,10 +337,11 @@ def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub,
                 break
             # hold the voltages over the actual interval, each switching at its own time
             cuts, v1, v2 = _pieces(k, u1, u2, h, dsw)
+            e1, e2 = (ext[k, 0], ext[k, 1]) if has_ext else (0.0, 0.0)
             for j in range(3):
                 dur = cuts[j + 1] - cuts[j]
                 if dur > 0.0:
-                    _rk4(x, xt, k1, k2, k3, k4, v1[j], v2[j], p, signed, dur, max_sub)
+                    _rk4(x, xt, k1, k2, k3, k4, v1[j], v2[j], e1, e2, p, signed, dur, max_sub)
         costs[w] = cost
         for i in range(nt):
             for j in range(i):
@@ -365,7 +370,7 @@ def motor_response(free, m0):
 
 
 def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub, win, block, out, extra,
-                      motor_free=None):
+                      motor_free=None, ext=None):
     """One pass over the log: predictions (out), weighted cost, per-window normal equations in the
     NU unknowns (J1, B1, J2, B2, tau1(0), tau2(0), zeta(0), alpha0, alpha'0, beta0, beta'0), then one per
     column of ``extra`` (n, 2, m: sensitivities of alpha, beta to freed known values, computed by the
@@ -376,7 +381,7 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
     The motor states at each window's start come first (motor_starts); the windows are then independent and
     run on up to _threads() cores, each window computed the same way whatever the split, so the numbers do not
     depend on the machine.  ``motor_free``: motor_starts from zero start states for this p (computed when
-    None)."""
+    None).  ``ext`` (n, 2): exogenous torques [N m] held over each sample interval (None: none)."""
     n = u1.size
     nw = starts.shape[0]
     nb = max(n // block, 1)
@@ -388,7 +393,8 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
     if motor_free is None:
         motor_free = motor_starts(u1, u2, p, h, dsw, max_sub, win, nw, np.zeros(3))
     mstart = motor_response(motor_free, m0)
-    args = (u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block)
+    args = (u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block,
+            np.zeros((0, 2)) if ext is None else ext)
     tail = (out, extra, costs, a_mat, b_vec, scores)
     groups = min(_threads(), nw) if n >= THREAD_MIN_SAMPLES else 1
     if groups <= 1:
@@ -414,20 +420,25 @@ def warm_up() -> None:
                       np.zeros((n, 2, 0)))
 
 
-def model_vector(params: dict, gravity_offset_rad: float = 0.0, effects: dict | None = None) -> np.ndarray:
-    """The compiled kernel's parameter vector: the table's values in _P order, the gravity offset, then the
-    effects' slots (EFFECT_SLOTS; ``effects``: key -> value, absent ones 0)."""
-    pv = np.zeros(_NP)
+def model_vector(params: dict, gravity_offset_rad: float = 0.0, effects: dict | None = None,
+                 exogenous: tuple[str, ...] = ()) -> np.ndarray:
+    """The compiled kernel's parameter vector: the table's values in _P order, the gravity offset, the effects'
+    slots (EFFECT_SLOTS; ``effects``: key -> value, absent ones 0), then the exogenous torques' parameters in
+    the order of ``exogenous`` (the kernel reads none of these: _Problem turns them into torques)."""
+    pv = np.zeros(_NP + len(exogenous))
     pv[:len(_P)] = [params[k] for k in _P]
     pv[19] = gravity_offset_rad
     for key, v in (effects or {}).items():
-        pv[EFFECT_SLOTS[key]] = v
+        pv[slot(key, exogenous)] = v
     return pv
 
 
-def slot(name: str) -> int:
-    """Position in the model vector of a known value (_P) or an effect (EFFECT_SLOTS)."""
-    return EFFECT_SLOTS[name] if name in EFFECT_SLOTS else _P.index(name)
+def slot(name: str, exogenous: tuple[str, ...] = ()) -> int:
+    """Position in the model vector of a known value (_P), an effect (EFFECT_SLOTS) or an exogenous torque's
+    parameter (after them, in the order of ``exogenous``)."""
+    if name in EFFECT_SLOTS:
+        return EFFECT_SLOTS[name]
+    return _NP + exogenous.index(name) if name in exogenous else _P.index(name)
 
 
 def steady_motor_states(u1_0: float, u2_0: float, params: dict) -> np.ndarray:
@@ -508,6 +519,9 @@ class _Problem:
     block: int
     free_idx: list  # positions in the model vector of the freed known values
     motor_cache: dict = field(default_factory=dict)  # (max_sub, motor values) -> motor_starts from zero states
+    #: (n, 2, m) exogenous torques per unit parameter [N m / unit], held over each sample interval; their
+    #: parameters sit after _NP in the model vector (model_vector's ``exogenous``)
+    torques: np.ndarray | None = None
 
     def vector(self, th):
         """The kernel's model vector at th: J/B and the freed values over the table/file values."""
@@ -517,6 +531,12 @@ class _Problem:
             pv[i] = th[NG + j]
         return pv
 
+    def exogenous(self, pv):
+        """(n, 2) torques [N m] of the exogenous effects at the model vector's values, or None without any."""
+        if self.torques is None or not np.any(pv[_NP:]):
+            return None
+        return np.ascontiguousarray(self.torques @ pv[_NP:])
+
     def _pass(self, pv, th, st, out, max_sub, extra):
         ext = np.zeros((self.y.shape[0], 2, 0)) if extra is None else extra
         key = (max_sub, pv[_MOTOR_P].tobytes())  # the motor states depend on the motors' values alone
@@ -524,7 +544,8 @@ class _Problem:
             self.motor_cache[key] = motor_starts(self.u1, self.u2, pv, self.h, self.dsw, max_sub, self.win,
                                                  st.shape[0], np.zeros(3))
         return gauss_newton_pass(self.u1, self.u2, self.y, self.inv_sig, st, th[4:NG], pv, self.signed, self.h,
-                                 self.dsw, max_sub, self.win, self.block, out, ext, self.motor_cache[key])
+                                 self.dsw, max_sub, self.win, self.block, out, ext, self.motor_cache[key],
+                                 self.exogenous(pv))
 
     def run(self, th, st, out, max_sub=MAX_SUBSTEP_S, extra=None):
         return self._pass(self.vector(th), th, st, out, max_sub, extra)
@@ -553,7 +574,8 @@ class _Problem:
 def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict, noise_rad: dict,
            window_s: float = WINDOW_S, gravity_offset_rad: float = 0.0, t_s: np.ndarray | None = None,
            free: tuple[str, ...] = (), switch_delay_s: np.ndarray | None = None,
-           effects: dict | None = None, max_iterations: int = MAX_ITERATIONS) -> Refined:
+           effects: dict | None = None, max_iterations: int = MAX_ITERATIONS,
+           torques: dict | None = None) -> Refined:
     """Gauss-Newton on the noise-weighted angle errors, from theta0 (DREM's estimate).
 
     ``t_s``: the sample stamps [s] when they are not uniform (default: uniform steps of ``dt`` [s]); the
@@ -563,7 +585,11 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     Mg sin(alpha + delta) (diagnose's extended model; an encoder offset is handled by the caller, shifting
     the logged angle).  ``effects``: effect key (EFFECT_SLOTS) -> value in the model; an effect key in ``free``
     is estimated with J/B, started from its value there (or 0).  ``max_iterations``: Gauss-Newton's limit (a
-    profile over a candidate's value, diagnosis/oe.py, needs the cost near each trial value, not convergence)."""
+    profile over a candidate's value, diagnosis/oe.py, needs the cost near each trial value, not convergence).
+    ``torques``: effect key -> (n, 2) its torque per unit parameter on pitch and yaw [N m / unit], computed by
+    the caller from the measured states (an effect not compiled into the kernel: diagnosis/effects.py); the
+    torque is held over each sample interval at the mean of its two ends, its parameter taken from
+    ``effects`` (or 0) and estimated when its key is in ``free``."""
     n = alpha.size
     t = np.arange(n) * dt if t_s is None else np.asarray(t_s, dtype=float)
     h = np.diff(t)
@@ -578,6 +604,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     free = tuple(free)
     m = len(free)
     effects = dict(effects or {})
+    exogenous = tuple(torques or {})
     given = [float(params[k] if k in _P else effects.get(k, 0.0)) for k in free]  # the freed values' starts
     theta = np.concatenate([[theta0[k] for k in NAMES], steady_motor_states(u1[0], u2[0], params), given])
     # what "negligible" means per unknown: J/B and freed values relative to themselves, start states to the
@@ -586,10 +613,11 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     scale = np.concatenate([np.abs(theta[:4]), np.maximum(motor_range, 1e-6) * 1e3,
                             np.maximum(np.abs(theta[NG:]), 1e-9)])
     prob = _Problem(np.ascontiguousarray(u1, dtype=float), np.ascontiguousarray(u2, dtype=float), y, 1.0 / sig,
-                    model_vector(params, gravity_offset_rad, effects), law == "signed", h,
+                    model_vector(params, gravity_offset_rad, effects, exogenous), law == "signed", h,
                     np.zeros((n, 2)) if switch_delay_s is None else np.ascontiguousarray(switch_delay_s, dtype=float),
                     win, block,
-                    [slot(k) for k in free])
+                    [slot(k, exogenous) for k in free],
+                    torques=_held(torques, n) if exogenous else None)
     ng = NG + m
     out = np.empty((n, 2))
     cost, a, b, scores = prob.evaluate(theta, starts, out)
@@ -652,6 +680,19 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
                    converged, it, rms, float(cost), win * step_s, nw, substeps(step_s), nb,
                    {k: float(integration[i]) for i, k in enumerate(NAMES)}, start_states, start_se, out, freed,
                    _Fit(prob, theta, starts, a, b))
+
+
+def _held(torques: dict, n: int) -> np.ndarray:
+    """(n, 2, m) the torques held over each sample interval: the mean of the interval's two ends (the last
+    sample's own value after it, never used)."""
+    out = np.empty((n, 2, len(torques)))
+    for j, t in enumerate(torques.values()):
+        t = np.asarray(t, dtype=float)
+        if t.shape != (n, 2):
+            raise ValueError(f"an exogenous torque must be (n, 2) = ({n}, 2), not {t.shape}")
+        out[:-1, :, j] = 0.5 * (t[:-1] + t[1:])
+        out[-1, :, j] = t[-1]
+    return out
 
 
 @dataclass(frozen=True)
