@@ -1,4 +1,5 @@
 """Diagnose: the right physics named on concealed effects, clean logs left alone, the JSON contract."""
+import dataclasses
 import json
 import math
 
@@ -439,7 +440,7 @@ def test_a_rugged_dead_zone_profile_is_scanned_and_a_wrong_width_is_never_called
     # by that profile; left at the equation error's grid value (0.386 V) the findings' model does not fit, and
     # the verdict must say so rather than "explained"
     from sim import SimSettings, simulate
-    from trms_ident.diagnosis import oe, run
+    from trms_ident.diagnosis import effects, oe, run
     from trms_ident.diagnosis.effects import BY_KEY
     from trms_ident.diagnosis.model import Model
     from trms_ident.params import defaults
@@ -467,7 +468,9 @@ def test_a_rugged_dead_zone_profile_is_scanned_and_a_wrong_width_is_never_called
     monkeypatch.setattr(oe, "PROFILE_SCAN_OVER_FLOOR", math.inf)
     f, check = profiled()
     assert abs(f.value / 0.4 - 1) > 0.3 and check["beta"] > 1.5
-    monkeypatch.setattr(run, "STEP_MODIFICATIONS", ())
+    # the dead zone as a modification whose value the equation error's grid sets (not a step one)
+    monkeypatch.setattr(effects, "CANDIDATES", tuple(dataclasses.replace(c, step=False) if c.effect == "dead_zone"
+                                                     else c for c in effects.CANDIDATES))
     monkeypatch.setattr(run, "_polish", lambda findings, current, *args: current)
     d = diagnose(log)
     assert [(x.effect, x.axis) for x in d.findings] == [("dead_zone", "yaw")]

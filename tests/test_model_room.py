@@ -1,6 +1,6 @@
-"""The model room (trms_ident/diagnosis/effects.py): a new torque effect is one entry there, and every stage of
-the diagnosis derives it from that entry's torque; the output-error fit's exogenous-torque path agrees with the
-compiled one."""
+"""The model room (trms_ident/diagnosis/effects.py): a new torque effect or input modification is one entry there,
+and every stage of the diagnosis derives it from that entry's torque or voltage transform; the output-error fit's
+exogenous-torque path agrees with the compiled one."""
 import dataclasses
 import json
 import math
@@ -92,6 +92,28 @@ def test_the_exogenous_torque_path_agrees_with_the_compiled_effect(monkeypatch, 
     assert declared.torque_share == pytest.approx(compiled.torque_share, rel=0.2)
     for k in ("J1", "B1", "J2", "B2"):
         assert declared.estimates[k] == pytest.approx(compiled.estimates[k], rel=0.01)
+
+
+def test_an_input_modification_declared_in_one_entry_replaces_the_saturation(monkeypatch):
+    # the library without its saturation, plus one entry: a driver that clips the main motor's voltage, declared
+    # by its voltage transform; the equation error, the output-error profile, the verdict and the figure follow
+    clip = effects.Candidate("voltage_clip", "pitch", "U", "V", "grid", tuple(2.45 - 0.1 * i for i in range(16)),
+                             sentence="the main motor's driver clips at {value:.3g} {unit}", bounds=effects.POSITIVE,
+                             modify=lambda u, limit: np.clip(u, -limit, limit), step=True)
+    monkeypatch.setattr(effects, "CANDIDATES",
+                        tuple(c for c in effects.CANDIDATES if c.effect != "input_saturation") + (clip,))
+    log = as_log(simulate(SimSettings(ref="steps", sample_rate_hz=200.0, duration_s=60.0, quantization_rad=Q12, seed=7,
+                                      start_s=30.0, effects=[dict(effect="input_saturation", axis="pitch",
+                                                                  value=1.6)])))
+    d = diagnose(log)
+    assert [(f.effect, f.axis) for f in d.findings] == [("voltage_clip", "pitch")]
+    f = d.findings[0]
+    assert f.parameter["value"] == pytest.approx(1.6, rel=0.01)
+    assert f.evidence.startswith("output-error fits over the modification's value")
+    assert d.verdict == "explained" and "clips at 1.6 V" in f.explanation
+    shape = d.steps[0]["shape"]
+    assert shape.title == "voltage clip: 1.6 V"
+    np.testing.assert_allclose(shape.fitted, np.clip(shape.x, -1.6, 1.6), atol=1e-4)
 
 
 def test_a_declared_term_is_drawn_as_its_mean_torque_over_its_regime():

@@ -9,15 +9,26 @@ rates, the motor states and thrust torques of eq. 1).  From that one function ev
 equation-error regressor (model.phi, eq. 3), the output-error fit and its held-out test (the torque enters the
 simulation of eq. 1 as an input computed from the measured states: numerics.refine's exogenous torques), the
 prediction fit, its torque share (the practical-size floor), the report's shape of the term, and the
-plausible range (``bounds``).  The effects written before this interface carry hand-written code in those
-stages instead (compiled into the output-error kernel with the simulated states, numerics.refine.EFFECT_SLOTS);
-that is faster and exact in the states, and tests check the two agree (tests/test_model_room.py).
+plausible range (``bounds``).
+
+A new input modification on one axis is one entry too: a Candidate of kind "grid" with ``modify``, the
+voltages its axis' motor sees as a function of the logged ones and the parameter, and the ``grid`` the equation
+error searches; the equation error, the output-error profile over its value with its held-out test, the
+prediction fit, its share of the thrust torque and its figure derive from it (the dead zone and the saturation
+are written so).
+
+The torque effects written before this interface carry hand-written code in those stages instead (compiled
+into the output-error kernel with the simulated states, numerics.refine.EFFECT_SLOTS): faster, and exact in the
+states; tests check that the two paths agree (tests/test_model_room.py).  The transport delay and a motor's
+time constant act on both axes or on the motor's dynamics and keep their own code in model.modified_inputs.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
 from typing import Callable
+
+import numpy as np
 
 INF = math.inf
 
@@ -39,6 +50,15 @@ class Candidate:
     #: a torque effect declared by its torque alone (module docstring): signals dict -> torque [N m] per unit
     #: parameter, added to the right-hand side of its axis' eq. (1); None for the hand-written effects
     torque: Callable | None = None
+    #: an input modification declared by its voltage transform: (logged voltages of its axis [V], parameter) ->
+    #: the voltages its motor sees [V]; None for the others
+    modify: Callable | None = None
+    #: the modification's cost is piecewise constant in its value (it changes only where the value passes a
+    #: logged voltage) and rugged away from it: its value is resolved only to the gap between those voltages, and
+    #: the equation error's 16-point grid places it coarsely (a 0.4 V yaw dead zone measured at 0.386 V, leaving
+    #: 1.9x the yaw noise level), so a finding of one takes its value from the output-error profile
+    #: (oe.Fitter.profile) when the current model is one that fit carries
+    step: bool = False
 
     @property
     def key(self) -> str:
@@ -55,6 +75,14 @@ POSITIVE = (0.0, INF)
 def _geom(lo: float, hi: float, n: int) -> tuple[float, ...]:
     r = (hi / lo) ** (1 / (n - 1))
     return tuple(lo * r ** i for i in range(n))
+
+
+def _dead_zone(u: np.ndarray, w: float) -> np.ndarray:
+    return np.where(np.abs(u) < w, 0.0, u)  # |u| < w applies no voltage
+
+
+def _saturation(u: np.ndarray, limit: float) -> np.ndarray:
+    return np.clip(u, -limit, limit)
 
 
 CANDIDATES: tuple[Candidate, ...] = (
@@ -91,14 +119,16 @@ CANDIDATES: tuple[Candidate, ...] = (
               bounds=POSITIVE),  # a tilted beam's inertia about the vertical can only fall
     Candidate("dead_zone", "pitch", "w", "V", "grid", _geom(0.02, 0.6, 16),
               sentence="main-motor voltages below {value:.3g} {unit} in magnitude move nothing (dead zone)",
-              bounds=POSITIVE),
+              bounds=POSITIVE, modify=_dead_zone, step=True),
     Candidate("dead_zone", "yaw", "w", "V", "grid", _geom(0.02, 0.6, 16),
               sentence="tail-motor voltages below {value:.3g} {unit} in magnitude move nothing (dead zone)",
-              bounds=POSITIVE),
+              bounds=POSITIVE, modify=_dead_zone, step=True),
     Candidate("input_saturation", "pitch", "U", "V", "grid", tuple(2.45 - 0.1 * i for i in range(16)),
-              sentence="the main motor saturates at {value:.3g} {unit}, below the logged command"),
+              sentence="the main motor saturates at {value:.3g} {unit}, below the logged command",
+              modify=_saturation, step=True),
     Candidate("input_saturation", "yaw", "U", "V", "grid", tuple(2.45 - 0.1 * i for i in range(16)),
-              sentence="the tail motor saturates at {value:.3g} {unit}, below the logged command"),
+              sentence="the tail motor saturates at {value:.3g} {unit}, below the logged command",
+              modify=_saturation, step=True),
     Candidate("input_delay", "both", "d", "s", "grid", (),
               sentence="the motors act on the logged voltages {value:.3g} {unit} late (transport delay)",
               bounds=POSITIVE),
@@ -119,6 +149,12 @@ BY_KEY = {c.key: c for c in CANDIDATES}
 def by_key(key: str) -> Candidate | None:
     """The entry of CANDIDATES with this key, read when called (BY_KEY is the library as imported)."""
     return next((c for c in CANDIDATES if c.key == key), None)
+
+
+def declared_modification(key: str) -> bool:
+    """Is ``key`` an input modification declared by its voltage transform (Candidate.modify)?"""
+    c = by_key(key)
+    return c is not None and c.modify is not None
 
 
 def generic(key: str) -> bool:

@@ -79,10 +79,8 @@ def modified_inputs(log: Log, mods: dict) -> tuple[np.ndarray, np.ndarray, dict]
         effect, axis = key.split(":")
         if effect == "input_delay":
             u = {ax: _delay(x, v / dt) for ax, x in u.items()}
-        elif effect == "dead_zone":
-            u[axis] = np.where(np.abs(u[axis]) < v, 0.0, u[axis])
-        elif effect == "input_saturation":
-            u[axis] = np.clip(u[axis], -v, v)
+        elif effects.declared_modification(key):  # its voltage transform, from the model room (effects.py)
+            u[axis] = effects.by_key(key).modify(u[axis], v)
         elif effect == "motor_lag":
             changes["T11" if axis == "pitch" else "T21"] = v
     return u["pitch"], u["yaw"], changes
@@ -105,6 +103,11 @@ _PITCH_MODS = ("dead_zone:pitch", "input_saturation:pitch", "input_delay:both", 
                "com_offset:pitch", "sensor_offset:pitch")
 
 
+def _pitch_mod(key: str) -> bool:
+    """Does modification ``key`` change the pitch axis' right-hand side?"""
+    return key in _PITCH_MODS or (effects.declared_modification(key) and key.endswith(":pitch"))
+
+
 def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache: dict | None = None) -> Regression:
     """g, design columns per axis; the angle regressors and unchanged targets come from ``cache``."""
     cache = cache if cache is not None else {}
@@ -114,7 +117,7 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
     f = cache.get(("F", a_rad_s))
     if f is None:
         f = cache[("F", a_rad_s)] = discretize(num, den, dt, "bilinear")
-    keys = {"pitch": ("g", "pitch", a_rad_s, tuple(sorted((k, v) for k, v in mods.items() if k in _PITCH_MODS))),
+    keys = {"pitch": ("g", "pitch", a_rad_s, tuple(sorted((k, v) for k, v in mods.items() if _pitch_mod(k)))),
             "yaw": ("g", "yaw", a_rad_s, tuple(sorted(mods.items())))}
     need_ps = any(keys[ax] not in cache for ax in keys) or any(needs_plant(k) for k in model.linear)
     ps = pp = None

@@ -121,9 +121,14 @@ def carries(key: str) -> bool:
     return key in OE_KEYS or room.generic(key)
 
 
+def profiled(key: str) -> bool:
+    """Is candidate ``key`` an input modification the output-error fit judges by a profile over its value?"""
+    return key in PROFILE_KEYS or room.declared_modification(key)
+
+
 def fittable(key: str) -> bool:
     """Can the output-error fit judge candidate ``key`` (a torque effect it carries or a profiled modification)?"""
-    return carries(key) or key in PROFILE_KEYS
+    return carries(key) or profiled(key)
 
 
 def representable(model: Model) -> bool:
@@ -352,7 +357,7 @@ class Fitter:
         return float((base.cost - cost) / base.cost), float(explained), float((base.cost - cost) / excess)
 
     def profile(self, model: Model, values: dict, theta0: dict, key: str, grid: tuple, value0: float) -> OEFit | None:
-        """Input modification ``key`` (PROFILE_KEYS, a positive value) fitted by output error over its value:
+        """Input modification ``key`` (profiled(), a positive value) fitted by output error over its value:
         the grid's values near ``value0`` (the equation error's), the whole range more finely when the best of
         those is far from the noise floor (PROFILE_SCAN_OVER_FLOOR), then finer around the best; J/B, the start
         states and the current findings' parameters refitted at each.  None when the current model cannot be
@@ -437,8 +442,9 @@ class Fitter:
         """A dead zone's or saturation's value is resolved only to the gap between the logged |voltages| either
         side of it (every value in that gap modifies the same samples: same cost); that gap's standard deviation
         as for a uniform spread, 0 for the other modifications."""
-        effect, axis = key.split(":")
-        if effect not in ("dead_zone", "input_saturation"):
+        axis = key.split(":")[1]
+        c = room.by_key(key)
+        if c is None or not c.step:
             return 0.0
         u = np.abs((self.log.u1_v if axis == "pitch" else self.log.u2_v)[:self.n])
         below, above = u[u <= value], u[u > value]

@@ -77,11 +77,6 @@ VERDICTS = {
     "partly_explained": "the accepted findings raise the fit, but not to the noise level: something else is missing",
     "unexplained": "no effect in the library improves the fit: the mismatch is physics outside the library",
 }
-#: input modifications whose cost is piecewise constant in their value (it changes only where the value passes a
-#: logged voltage) and rugged away from it: the equation error's 16-point grid places them coarsely (a 0.4 V yaw
-#: dead zone measured at 0.386 V, leaving 1.9x the yaw noise level), so a finding of one takes its value from
-#: the output-error profile (oe.Fitter.profile) when the current model is one that fit carries
-STEP_MODIFICATIONS = ("dead_zone", "input_saturation")
 #: the findings' prediction errors within this factor of the noise level count as explained
 EXPLAINED_RMS_OVER_NOISE = 1.5
 #: and, when the output-error fit can carry the findings, the angles it simulates within this factor (estimate's
@@ -213,7 +208,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                                                              score_now, reg_now, n_tests, fitter, oe_tested)
             if "oe" in best:
                 oe_values[best["c"].key] = best["value"]
-        if "oe" not in best and best["c"].effect in STEP_MODIFICATIONS:  # the output-error profile sets its value
+        if "oe" not in best and best["c"].step:  # the output-error profile sets its value
             refined = _oe_confirm({**best, "before": (current, reg_now, score_now)}, log, p, law, a, cache, ids,
                                   n_tests, fitter, oe_tested)
             if refined is not None:
@@ -253,7 +248,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         refused.append({"effect": best["c"].effect, "axis": best["c"].axis, "parameter": best["value"],
                         "reason": why})
         current, reg_now, score_now = best["before"]
-    if any(f[0]["c"].key in oe.PROFILE_KEYS for f in findings):  # their values given all the other findings
+    if any(oe.profiled(f[0]["c"].key) for f in findings):  # their values given all the other findings
         polished = _polish(findings, current, values, oe_values, fitter, log, p, _oe_start(score_now, reg_now, p))
         if polished is not current:
             current, reg_now, score_now = _rebuild(findings, polished, log, p, law, a, cache, ids)
@@ -545,7 +540,7 @@ def _polish(findings, current, values, oe_values, fitter, log, p, theta0) -> Mod
     model = current
     for best, _ in findings:
         c = best["c"]
-        if c.key not in oe.PROFILE_KEYS:
+        if not oe.profiled(c.key):
             continue
         old = dict(model.mods)[c.key]
         f = fitter.profile(model, values, theta0, c.key, _grid(c, log, p), old)
@@ -834,7 +829,7 @@ def _alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache
         return best, list(dict.fromkeys(alts + [r["c"].key for r in close if r is not best])), None
     r = best if best in close else min(close, key=lambda q: left[q["c"].key])  # the equation error's, if it holds
     f = fits[r["c"].key]
-    if r["c"].key in oe.PROFILE_KEYS:  # the model at the output error's value, with its regression
+    if oe.profiled(r["c"].key):  # the model at the output error's value, with its regression
         res = _at_value(r["c"], f.value, log, p, law, a, current, cache, ids, score_now, n_tests)
     else:
         res = dict(r)
@@ -869,7 +864,7 @@ def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now,
     if not good:
         return None
     r, f = max(good, key=lambda rf: rf[1].cost_drop)
-    if r["c"].key in oe.PROFILE_KEYS:  # the model at the output error's value, with its regression
+    if oe.profiled(r["c"].key):  # the model at the output error's value, with its regression
         res = _at_value(r["c"], f.value, log, p, law, a, current, cache, ids, score_now, n_tests)
     else:
         res = _try(r["c"], log, p, law, a, current, cache, ids, score_now, n_tests)  # its regression (dropped before)
@@ -887,7 +882,7 @@ def _oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested)
     """Candidate c fitted by output error on top of ``current`` (an input modification by a profile over its
     value, from the equation error's ``value0``); the fit (or None) and whether it passes.  Recorded in
     ``tested``."""
-    if c.key in oe.PROFILE_KEYS:
+    if oe.profiled(c.key):
         f = fitter.profile(current, values, theta0, c.key, _grid(c, log, p), value0)
     else:
         f = fitter.candidate(current, values, theta0, c.key)
@@ -901,8 +896,8 @@ def _oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested)
 
 def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested):
     """A finding the equation error passed, judged again by the output-error fit when that fit can carry it
-    (with its held-out test): when the prediction fit would refuse it, and for STEP_MODIFICATIONS to set their
-    value; the finding as _oe_rescue returns one, or None."""
+    (with its held-out test): when the prediction fit would refuse it, and for step modifications (Candidate.step)
+    to set their value; the finding as _oe_rescue returns one, or None."""
     c = best["c"]
     before, reg_b, sc_b = best["before"]
     if not oe.fittable(c.key) or not oe.representable(before):
@@ -911,7 +906,7 @@ def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested):
                     log, p, n_tests, tested)
     if not ok:
         return None
-    res = (_at_value(c, f.value, log, p, law, a, before, cache, ids, sc_b, n_tests) if c.key in oe.PROFILE_KEYS
+    res = (_at_value(c, f.value, log, p, law, a, before, cache, ids, sc_b, n_tests) if oe.profiled(c.key)
            else dict(best))
     res.update(oe=f, value=f.value, before=best["before"], told_apart=best.get("told_apart"))
     return res

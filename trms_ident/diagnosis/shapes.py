@@ -96,11 +96,10 @@ def term_shape(c: Candidate, value: float, p: dict, law: str, velocity: np.ndarr
         return Shape("pitch angle alpha [rad]", a, "yaw inertia [kg m^2]", p["J2"] - value * np.sin(a) ** 2,
                      np.full_like(a, p["J2"]), f"yaw inertia J2 - dJ sin^2(alpha), dJ = {value:.3g} kg m^2 "
                      "(J2 of the table as the level)")
-    if e in ("dead_zone", "input_saturation"):
+    if c.modify is not None:  # a voltage transform declared in the model room (effects.py)
         u = _span(u_v)
-        seen = np.where(np.abs(u) < value, 0.0, u) if e == "dead_zone" else np.clip(u, -value, value)
-        return Shape(f"logged {'u1' if ax != 'yaw' else 'u2'} [V]", u, "voltage the motor sees [V]", seen, u,
-                     f"{e.replace('_', ' ')}: {value:.3g} V")
+        return Shape(f"logged {'u1' if ax != 'yaw' else 'u2'} [V]", u, "voltage the motor sees [V]",
+                     c.modify(u, value), u, f"{e.replace('_', ' ')}: {value:.3g} {c.unit}")
     if e == "input_delay":
         k = int(np.argmax(np.abs(np.diff(u_v)))) if u_v.size > 1 else 0  # the largest step in the log
         half = max(int(round(max(3 * value, 0.2) / dt_s)), 2)
