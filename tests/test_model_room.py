@@ -4,6 +4,7 @@ exogenous-torque path agrees with the compiled one."""
 import dataclasses
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -52,7 +53,7 @@ def test_a_torque_effect_declared_in_one_entry_is_found_fitted_and_reported(monk
         assert d.augmented[k] == pytest.approx(truth[k], rel=0.02)
     assert f.fit_after > f.fit_before
     shape = d.steps[0]["shape"]  # the term's figure: its torque against its regime variable, the pitch angle
-    assert shape.x_label == "alpha [rad]" and "dKg = 0.05" in shape.title and np.all(np.isfinite(shape.fitted))
+    assert shape.x_label == "alpha [rad]" and re.search(r"dKg = 0\.0(5|49)", shape.title) and np.all(np.isfinite(shape.fitted))
     # the same log through the command line: the sentence, the JSON and the report's figure of the term
     path = tmp_path / "kg.csv"
     write_csv_log(path, r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad)
@@ -61,6 +62,7 @@ def test_a_torque_effect_declared_in_one_entry_is_found_fitted_and_reported(monk
     doc = json.loads(res.stdout)
     (found,) = doc["findings"]
     assert found["effect"] == "gyroscopic_gain" and "stronger than the table's Kg" in found["explanation"]
+    assert re.search(r"gyroscopic_gain on pitch: dKg = 0\.0[45]\d*\n", res.stderr)  # dimensionless: no unit "1"
     html = (tmp_path / "out" / "report.html").read_text()
     assert "Finding 1: gyroscopic_gain on pitch" in html
 

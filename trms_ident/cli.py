@@ -402,6 +402,7 @@ def diagnose(
     rate: RateOpt = None,
 ) -> None:
     """Find where the model and the recording disagree, name the missing physics, fit it, show the gain."""
+    from .diagnosis.effects import with_unit
     from .diagnosis.predict import fit_change
     from .io.atomic import write_text
     from .io.readers import read_log
@@ -433,8 +434,8 @@ def diagnose(
     else:
         say(f"  {len(d.findings)} effect(s) found (prediction fit before: {fits})")
         for i, f in enumerate(d.findings, 1):
-            say(f"  {i}. {f.effect} on {f.axis}: {f.parameter['name']} = {f.parameter['value']:.4g} "
-                f"{f.parameter['unit']}")
+            say(f"  {i}. {f.effect} on {f.axis}: {f.parameter['name']} = "
+                f"{with_unit(f.parameter['value'], f.parameter['unit'])}")
             say(f"     {f.explanation[0].upper() + f.explanation[1:]}.")
             say(f"     fit {fit_change(f.fit_before, f.fit_after)}; {f.evidence}")
         say("  estimates  " + "  ".join(f"{k} {d.nominal[k]:.5g} -> {d.augmented[k]:.5g}" for k in ESTIMATED))
@@ -442,7 +443,7 @@ def diagnose(
         say(f"  refused: {r['effect']} on {r['axis']}: {r['reason']}")
     for c in d.corrections:
         say(f"  outside the library, {c.axis}: {c.sentence}")
-        terms = ", ".join(f"{t['term']} = {t['coefficient']:.4g} {t['unit']}" for t in c.terms)
+        terms = ", ".join(f"{t['term']} = {with_unit(t['coefficient'], t['unit'])}" for t in c.terms)
         say(f"     data-driven correction (not a named effect): prediction fit "
             f"{fit_change(c.fit_before, c.fit_after)}; terms {terms}")
     if report is not None:

@@ -146,6 +146,11 @@ UNOBSERVABLE = {"sensor_offset:yaw": "the yaw equation contains no term in beta,
 BY_KEY = {c.key: c for c in CANDIDATES}
 
 
+def with_unit(value: float, unit: str) -> str:
+    """'0.002 N m'; a dimensionless parameter (unit "1") without its unit."""
+    return f"{value:.4g}" + ("" if unit == "1" else f" {unit}")
+
+
 def by_key(key: str) -> Candidate | None:
     """The entry of CANDIDATES with this key, read when called (BY_KEY is the library as imported)."""
     return next((c for c in CANDIDATES if c.key == key), None)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..numerics.regressors import thrust
-from .effects import Candidate
+from .effects import Candidate, with_unit
 from .model import _delay
 
 
@@ -55,7 +55,7 @@ def declared_shape(c: Candidate, value: float, regime_label: str, regime: np.nda
         x = (0.5 * (edges[:-1] + edges[1:]))[keep]
         t = (np.bincount(idx, weights=t, minlength=BINS) / np.maximum(count, 1))[keep]
     return Shape(regime_label, x, "torque [N m], mean per bin of the log", t, np.zeros_like(t),
-                 f"{c.effect.replace('_', ' ')} on {c.axis}: {c.parameter} = {value:.3g} {c.unit}")
+                 f"{c.effect.replace('_', ' ')} on {c.axis}: {c.parameter} = {with_unit(value, c.unit)}")
 
 
 def term_shape(c: Candidate, value: float, p: dict, law: str, velocity: np.ndarray, angle: np.ndarray,

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import html
 
+from ..diagnosis.effects import with_unit
 from ..diagnosis.predict import fit_change
 from ..diagnosis.run import Diagnosis
 from ..log import Log
@@ -199,14 +200,15 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
         figs.append((f"Correction of the {c.axis} torque", png_data_uri(fig)))
     items = "".join(
         f"<li><b>{html.escape(f['effect'])}</b> on {f['axis']}: {html.escape(f['parameter']['name'])} = "
-        f"{f['parameter']['value']:.4g} {html.escape(f['parameter']['unit'])}. {html.escape(f['explanation'])}.<br>"
+        f"{html.escape(with_unit(f['parameter']['value'], f['parameter']['unit']))}. "
+        f"{html.escape(f['explanation'])}.<br>"
         f"Fit {fit_change(f['fit_before'], f['fit_after'], '&rarr;')}. <span class='note'>{html.escape(f['evidence'])}"
         "</span></li>" for f in doc["findings"])
     corrections = "".join(
         f"<li><b>outside the library</b>, {c['axis']}: {html.escape(c['sentence'])}. Prediction fit "
         f"{fit_change(c['fit_before'], c['fit_after'], '&rarr;')}. <span class='note'>held-out equation-error RSS "
         f"{-100 * c['held_out_gain']:+.1f} % (t = {c['t']:.1f}, p = {c['p']:.1e}); terms: "
-        + html.escape(", ".join(f"{t['term']} = {t['coefficient']:.4g} {t['unit']}" for t in c["terms"]))
+        + html.escape(", ".join(f"{t['term']} = {with_unit(t['coefficient'], t['unit'])}" for t in c["terms"]))
         + "</span></li>" for c in doc["corrections"])
     corrected = {k: v for c in doc["corrections"] for k, v in c["estimates"].items()}
     est = "".join(f"<tr><td>{k}</td><td>{doc['estimates']['nominal'][k]:.6g}</td>"
