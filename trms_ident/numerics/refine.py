@@ -11,7 +11,9 @@ leaves angle errors above the noise level; the caller (identify) then keeps DREM
 Model: paper eq. (1), both axes together (the pitch equation takes beta' from the model, not
 differentiated from the log), state [alpha, alpha', beta, beta', tau1, tau2, zeta] with zeta
 the lag state of M_R = kc (T0 s + 1)/(Tp s + 1) tau1, plus the effects of EFFECT_SLOTS when diagnose
-puts a candidate in (friction, drag, cable, thrust asymmetry, centre-of-mass offset; 0 = absent).  The
+puts a candidate in (friction, drag, cable, thrust asymmetry, centre-of-mass offset; 0 = absent), and
+exogenous torques: effects diagnose's model room declares by their torque, computed by the caller from the
+measured states (refine's ``torques``).  The
 logged voltages are held over each actual sample interval t[k]..t[k+1] (the bench's controller holds them;
 jittered stamps are integrated over their real length), classical RK4 in sub-steps of at most MAX_SUBSTEP_S
 advances the state together with its sensitivities (forward sensitivity equations: one pass
