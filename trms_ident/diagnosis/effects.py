@@ -109,7 +109,8 @@ CANDIDATES: tuple[Candidate, ...] = (
               regime="angle"),
     Candidate("thrust_asymmetry", "pitch", "s", "1", "linear",
               sentence="the main rotor turning backwards (tau1 < 0) pushes {value:+.2%} relative to the table's "
-                       "thrust law (thrust asymmetry of a reversed rotor)", bounds=(-1.0, 10.0)),
+                       "thrust law (thrust asymmetry of a reversed rotor)",
+              bounds=(-1.0, 10.0)),  # a reversed rotor still pushes the way it turns
     Candidate("thrust_asymmetry", "yaw", "s", "1", "linear",
               sentence="the tail rotor turning backwards (tau2 < 0) pushes {value:+.2%} relative to the table's "
                        "thrust law (thrust asymmetry of a reversed rotor)", bounds=(-1.0, 10.0)),

@@ -179,7 +179,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                 continue
             res = _try(c, log, p, law, a, current, cache, ids, score_now, n_tests)
             if res is not None:
-                if not (res["test"].passed and _plausible(c, res["value"])):
+                if not (res["test"].passed and c.plausible(res["value"])):
                     res["reg"] = None  # only the passing candidates' regressions are needed again (memory)
                 results.append(res)
         if not findings:
@@ -187,7 +187,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                        "explained_share": r["test"].share,
                        "t": r["test"].t, "p": r["test"].p, "passed": r["test"].passed,
                        "parameter": r["value"]} for r in results]
-        ok = [r for r in results if r["test"].passed and _plausible(r["c"], r["value"]) and
+        ok = [r for r in results if r["test"].passed and r["c"].plausible(r["value"]) and
               _practical(r["c"], r["value"], log, p, law)]
         if not ok:  # the equation error finds nothing: the output-error fit judges its best candidates
             rescue = _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests, fitter,
@@ -886,7 +886,7 @@ def _oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested)
         f = fitter.profile(current, values, theta0, c.key, _grid(c, log, p), value0)
     else:
         f = fitter.candidate(current, values, theta0, c.key)
-    ok = f is not None and oe.passes(f, n_tests, FAMILY_ALPHA) and _plausible(c, f.value)
+    ok = f is not None and oe.passes(f, n_tests, FAMILY_ALPHA) and c.plausible(f.value)
     if f is not None:
         tested.append({"effect": c.effect, "axis": c.axis, "after": list(current.keys), "parameter": f.value,
                        "se": f.se, "t": f.t, "p": f.p, "cost_drop": f.cost_drop, "excess_share": f.excess_share,
@@ -910,10 +910,6 @@ def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested):
            else dict(best))
     res.update(oe=f, value=f.value, before=best["before"], told_apart=best.get("told_apart"))
     return res
-
-
-def _plausible(c: Candidate, v: float) -> bool:
-    return c.plausible(v)  # the model room's bounds (a reversed rotor still pushes the way it turns, ...)
 
 
 #: the pitch offsets, found by the equation error (the output-error fit cannot carry an encoder offset, and the
