@@ -269,6 +269,19 @@ def test_fit_change_shows_the_change():
     assert fit_change(float("nan"), 97.5).startswith("n/a (J or B not physical")
 
 
+def test_json_output_is_strict_json():
+    # Python's json writes NaN and Infinity, which jq and JavaScript's JSON.parse refuse
+    from trms_ident.report.summary import to_json
+
+    def refuse(name):
+        raise ValueError(f"not JSON: {name}")
+
+    doc = json.loads(to_json({"fit": {"pitch": float("nan"), "yaw": 97.5}, "r": [float("inf"), -float("inf"), 1],
+                              "t": (0.5, float("nan")), "s": "nan", "ok": True}), parse_constant=refuse)
+    assert doc == {"fit": {"pitch": None, "yaw": 97.5}, "r": [None, None, 1], "t": [0.5, None], "s": "nan",
+                   "ok": True}
+
+
 @pytest.mark.parametrize("mid_run", [False, True])
 def test_start_basis_from_the_leading_samples_equals_the_full_length_one(mid_run):
     """The start columns are built over the leading samples only (start_head): the same basis, to the bit, as

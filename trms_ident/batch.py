@@ -145,12 +145,14 @@ def run(paths: list[Path], out_dir: Path, settings: Settings, options: dict, job
 
 
 def write_summary(out_dir: Path, rows: list[dict]) -> list[Path]:
+    from .report.summary import to_json
+
     names = ("J1", "B1", "J2", "B2")
     doc = {"files": [{k: r[k] for k in ("path", "status", "adequate", "error", "estimates", "skipped", "output")}
                      for r in rows],
            "ok": sum(r["status"] == "ok" for r in rows), "failed": sum(r["status"] != "ok" for r in rows),
            "inadequate": sum(r["adequate"] is False for r in rows)}
-    write_text(out_dir / "summary.json", json.dumps(doc, indent=2) + "\n")
+    write_text(out_dir / "summary.json", to_json(doc))
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow(["path", "status", "adequate", *names, "error"])

@@ -403,7 +403,7 @@ def diagnose(
 ) -> None:
     """Find where the model and the recording disagree, name the missing physics, fit it, show the gain."""
     from .diagnosis.effects import with_unit
-    from .diagnosis.predict import fit_change
+    from .diagnosis.predict import fit_change, fit_text
     from .io.atomic import write_text
     from .io.readers import read_log
     from .report.diagnosis import render, to_doc
@@ -427,7 +427,7 @@ def diagnose(
         d = run_diagnosis(data, params=overrides, thrust_law=thrust_law, filter_a_rad_s=parse_auto("--a", a),
                           progress=advance)
     doc = to_doc(d, data)
-    fits = ", ".join(f"{k} {v:.2f} %" for k, v in d.fit_before.items())
+    fits = ", ".join(f"{k} {fit_text(v)}" for k, v in d.fit_before.items())
     say(f"{log}: {d.verdict.upper().replace('_', ' ')}: {d.verdict_sentence}")
     if not d.findings:
         say(f"  no effect in the library is found ({d.settings['candidates']} candidates tested; prediction fit {fits})")

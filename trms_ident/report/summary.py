@@ -145,5 +145,19 @@ def voltage_timing_text(inp: dict) -> str | None:
     return f"voltages: {'; '.join(parts) or 'at the angle stamps'}; {rule}; clocks {clocks}"
 
 
+def strict(value):
+    """``value`` with every NaN or infinite float replaced by None: JSON has no such numbers (Python writes
+    ``NaN``, which jq, JavaScript's JSON.parse and most other readers refuse).  null means "not a number here",
+    e.g. a prediction fit when the model had no physical J or B to predict with."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: strict(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [strict(v) for v in value]
+    return value
+
+
 def to_json(doc: dict) -> str:
-    return json.dumps(doc, indent=2, sort_keys=False, allow_nan=True) + "\n"
+    """The document as strict JSON (RFC 8259): NaN and infinities are written as null."""
+    return json.dumps(strict(doc), indent=2, sort_keys=False, allow_nan=False) + "\n"
