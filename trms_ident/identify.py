@@ -217,13 +217,20 @@ SUSPECT_REFITS = 2
 SUSPECT_ALIKE = 0.9
 
 
+def _add(check: dict, text: str) -> None:
+    """Add ``text`` to the verdict's sentence, before its closing caution about the noise floor if it has one."""
+    caution = check.get("caution") or ""
+    s = check["sentence"]
+    check["sentence"] = s[:len(s) - len(caution)] + text + caution if caution and s.endswith(caution) else s + text
+
+
 def _blame(check: dict, r: Refined, steps: int, noise: dict, refit, params: dict) -> None:
     """Which known value do the data blame for the misfit?  A score test ranks them (numerics/refine.
     suspect_known_values: the share of the excess error one step with that value free would remove); the
     first ranked are then refitted for real, and a value is named only if freeing it makes the model fit."""
     if steps > SUSPECT_MAX_STEPS:
         check["suspect_known_values"] = None
-        check["sentence"] += " (Which known value is suspect was not tested: the log is too long.)"
+        _add(check, " (Which known value is suspect was not tested: the log is too long.)")
         return
     try:
         shares = suspect_known_values(r)
@@ -241,15 +248,14 @@ def _blame(check: dict, r: Refined, steps: int, noise: dict, refit, params: dict
             alike = [k for k, v in shares.items() if k != name and v >= SUSPECT_ALIKE * share]
             check["suspect"] = {"name": name, "refitted_value": value, "rms_over_noise_after": ratio,
                                 "look_alikes": alike}
-            check["sentence"] += (f" The data blame a known value: with {name} estimated too (it comes out "
-                                  f"{value:.4g} instead of {params[name]:.4g}) the model fits "
-                                  f"to the noise level" +
-                                  (f"; {', '.join(alike)} would explain the data as well (the log cannot tell them "
-                                   "apart)" if alike else "") + f". Check it, or estimate it with --free {name}.")
+            _add(check, f" The data blame a known value: with {name} estimated too (it comes out "
+                        f"{value:.4g} instead of {params[name]:.4g}) the model fits to the noise level" +
+                        (f"; {', '.join(alike)} would explain the data as well (the log cannot tell them "
+                         "apart)" if alike else "") + f". Check it, or estimate it with --free {name}.")
             return
-    check["sentence"] += (" No single known value explains the misfit (freeing the most likely, "
-                          f"{', '.join(list(shares)[:SUSPECT_REFITS])}, does not make the model fit): the model "
-                          "leaves out physics, or several known values are off.")
+    _add(check, " No single known value explains the misfit (freeing the most likely, "
+                f"{', '.join(list(shares)[:SUSPECT_REFITS])}, does not make the model fit): the model "
+                "leaves out physics, or several known values are off.")
 
 
 def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[Refined | None, str, bool]:

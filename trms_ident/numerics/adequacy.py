@@ -31,6 +31,11 @@ LAGS = 25
 LEVEL = 0.99
 #: below this RMS [rad] the fit is exact to the integrator; residual tests are not meaningful
 NUMERICAL_FLOOR_RAD = 1e-7
+#: a measured noise floor below this [rad] is finer than any encoder leaves (a 20-bit encoder's rounding
+#: q/sqrt(12) is 1.7e-6 rad, the TRMS's 4096-line one 4.4e-4 rad): the angles were smoothed or interpolated
+#: before they were logged (the real CE150 recordings measure 8e-11 to 1.2e-6 rad), or the log is simulated
+#: without noise.  The floor is then a lower bound the log cannot measure, and the verdict says so.
+SMOOTHED_FLOOR_RAD = 1e-6
 ANGLES = ("alpha", "beta")
 AXIS_OF = {"alpha": "pitch", "beta": "yaw"}
 
@@ -126,6 +131,7 @@ def model_check(y: np.ndarray, pred: np.ndarray, u: np.ndarray, noise_rad: dict,
             "input_correlation": {"statistic": cross, "threshold": thr_cross, "lags": f"0..{LAGS}", "level": LEVEL,
                                   "uncorrelated": ok_cross},
             "adequate": ok_rms,
+            "noise_floor_measured": floor >= SMOOTHED_FLOOR_RAD,
         }
         if not ok_rms:
             worst = max(cross, key=cross.get)
@@ -134,6 +140,7 @@ def model_check(y: np.ndarray, pred: np.ndarray, u: np.ndarray, noise_rad: dict,
                             (f", correlated with {worst}" if not ok_cross else "") +
                             (", not white" if not ok_white else ""))
     adequate = not problems
+    unmeasured = [AXIS_OF[ang] for ang in ANGLES if not axes[AXIS_OF[ang]]["noise_floor_measured"]]
     fits = ", ".join(f"{a} {v['fit_percent']:.2f} % (noise floor allows {v['noise_floor_fit_percent']:.2f} %)"
                      for a, v in axes.items())
     if adequate:
@@ -144,4 +151,12 @@ def model_check(y: np.ndarray, pred: np.ndarray, u: np.ndarray, noise_rad: dict,
                     "The estimates are those of a model that does not fit, and their intervals are conditional "
                     "on it; run `trms-ident diagnose` on the log to find what the model leaves out, and check the "
                     "known values (--params).")
-    return {"adequate": adequate, "axes": axes, "simulation": scope, "sentence": sentence}
+    caution = None
+    if unmeasured and not adequate:
+        carry = "angles carry" if len(unmeasured) > 1 else "angle carries"
+        caution = (f" Caution: the {' and '.join(unmeasured)} {carry} less noise than any encoder leaves "
+                   f"(below {SMOOTHED_FLOOR_RAD:g} rad): the recording smoothed or interpolated the angles, or the "
+                   "log is simulated without noise, so the noise floor is a lower bound this log cannot measure "
+                   "and the error ratios overstate the misfit; the simulation fit is the measure to read.")
+        sentence += caution
+    return {"adequate": adequate, "axes": axes, "simulation": scope, "sentence": sentence, "caution": caution}
