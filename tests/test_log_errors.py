@@ -89,6 +89,11 @@ def test_bom_semicolon_and_unit_row_are_read(tmp_path):
     for other in (bom, semi):
         np.testing.assert_array_equal(other.alpha_rad, plain.alpha_rad)
     np.testing.assert_allclose(units.alpha_rad, plain.alpha_rad, atol=1e-12)
+    # the units are said, and where they were assumed: the inputs' unit is in no log but a unit row
+    assert units.meta["units"] == {"angles": "deg (the file's units row), converted to rad",
+                                   "inputs": "V (the file's units row)"}
+    assert plain.meta["units"]["angles"].startswith("rad (no unit given")
+    assert plain.meta["units"]["inputs"].startswith("V (assumed")
 
 
 def test_bad_unit_row(tmp_path):

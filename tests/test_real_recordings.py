@@ -47,6 +47,7 @@ def test_bench_shaped_logs_reach_the_accuracy_with_an_adequate_verdict(case):
     r = simulate(SimSettings(duration_s=60.0, seed=11, **case))
     res = identify(_log(r))
     assert res.model_check["adequate"], res.model_check["sentence"]
+    assert all(a["noise_floor_measured"] for a in res.model_check["axes"].values())  # an encoder's or noise
     assert res.headline == "refined", res.refine_note
     for k, v in r.truth["estimated"].items():
         tol = 0.01 if k.startswith("J") else 0.03
@@ -159,13 +160,19 @@ def test_real_ce150_recordings_get_an_honest_verdict(tmp_path, name):
     doc = json.loads(res.stdout)
     assert doc["model_check"]["adequate"] is False
     assert _verdict_line(res.stderr).startswith("MODEL DOES NOT FIT:")
+    # the recording chain smoothed the elevation (README there): its floor is not measurable, and said so
+    assert doc["model_check"]["axes"]["pitch"]["noise_floor_measured"] is False
+    assert "the noise floor is a lower bound this log cannot measure" in doc["model_check"]["sentence"]
+    assert doc["input"]["units"]["angles"] == "deg (as given), converted to rad"
+    assert doc["input"]["units"]["inputs"].startswith("V (assumed")  # machine units: the tool cannot know
     for k, est in doc["estimates"].items():
         assert est is None or "conditional on a model that does not fit" in res.stderr
     dia = runner.invoke(app, ["diagnose", str(path), "--angle-unit", "deg", "--json", "-"])
     assert dia.exit_code == 0, dia.output
-    verdict = json.loads(dia.stdout)["verdict"]
-    assert verdict in ("unexplained", "partly_explained")
+    doc = json.loads(dia.stdout, parse_constant=lambda name: pytest.fail(f"{name} in the JSON (not JSON)"))
+    assert doc["verdict"] in ("unexplained", "partly_explained")
     assert "Traceback" not in dia.output and "Warning" not in dia.stderr
+    assert "nan %" not in dia.stderr  # a fit that is not a number is said in words
 
 
 def test_diagnose_verdicts_on_the_sample_logs():

@@ -31,6 +31,12 @@ UNIFORM_TOLERANCE = 2e-3
 TIME_UNIT_BY_STEP = ((0.15, "s", 1.0), (150.0, "ms", 1e-3), (math.inf, "us", 1e-6))
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
 ANGLE_UNITS = ("auto", "rad", "deg")
+#: what Log.meta["units"] says of the angles, by the angle unit the reader was given
+ANGLE_UNIT_SAID = {"auto": "rad (no unit given: read as radians, and checked to lie within the bench's range)",
+                   "rad": "rad (as given)", "deg": "deg (as given), converted to rad"}
+#: the inputs' unit is not in any log format read here (a CSV units row may only say V)
+INPUTS_ASSUMED = ("V (assumed: eq. (1) takes volts and the log does not say; inputs in another unit, such as a "
+                  "bench's normalised machine units, make the known values wrong and bias every estimate)")
 #: |alpha| beyond this is not a pitch angle in rad (the beam stops well before vertical)
 PITCH_LIMIT_RAD = math.pi / 2
 #: |beta| beyond this (four turns) is not a yaw angle in rad on a cabled bench
@@ -214,6 +220,8 @@ def validated(t, u1, u2, alpha, beta, *, source: str = "<memory>", sha256: str |
                 f"{source}: {where(i)}: {name} = {a[i]:.6g} exceeds {limit:.3g} rad; the angles look like "
                 "degrees, expected radians (pass --angle-unit deg to convert, or --angle-unit rad if they are "
                 "radians)")
+    meta["units"] = {"angles": ANGLE_UNIT_SAID[angle_unit], **meta.get("units", {})}
+    meta["units"].setdefault("inputs", INPUTS_ASSUMED)
     if assumed:
         meta["assumed"] = assumed
     if u_switch_s is not None:

@@ -137,6 +137,10 @@ def read_csv_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "a
                 scale[c] = UNIT_SCALE[c][unit]
             first_data_line = 3
             angle_unit, time_unit = "rad", "s"  # the file says its units: converted above, nothing guessed
+            ua, ub = (tokens[names.index(c)].strip("[]() ").lower() for c in ("alpha", "beta"))
+            said = {"angles": (f"{ua}" if ua == ub else f"alpha {ua}, beta {ub}") + " (the file's units row)" +
+                              (", converted to rad" if "deg" in (ua, ub) else ""),
+                    "inputs": "V (the file's units row)"}
     wanted = COLUMNS + ((VOLTAGE_TIME,) if VOLTAGE_TIME in names else ())
     parsed = _parse_fast(path, names, delim, first_data_line, wanted)
     if parsed is None:  # something is off: the slow parser names the line and cell
@@ -146,7 +150,8 @@ def read_csv_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "a
     t_u = parsed.get(VOLTAGE_TIME)
     return validated(*cols, source=str(path), sha256=hasher.result(),
                      locate=lambda i: f"line {i + first_data_line} (t = {t[i]:.6g} s)",
-                     meta={"format": "csv", "delimiter": delim}, angle_unit=angle_unit, time_unit=time_unit,
+                     meta={"format": "csv", "delimiter": delim, **({"units": said} if first_data_line == 3 else {})},
+                     angle_unit=angle_unit, time_unit=time_unit,
                      u_switch_s=None if t_u is None else np.repeat((t_u * scale["t"])[:, None], 2, axis=1))
 
 

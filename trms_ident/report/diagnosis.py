@@ -2,9 +2,10 @@
 from __future__ import annotations
 
 import html
+import math
 
 from ..diagnosis.effects import with_unit
-from ..diagnosis.predict import fit_change
+from ..diagnosis.predict import fit_change, fit_text
 from ..diagnosis.run import Diagnosis
 from ..log import Log
 from .summary import versions
@@ -32,7 +33,8 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
         "tested": d.tested,
         "output_error_tested": d.oe_tested,
         "settings": {k: v for k, v in d.settings.items()},
-        "input": {"path": log.source, "sha256": log.sha256, "samples": len(log), "sample_time_s": log.sample_time_s},
+        "input": {"path": log.source, "sha256": log.sha256, "samples": len(log), "sample_time_s": log.sample_time_s,
+                  "units": log.meta.get("units")},
         "versions": versions(),
         "meaning": {
             "estimates.nominal": "J, B by least squares on the filtered regression (3) of the seed model",
@@ -89,8 +91,8 @@ def finding_figure(step: dict):
     for row, (axis, a) in enumerate(axes.items()):
         ov = fig.add_subplot(grid[2 * row, :])
         ov.plot(t, a["measured"], color="0.35", lw=1.0, label="measured")
-        ov.plot(t, a["before"], color="tab:blue", lw=0.8, label=f"model before: fit {a['fit_before']:.2f} %")
-        ov.plot(t, a["after"], color="tab:orange", lw=0.8, ls="--", label=f"with it: fit {a['fit_after']:.2f} %")
+        ov.plot(t, a["before"], color="tab:blue", lw=0.8, label=f"model before: fit {fit_text(a['fit_before'])}")
+        ov.plot(t, a["after"], color="tab:orange", lw=0.8, ls="--", label=f"with it: fit {fit_text(a['fit_after'])}")
         ov.set_ylabel(f"{axis} angle [rad]")
         ov.set_xlabel("t [s]")
         ov.legend(fontsize=8, loc="upper right")
@@ -127,6 +129,12 @@ def finding_figure(step: dict):
                  "regime (before and with this finding), and the term's shape")
     fig.tight_layout()
     return fig
+
+
+def _jb(value: float) -> str:
+    """A J or B for the table, marked when it is not physical (the least squares of a model that does not fit
+    the log can give any sign; seen on the real CE150 recordings)."""
+    return f"{value:.6g}" if math.isfinite(value) and value > 0 else f"{value:.6g} (not physical)"
 
 
 def render(doc: dict, d: Diagnosis, log: Log) -> str:
@@ -170,11 +178,11 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
     for a, axis in zip(ax, ("pitch", "yaw")):
         t, y, p0, p1 = d.overlay[axis][:4]
         a.plot(t[::stride], y[::stride], "k", lw=0.8, label="measured")
-        a.plot(t[::stride], p0[::stride], lw=0.8, label=f"seed model ({d.fit_before[axis]:.2f} %)")
-        a.plot(t[::stride], p1[::stride], lw=0.8, ls="--", label=f"with findings ({d.fit_after[axis]:.2f} %)")
+        a.plot(t[::stride], p0[::stride], lw=0.8, label=f"seed model ({fit_text(d.fit_before[axis])})")
+        a.plot(t[::stride], p1[::stride], lw=0.8, ls="--", label=f"with findings ({fit_text(d.fit_after[axis])})")
         if axis in corr:
             a.plot(t[::stride], d.overlay[axis][4][::stride], lw=0.8, ls=":",
-                   label=f"with the data-driven correction ({corr[axis].fit_after:.2f} %)")
+                   label=f"with the data-driven correction ({fit_text(corr[axis].fit_after)})")
         a.set_ylabel(f"{axis} [rad]")
         a.legend(fontsize=8)
         a.grid(alpha=0.3)
@@ -211,9 +219,9 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
         + html.escape(", ".join(f"{t['term']} = {with_unit(t['coefficient'], t['unit'])}" for t in c["terms"]))
         + "</span></li>" for c in doc["corrections"])
     corrected = {k: v for c in doc["corrections"] for k, v in c["estimates"].items()}
-    est = "".join(f"<tr><td>{k}</td><td>{doc['estimates']['nominal'][k]:.6g}</td>"
-                  f"<td>{doc['estimates']['augmented'][k]:.6g}</td>"
-                  + (f"<td>{corrected[k]:.6g}</td>" if k in corrected else ("<td></td>" if corrected else ""))
+    est = "".join(f"<tr><td>{k}</td><td>{_jb(doc['estimates']['nominal'][k])}</td>"
+                  f"<td>{_jb(doc['estimates']['augmented'][k])}</td>"
+                  + (f"<td>{_jb(corrected[k])}</td>" if k in corrected else ("<td></td>" if corrected else ""))
                   + "</tr>" for k in ("J1", "B1", "J2", "B2"))
     est_head = "<th>with the correction</th>" if corrected else ""
     aug_from = (" (output-error fit: the equation error's were not physical)"
@@ -228,11 +236,13 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
     oe_line = ("" if check is None else " Output-error check of the findings' model: error RMS over the noise level "
                + ", ".join(f"{ang} {r:.2f}x" for ang, r in check["rms_over_noise"].items())
                + f" ({check['threshold']:g}x allowed for 'explained').")
+    u = doc["input"]["units"]
+    units = f"Units: angles {html.escape(u['angles'])}; inputs {html.escape(u['inputs'])}.<br>" if u else ""
     return f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident diagnose</title>
 <style>body{{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto}}img{{max-width:100%}}
 table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px}}.note{{color:#555;font-size:.9em}}</style>
 </head><body><h1>Diagnosis of {html.escape(log.source)}</h1><p><b>{verdict}</b>.
 Fit measure: {html.escape(doc['fit']['measure'])}.{html.escape(oe_line)}</p><ol>{items}{corrections}</ol>
 <table><tr><th>parameter</th><th>seed model</th><th>with findings{aug_from}</th>{est_head}</tr>{est}</table>{imgs}
-<p class="note">sha256 {log.sha256}; versions {html.escape(str(doc['versions']))}</p></body></html>
+<p class="note">{units}sha256 {log.sha256}; versions {html.escape(str(doc['versions']))}</p></body></html>
 """

@@ -39,6 +39,15 @@ def _timing(inp: dict) -> str:
     return "".join(f'<br><span class="note">{html.escape(x)}</span>' for x in lines)
 
 
+def _units(inp: dict) -> str:
+    """The units the log was read in, said where they were assumed (the inputs' always are, unless a CSV units
+    row gave them)."""
+    u = inp.get("units")
+    if not u:
+        return ""
+    return f'<br><span class="note">Units: angles {html.escape(u["angles"])}; inputs {html.escape(u["inputs"])}.</span>'
+
+
 def _white(w: dict) -> str:
     return f"Q = {w['ljung_box_q']:.3g} (<= {w['threshold']:.3g})"
 
@@ -51,7 +60,8 @@ def _verdict(doc: dict) -> str:
     c = doc["model_check"]
     colour, title = ("#e8f5e9", "The model fits this log") if c["adequate"] else ("#fdecea", "The model does NOT fit "
                                                                                   "this log")
-    rows = "".join(_row([axis, f"{v['fit_percent']:.2f} %", f"{v['noise_floor_fit_percent']:.2f} %",
+    rows = "".join(_row([axis, f"{v['fit_percent']:.2f} %", f"{v['noise_floor_fit_percent']:.2f} %" +
+                         ("" if v.get("noise_floor_measured", True) else " (floor not measurable)"),
                          f"{v['rms_over_noise']:.3g} (<= {v['rms_over_noise_threshold']:g})",
                          _white(v["whiteness"]), _cross(v["input_correlation"])])
                    for axis, v in c["axes"].items())
@@ -75,6 +85,15 @@ def _fit_figures(result: Result, log: Log) -> str:
             f'src="{residual_figure(log, result.simulated, result.sample_time_s)}">')
 
 
+def _refined_cell(refined: dict | None, k: str) -> str:
+    """The refinement's value, marked when it is not the estimate (its fit missed the noise floor or did not
+    converge: the number is then a fit's end point, e.g. 3.6e13 kg m^2 on a real log the model does not fit)."""
+    if not refined:
+        return "-"
+    v = _g(refined["estimates"][k])
+    return v if refined["used"] else f"{v} (not used)"
+
+
 def render(doc: dict, result: Result, log: Log) -> str:
     from .figures import signals_figure, traces_figure  # matplotlib only when a report is asked for
 
@@ -90,7 +109,7 @@ def render(doc: dict, result: Result, log: Log) -> str:
         lo, hi = doc["ci95"][k]
         r = [k, UNITS[k], _g(est) if est is not None else "not identifiable",
              f"[{_g(lo)}, {_g(hi)}]" if lo is not None else "-", _g(doc["drem_final"][k]), _g(doc["offline_optimum"][k]),
-             _g(doc["refined"]["estimates"][k]) if doc["refined"] else "-"]
+             _refined_cell(doc["refined"], k)]
         if truth:
             err = doc["truth"]["error_percent"][k]
             r += [_g(truth[k]), f"{err:+.3f}" if err is not None else "-"]
@@ -109,7 +128,7 @@ def render(doc: dict, result: Result, log: Log) -> str:
 {_verdict(doc)}
 <p>Log <code>{html.escape(inp['path'])}</code>: {inp['samples']} samples, {inp['duration_s']:.6g} s,
 sample time {inp['sample_time_s']:.6g} s.<br><span class="note">sha256 {inp['sha256']}</span>
-{_timing(inp)}</p>
+{_units(inp)}{_timing(inp)}</p>
 <h2>Estimates</h2>
 <table>{_row(head, 'th')}{''.join(rows)}</table>
 <p class="note"><b>Intervals:</b> {html.escape(doc['ci95_meaning'])}.</p>
