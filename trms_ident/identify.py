@@ -192,7 +192,7 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
         try:
             r = _refine_first(log, n, params, settings, start, noise)
         except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as e:
-            return {"adequate": False, "axes": {}, "simulation": "none",
+            return {"adequate": False, "axes": {}, "simulation": "none", "caution": None,
                     "sentence": f"The model could not be fitted to this log for the adequacy check ({e}); treat "
                                 "every number as unverified."}, None
         scope = (f"output-error fit of eq. (1) made for this check over the first {n * dt:.6g} s (of "
@@ -206,6 +206,8 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
             return _refine_first(log, n, params, settings, r.estimate, noise, tuple(settings.free) + (name,))
 
         _blame(check, r, n * substeps(dt), noise, refit, params)
+    if check["caution"]:  # said last, after what the data blame
+        check["sentence"] += check["caution"]
     return check, r.prediction
 
 
@@ -217,20 +219,13 @@ SUSPECT_REFITS = 2
 SUSPECT_ALIKE = 0.9
 
 
-def _add(check: dict, text: str) -> None:
-    """Add ``text`` to the verdict's sentence, before its closing caution about the noise floor if it has one."""
-    caution = check.get("caution") or ""
-    s = check["sentence"]
-    check["sentence"] = s[:len(s) - len(caution)] + text + caution if caution and s.endswith(caution) else s + text
-
-
 def _blame(check: dict, r: Refined, steps: int, noise: dict, refit, params: dict) -> None:
     """Which known value do the data blame for the misfit?  A score test ranks them (numerics/refine.
     suspect_known_values: the share of the excess error one step with that value free would remove); the
     first ranked are then refitted for real, and a value is named only if freeing it makes the model fit."""
     if steps > SUSPECT_MAX_STEPS:
         check["suspect_known_values"] = None
-        _add(check, " (Which known value is suspect was not tested: the log is too long.)")
+        check["sentence"] += " (Which known value is suspect was not tested: the log is too long.)"
         return
     try:
         shares = suspect_known_values(r)
@@ -248,14 +243,15 @@ def _blame(check: dict, r: Refined, steps: int, noise: dict, refit, params: dict
             alike = [k for k, v in shares.items() if k != name and v >= SUSPECT_ALIKE * share]
             check["suspect"] = {"name": name, "refitted_value": value, "rms_over_noise_after": ratio,
                                 "look_alikes": alike}
-            _add(check, f" The data blame a known value: with {name} estimated too (it comes out "
-                        f"{value:.4g} instead of {params[name]:.4g}) the model fits to the noise level" +
-                        (f"; {', '.join(alike)} would explain the data as well (the log cannot tell them "
-                         "apart)" if alike else "") + f". Check it, or estimate it with --free {name}.")
+            check["sentence"] += (f" The data blame a known value: with {name} estimated too (it comes out "
+                                  f"{value:.4g} instead of {params[name]:.4g}) the model fits "
+                                  f"to the noise level" +
+                                  (f"; {', '.join(alike)} would explain the data as well (the log cannot tell them "
+                                   "apart)" if alike else "") + f". Check it, or estimate it with --free {name}.")
             return
-    _add(check, " No single known value explains the misfit (freeing the most likely, "
-                f"{', '.join(list(shares)[:SUSPECT_REFITS])}, does not make the model fit): the model "
-                "leaves out physics, or several known values are off.")
+    check["sentence"] += (" No single known value explains the misfit (freeing the most likely, "
+                          f"{', '.join(list(shares)[:SUSPECT_REFITS])}, does not make the model fit): the model "
+                          "leaves out physics, or several known values are off.")
 
 
 def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[Refined | None, str, bool]:

@@ -99,7 +99,9 @@ def decimation(dt_s: float) -> int:
 
 def model_check(y: np.ndarray, pred: np.ndarray, u: np.ndarray, noise_rad: dict, dt_s: float, scope: str) -> dict:
     """The adequacy verdict.  ``y``, ``pred``: (n, 2) measured and simulated alpha, beta [rad]; ``u``: (n, 2)
-    u1, u2 [V]; ``noise_rad``: the measurement-noise floor per angle; ``scope``: how the simulation was made."""
+    u1, u2 [V]; ``noise_rad``: the measurement-noise floor per angle; ``scope``: how the simulation was made.
+    ``caution`` (or None) is the sentence's closing words about a floor the log cannot measure, kept apart so
+    that the caller adds it after its own (identify: which known value the data blame)."""
     step = decimation(dt_s)
     thr_white = float(chdtri(LAGS, 1.0 - LEVEL))  # chi2 quantile
     thr_cross = float(chdtri(LAGS + 1, 1.0 - LEVEL))
@@ -158,5 +160,4 @@ def model_check(y: np.ndarray, pred: np.ndarray, u: np.ndarray, noise_rad: dict,
                    f"(below {SMOOTHED_FLOOR_RAD:g} rad): the recording smoothed or interpolated the angles, or the "
                    "log is simulated without noise, so the noise floor is a lower bound this log cannot measure "
                    "and the error ratios overstate the misfit; the simulation fit is the measure to read.")
-        sentence += caution
     return {"adequate": adequate, "axes": axes, "simulation": scope, "sentence": sentence, "caution": caution}
