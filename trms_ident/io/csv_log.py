@@ -126,6 +126,7 @@ def read_csv_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "a
     if angle_unit == "deg":
         scale["alpha"] = scale["beta"] = math.pi / 180
     first_data_line = 2
+    meta = {"format": "csv", "delimiter": delim}
     if len(lines) > 1:
         tokens = [x.strip() for x in lines[1].split(delim)]
         if tokens and not any(_is_number(x) for x in tokens if x):
@@ -138,9 +139,9 @@ def read_csv_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "a
             first_data_line = 3
             angle_unit, time_unit = "rad", "s"  # the file says its units: converted above, nothing guessed
             ua, ub = (tokens[names.index(c)].strip("[]() ").lower() for c in ("alpha", "beta"))
-            said = {"angles": (f"{ua}" if ua == ub else f"alpha {ua}, beta {ub}") + " (the file's units row)" +
-                              (", converted to rad" if "deg" in (ua, ub) else ""),
-                    "inputs": "V (the file's units row)"}
+            angles = (ua if ua == ub else f"alpha {ua}, beta {ub}") + " (the file's units row)"
+            meta["units"] = {"angles": angles + (", converted to rad" if "deg" in (ua, ub) else ""),
+                             "inputs": "V (the file's units row)"}
     wanted = COLUMNS + ((VOLTAGE_TIME,) if VOLTAGE_TIME in names else ())
     parsed = _parse_fast(path, names, delim, first_data_line, wanted)
     if parsed is None:  # something is off: the slow parser names the line and cell
@@ -150,8 +151,7 @@ def read_csv_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "a
     t_u = parsed.get(VOLTAGE_TIME)
     return validated(*cols, source=str(path), sha256=hasher.result(),
                      locate=lambda i: f"line {i + first_data_line} (t = {t[i]:.6g} s)",
-                     meta={"format": "csv", "delimiter": delim, **({"units": said} if first_data_line == 3 else {})},
-                     angle_unit=angle_unit, time_unit=time_unit,
+                     meta=meta, angle_unit=angle_unit, time_unit=time_unit,
                      u_switch_s=None if t_u is None else np.repeat((t_u * scale["t"])[:, None], 2, axis=1))
 
 

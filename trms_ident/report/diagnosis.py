@@ -8,7 +8,7 @@ from ..diagnosis.effects import with_unit
 from ..diagnosis.predict import fit_change, fit_text
 from ..diagnosis.run import Diagnosis
 from ..log import Log
-from .summary import versions
+from .summary import units_text, versions
 
 
 def to_doc(d: Diagnosis, log: Log) -> dict:
@@ -236,8 +236,8 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
     oe_line = ("" if check is None else " Output-error check of the findings' model: error RMS over the noise level "
                + ", ".join(f"{ang} {r:.2f}x" for ang, r in check["rms_over_noise"].items())
                + f" ({check['threshold']:g}x allowed for 'explained').")
-    u = doc["input"]["units"]
-    units = f"Units: angles {html.escape(u['angles'])}; inputs {html.escape(u['inputs'])}.<br>" if u else ""
+    units = units_text(doc["input"])
+    units = html.escape(units) + "<br>" if units else ""
     return f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident diagnose</title>
 <style>body{{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto}}img{{max-width:100%}}
 table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px}}.note{{color:#555;font-size:.9em}}</style>

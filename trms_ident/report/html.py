@@ -39,15 +39,6 @@ def _timing(inp: dict) -> str:
     return "".join(f'<br><span class="note">{html.escape(x)}</span>' for x in lines)
 
 
-def _units(inp: dict) -> str:
-    """The units the log was read in, said where they were assumed (the inputs' always are, unless a CSV units
-    row gave them)."""
-    u = inp.get("units")
-    if not u:
-        return ""
-    return f'<br><span class="note">Units: angles {html.escape(u["angles"])}; inputs {html.escape(u["inputs"])}.</span>'
-
-
 def _white(w: dict) -> str:
     return f"Q = {w['ljung_box_q']:.3g} (<= {w['threshold']:.3g})"
 
@@ -96,6 +87,7 @@ def _refined_cell(refined: dict | None, k: str) -> str:
 
 def render(doc: dict, result: Result, log: Log) -> str:
     from .figures import signals_figure, traces_figure  # matplotlib only when a report is asked for
+    from .summary import units_text
 
     settings = doc["settings"]
     truth = doc.get("truth", {}).get("values")
@@ -118,6 +110,7 @@ def render(doc: dict, result: Result, log: Log) -> str:
     par_rows = "".join(_row([k, _g(v["value"]), v["unit"], v["source"], v["meaning"]])
                        for k, v in doc["parameters"].items())
     inp = doc["input"]
+    units = units_text(inp)
     ver = ", ".join(f"{k} {v}" for k, v in doc["versions"].items())
     excitation = "; ".join(f"{a}: {v['verdict']}" for a, v in doc["excitation"].items())
     notes = "".join(f"<li>{html.escape(k)}: {html.escape(v)}</li>" for k, v in doc["identifiability"].items())
@@ -128,7 +121,7 @@ def render(doc: dict, result: Result, log: Log) -> str:
 {_verdict(doc)}
 <p>Log <code>{html.escape(inp['path'])}</code>: {inp['samples']} samples, {inp['duration_s']:.6g} s,
 sample time {inp['sample_time_s']:.6g} s.<br><span class="note">sha256 {inp['sha256']}</span>
-{_units(inp)}{_timing(inp)}</p>
+{f'<br><span class="note">{html.escape(units)}</span>' if units else ''}{_timing(inp)}</p>
 <h2>Estimates</h2>
 <table>{_row(head, 'th')}{''.join(rows)}</table>
 <p class="note"><b>Intervals:</b> {html.escape(doc['ci95_meaning'])}.</p>

@@ -132,6 +132,12 @@ def _verdict(intervals) -> str:
     return ("good" if worst < 0.01 else "adequate") + f": widest 95 % interval ±{100 * worst:.2g} %"
 
 
+def units_text(inp: dict) -> str | None:
+    """One line on the units the log was read in (Log.meta["units"]), or None when the input does not say."""
+    u = inp.get("units")
+    return f"Units: angles {u['angles']}; inputs {u['inputs']}." if u else None
+
+
 def voltage_timing_text(inp: dict) -> str | None:
     """One line on how an MCAP log's voltages were placed in time, or None for logs without a voltage topic."""
     vt = inp.get("voltage_timing")
