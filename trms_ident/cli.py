@@ -336,7 +336,7 @@ def batch(
     voltage_time: VoltageTimeOpt = "stamp",
     rate: RateOpt = None,
 ) -> None:
-    """Estimate every CSV and MCAP log under folders or globs; carry on past bad files; write a summary.
+    """Estimate every CSV, MCAP and MATLAB log under folders or globs; carry on past bad files; write a summary.
 
     Exit code 0 when every log succeeded, 8 when some failed, 9 when all failed."""
     from . import batch as batch_mod
