@@ -560,3 +560,27 @@ def test_a_friction_the_equation_error_cannot_fit_physically_is_judged_by_output
 
     page = render(to_doc(d, as_log(r)), d, as_log(r))
     assert "with findings (output-error fit: the equation error's were not physical)" in page
+
+
+def test_an_output_error_question_asked_twice_is_fitted_once(monkeypatch):
+    # diagnose judges a step modification in its round and again when the prediction fit refuses it: the same
+    # profile (a 100 s CE150 recording spent half its time in the second one); a repeat is answered from memory
+    from trms_ident.diagnosis import oe
+    from trms_ident.diagnosis.model import Model
+    from trms_ident.params import defaults
+
+    r = sim_cached("multisine", 100.0, 30.0, 0.0, Q12, 3, ((("axis", "yaw"), ("effect", "dead_zone"),
+                                                             ("value", 0.1)),))
+    p = defaults()
+    fitter = oe.Fitter(as_log(r), p, "quadratic")
+    theta0 = {k: p[k] for k in ("J1", "B1", "J2", "B2")}
+    grid = tuple(0.02 * 1.25 ** i for i in range(16))
+    first = fitter.profile(Model(), {}, theta0, "dead_zone:yaw", grid, 0.08)
+    assert first is not None and first.value == pytest.approx(0.1, rel=0.3)
+    calls = []
+    monkeypatch.setattr(oe.Fitter, "_fit", lambda *a, **k: calls.append(a) or pytest.fail("fitted again"))
+    assert fitter.profile(Model(), {}, dict(theta0), "dead_zone:yaw", list(grid), 0.08) is first
+    assert not calls
+    # a different question is not answered from memory
+    with pytest.raises(pytest.fail.Exception, match="fitted again"):
+        fitter.profile(Model(), {}, theta0, "dead_zone:yaw", grid, 0.12)

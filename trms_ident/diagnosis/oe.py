@@ -246,6 +246,11 @@ class Fitter:
         self._base: dict = {}
         self._torques: dict = {}  # (key, input modifications) -> unit_torques of the fitted samples
         self._signals: dict = {}  # the fitted samples' smoothed rates (state_signals' cache)
+        #: (method, model, values, theta0, key, ...) -> its OEFit or None: diagnose asks the same question more
+        #: than once (a step modification judged in its round and again when the prediction fit refuses it; a
+        #: 100 s CE150 recording spent half its 170 s in the second, identical dead-zone profile).  The fits
+        #: are deterministic, so a repeat gives the same answer; only the small OEFit is kept, never a fit
+        self._answers: dict = {}
 
     def _fit(self, model: Model, values: dict, theta0: dict, extra_key: str | None, mods: dict | None = None,
              max_iterations: int | None = None):
@@ -328,8 +333,18 @@ class Fitter:
             return None
         return {a: float(r.rms_rad[a] / self.noise_floor[a]) for a in self.noise}
 
+    def _asked(self, method, model: Model, values: dict, theta0: dict, key: str, *rest) -> OEFit | None:
+        """``method``'s answer for these arguments, computed once per Fitter."""
+        q = (method.__name__, model, tuple(sorted(values.items())), tuple(sorted(theta0.items())), key, *rest)
+        if q not in self._answers:
+            self._answers[q] = method(model, values, theta0, key, *rest)
+        return self._answers[q]
+
     def candidate(self, model: Model, values: dict, theta0: dict, key: str) -> OEFit | None:
         """The model with candidate ``key`` added and fitted; None when a fit fails or does not converge."""
+        return self._asked(self._candidate, model, values, theta0, key)
+
+    def _candidate(self, model: Model, values: dict, theta0: dict, key: str) -> OEFit | None:
         base = self.base(model, values, theta0)
         if base is None or not base.converged:
             return None
@@ -364,6 +379,10 @@ class Fitter:
         fitted or no trial value can.  The current model's fit need not have converged (a model that misses a
         delay drove B1 to its bound of 0 and stopped there): the held-out test's scale grows with whatever misfit
         the candidate leaves, so a base far from its own optimum does not make a partial explanation pass."""
+        return self._asked(self._profile, model, values, theta0, key, tuple(grid), float(value0))
+
+    def _profile(self, model: Model, values: dict, theta0: dict, key: str, grid: tuple, value0: float
+                 ) -> OEFit | None:
         base = self.base(model, values, theta0)
         if base is None or not value0 > 0:
             return None
