@@ -219,3 +219,19 @@ def test_every_known_value_can_be_freed():
     from trms_ident.params import KNOWN
 
     assert R.FREEABLE == KNOWN
+
+
+def test_backtracking_goes_to_the_parabolas_minimum_within_its_safeguards():
+    # cost(lam) = 10 - 4 lam + q lam^2 along the step: a failed trial at lam = 1 gives the parabola exactly
+    for q, expected in ((5.0, 0.4), (20.0, 0.1), (4.5, 0.4444444444444444)):
+        trial = 10.0 - 4.0 + q
+        assert trial > 10.0
+        assert R._backtrack(1.0, 10.0, -4.0, trial) == pytest.approx(min(max(expected, 0.1), 0.5))
+    assert R._backtrack(1.0, 10.0, -4.0, 10.0 - 4.0 * 0.5 + 2.5 * 0.25) == pytest.approx(0.5)  # clipped: halving
+    assert R._backtrack(0.5, 10.0, -4.0, float("nan")) == pytest.approx(0.05)  # no cost there: a tenth
+    assert R._backtrack(0.5, 10.0, 0.0, 12.0) == pytest.approx(0.25)  # no descent known: halving
+    # every step length shrinks at least two-fold: a search that never descends ends within 14 trials
+    lam, n = 1.0, 0
+    while lam >= 1e-4:
+        lam, n = R._backtrack(lam, 10.0, -4.0, 1e6), n + 1
+    assert n <= 5
