@@ -592,6 +592,7 @@ def test_the_findings_model_is_checked_at_its_converged_fit(monkeypatch):
     # friction found at 0.00799 N m was called partly explained.  A check whose fit stopped short goes on from there
     from trms_ident.diagnosis import oe
     from trms_ident.diagnosis.model import Model
+    from trms_ident.diagnosis.run import EXPLAINED_OE_OVER_NOISE
     from trms_ident.params import defaults
 
     r = sim_cached("multisine", 100.0, 30.0, 0.0, Q12, 3, ((("axis", "pitch"), ("effect", "coulomb_friction"),
@@ -600,7 +601,7 @@ def test_the_findings_model_is_checked_at_its_converged_fit(monkeypatch):
     model, values = Model().with_linear("coulomb_friction:pitch"), {"coulomb_friction:pitch": 0.008}
     theta0 = {k: p[k] * 1.5 for k in ("J1", "B1", "J2", "B2")}
     full = oe.Fitter(as_log(r), p, "quadratic").check(model, values, theta0)
-    assert full is not None and max(full.values()) < oe_over_noise_allowed()
+    assert full is not None and max(full.values()) < EXPLAINED_OE_OVER_NOISE
     fit = oe.Fitter._fit
     short = []
 
@@ -617,9 +618,3 @@ def test_the_findings_model_is_checked_at_its_converged_fit(monkeypatch):
     assert short[0] is False and len(short) == 2  # the short fit, then one that went on from it
     assert max(stopped.base(model, values, theta0).rms_rad[a] / stopped.noise_floor[a] for a in stopped.noise) > 2.0
     assert checked == pytest.approx(full, rel=0.02)
-
-
-def oe_over_noise_allowed() -> float:
-    from trms_ident.diagnosis.run import EXPLAINED_OE_OVER_NOISE
-
-    return EXPLAINED_OE_OVER_NOISE

@@ -230,7 +230,8 @@ def test_backtracking_goes_to_the_parabolas_minimum_within_its_safeguards():
     assert R._backtrack(1.0, 10.0, -4.0, 10.0 - 4.0 * 0.5 + 2.5 * 0.25) == pytest.approx(0.5)  # clipped: halving
     assert R._backtrack(0.5, 10.0, -4.0, float("nan")) == pytest.approx(0.05)  # no cost there: a tenth
     assert R._backtrack(0.5, 10.0, 0.0, 12.0) == pytest.approx(0.25)  # no descent known: halving
-    # every step length shrinks at least two-fold: a search that never descends ends within 14 trials
+    # every step length shrinks at least two-fold, ten-fold when the cost soars: a search that never descends
+    # ends within 5 trials (halving took 14 to reach 1e-4)
     lam, n = 1.0, 0
     while lam >= 1e-4:
         lam, n = R._backtrack(lam, 10.0, -4.0, 1e6), n + 1
