@@ -159,6 +159,54 @@ def test_cli_reports_the_refinement(tmp_path, square_csv):
     assert res.exit_code == 2 and "refine must be one of" in res.output
 
 
+@pytest.mark.parametrize("signed", [False, True])
+def test_freed_values_sensitivities_are_exact(signed):
+    # every model value the kernel differentiates itself (known values but the motors', the effects, an exogenous
+    # torque's parameter) against a central difference of the pass; the effects are in, so that each term acts
+    r = simulate(SimSettings(ref="multisine", duration_s=10.0, jitter=0.1, seed=4))
+    n = r.t_s.size
+    h = np.diff(r.t_s)
+    y = np.column_stack([r.alpha_rad, r.beta_rad])
+    effects = {"coulomb_friction:pitch": 2e-3, "coulomb_friction:yaw": 3e-3, "quadratic_drag:pitch": 0.01,
+               "quadratic_drag:yaw": 0.02, "cable_stiffness:yaw": 0.005, "thrust_asymmetry:pitch": -0.2,
+               "thrust_asymmetry:yaw": 0.3, "com_offset:pitch": 0.04}
+    pv0 = R.model_vector(defaults(), effects=effects, exogenous=("gain",))
+    pv0[R._NP] = 0.5
+    tq = np.ascontiguousarray(np.stack([np.sin(r.beta_rad), np.cos(3 * r.alpha_rad)], axis=1)[:, :, None])
+    starts, m0 = np.array([[0.01, 0.2, 0.02, 0.3]]), np.array([0.3, -0.2, 0.1])
+    slots = sorted(R.DIRECT_SLOTS) + [R._NP]
+    assert set(slots) >= set(R.EFFECT_SLOTS.values()) and {R._P.index(k) for k in ("Mg", "Kg", "a1", "kc")} <= set(slots)
+
+    def run(pv, fs=()):
+        out = np.empty((n, 2))
+        res = R.gauss_newton_pass(r.u1_v, r.u2_v, y, np.ones(2), starts, m0, pv, signed, h, np.zeros((n, 2)),
+                                  R.MAX_SUBSTEP_S, n, 1000, out, np.zeros((n, 2, 0)), ext=tq @ pv[R._NP:],
+                                  fs=np.array(fs, dtype=np.int64), tq=tq)
+        return res, out
+
+    (_, a, b, _), out = run(pv0, slots)
+    assert a.shape[1] == R.NU + len(slots)
+    # the fixed columns are unchanged by the freed ones
+    (_, a0, b0, _), _ = run(pv0)
+    np.testing.assert_array_equal(a[0, :R.NU, :R.NU], a0[0])
+    def central(i, step):
+        hi, lo = pv0.copy(), pv0.copy()
+        hi[i] += step
+        lo[i] -= step
+        return (run(hi)[1] - run(lo)[1]) / (2 * step)
+
+    jac_j1 = central(0, 1e-6 * pv0[0])
+    for c, i in enumerate(slots):
+        jac = central(i, 1e-6 * max(abs(pv0[i]), 1e-2))
+        j = R.NU + c
+        assert np.sum(jac ** 2) > 0, R._P[i] if i < len(R._P) else i
+        np.testing.assert_allclose(a[0, j, j], np.sum(jac ** 2), rtol=1e-4, err_msg=str(i))
+        np.testing.assert_allclose(b[0, j], np.sum(jac * (y - out)), rtol=1e-3, err_msg=str(i))
+        # and its cross term with J1's column
+        np.testing.assert_allclose(a[0, 0, j], np.sum(jac_j1 * jac), rtol=1e-3, atol=1e-6 * np.sqrt(a[0, 0, 0] * a[0, j, j]),
+                                   err_msg=str(i))
+
+
 def test_windows_give_the_same_pass_in_one_thread_or_several(monkeypatch):
     # the windows start from the motor states of motor_starts, so any split over threads gives the same bits;
     # and motor_starts from zero start states plus its sensitivity columns is motor_starts from any start

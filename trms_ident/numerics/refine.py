@@ -122,12 +122,56 @@ def _thrust_slope(tau, a, b, signed):
     return 2.0 * a * (abs(tau) if signed else tau) + b
 
 
+@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
+def _direct(slot, x, p, signed, g1, g2, m1, sg, cg, ca, th1, th2, fe1, fe2):
+    """The torques' derivatives [N m per unit] on pitch and yaw (eq. 1) in the model value at ``slot`` with the
+    state held: the direct term of that value's forward sensitivity.  Every slot but the motors' (k1, k2, T11,
+    T10, T21, T20, Tp: they act through the motor states, DIRECT_SLOTS leaves them out).  fe1, fe2: an exogenous
+    torque's per-unit torques at this instant (slots from _NP on)."""
+    gyro = 1.0 - p[9] * x[3] * ca  # d(pitch torque)/d M1: the thrust and its gyroscopic coupling
+    if slot == 4:  # a1
+        return g1 * x[4] * (abs(x[4]) if signed else x[4]) * gyro, 0.0
+    if slot == 5:  # b1
+        return g1 * x[4] * gyro, 0.0
+    if slot == 6:  # a2
+        return 0.0, g2 * x[5] * (abs(x[5]) if signed else x[5])
+    if slot == 7:  # b2
+        return 0.0, g2 * x[5]
+    if slot == 8:  # Mg
+        return -sg, 0.0
+    if slot == 9:  # Kg
+        return -m1 * x[3] * ca, 0.0
+    if slot == 16:  # kc: M_R = kc (T0/Tp tau1 + (1 - T0/Tp) zeta)
+        return 0.0, -(p[17] / p[18] * x[4] + (1.0 - p[17] / p[18]) * x[6])
+    if slot == 17:  # T0
+        return 0.0, -p[16] * (x[4] - x[6]) / p[18]
+    if slot == 19:  # centre-of-mass offset delta in Mg sin(alpha + delta)
+        return -p[8] * cg, 0.0
+    if slot == 20:  # Coulomb friction, pitch
+        return -th1, 0.0
+    if slot == 21:
+        return 0.0, -th2
+    if slot == 22:  # quadratic drag, pitch
+        return -x[1] * abs(x[1]), 0.0
+    if slot == 23:
+        return 0.0, -x[3] * abs(x[3])
+    if slot == 24:  # cable stiffness
+        return 0.0, -x[2]
+    if slot == 25:  # thrust asymmetry of a reversed rotor: (1 + s) times the thrust for tau < 0
+        return (_thrust(x[4], p[4], p[5], signed) * gyro if x[4] < 0.0 else 0.0), 0.0
+    if slot == 26:
+        return 0.0, (_thrust(x[5], p[6], p[7], signed) if x[5] < 0.0 else 0.0)
+    return fe1, fe2  # an exogenous torque's parameter
+
+
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
-def _rhs(x, u1, u2, e1, e2, p, signed, d):
+def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe):
     """Paper eq. (1) with the motor lags, M_R's lag state and the effects in p's slots, and the exact forward
     sensitivities (layout above): for every unknown c, d/dt S_c = A(t) S_c + df/dtheta_c, with A the Jacobian
     of (alpha', alpha'', beta', beta'') in (alpha, alpha', beta, beta').  e1, e2: exogenous torques [N m] on
-    pitch and yaw (effects declared by their torque from the measured states; 0 without)."""
+    pitch and yaw (effects declared by their torque from the measured states; 0 without).  ``fs``: the model
+    vector's slots of freed values (DIRECT_SLOTS or exogenous), whose sensitivities follow at [_NS + 4 j:
+    _NS + 4 j + 4]; ``fe`` (len(fs), 2): the exogenous ones' per-unit torques now (0 for the others)."""
     j1, b1, j2, b2 = p[0], p[1], p[2], p[3]
     eps = FRICTION_SMOOTH_RAD_S
     m1 = _thrust(x[4], p[4], p[5], signed)
@@ -171,6 +215,13 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d):
         d[i + 1] = a10 * x[i] + a11 * x[i + 1] + a13 * x[i + 3]
         d[i + 2] = x[i + 3]
         d[i + 3] = b12 * x[i + 2] + b13 * x[i + 3]
+    for c in range(fs.size):  # freed model values: the same A, their own direct terms
+        i = _NS + 4 * c
+        q1, q3 = _direct(fs[c], x, p, signed, g1, g2, m1, sg, cg, ca, th1, th2, fe[c, 0], fe[c, 1])
+        d[i] = x[i + 1]
+        d[i + 1] = a10 * x[i] + a11 * x[i + 1] + a13 * x[i + 3] + q1 / j1
+        d[i + 2] = x[i + 3]
+        d[i + 3] = b12 * x[i + 2] + b13 * x[i + 3] + q3 / j2
     d[_S0 + 1] -= f1 / j1  # J1
     d[_S0 + 4 + 1] -= x[1] / j1  # B1
     d[_S0 + 8 + 3] -= f3 / j2  # J2
@@ -188,23 +239,24 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d):
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
-def _rk4(x, xt, k1, k2, k3, k4, v1, v2, e1, e2, p, signed, dur, max_sub):
+def _rk4(x, xt, k1, k2, k3, k4, v1, v2, e1, e2, p, signed, dur, max_sub, fs, fe):
     """Advance x (with its sensitivities) by dur [s] with the voltages v1, v2 and exogenous torques e1, e2 held,
-    RK4 sub-steps <= max_sub."""
+    RK4 sub-steps <= max_sub; fs, fe: see _rhs."""
     nsub = max(1, int(math.ceil(dur / max_sub - 1e-9)))
     hs = dur / nsub
+    ns = x.size
     for _ in range(nsub):
-        _rhs(x, v1, v2, e1, e2, p, signed, k1)
-        for i in range(_NS):
+        _rhs(x, v1, v2, e1, e2, p, signed, k1, fs, fe)
+        for i in range(ns):
             xt[i] = x[i] + 0.5 * hs * k1[i]
-        _rhs(xt, v1, v2, e1, e2, p, signed, k2)
-        for i in range(_NS):
+        _rhs(xt, v1, v2, e1, e2, p, signed, k2, fs, fe)
+        for i in range(ns):
             xt[i] = x[i] + 0.5 * hs * k2[i]
-        _rhs(xt, v1, v2, e1, e2, p, signed, k3)
-        for i in range(_NS):
+        _rhs(xt, v1, v2, e1, e2, p, signed, k3, fs, fe)
+        for i in range(ns):
             xt[i] = x[i] + hs * k3[i]
-        _rhs(xt, v1, v2, e1, e2, p, signed, k4)
-        for i in range(_NS):
+        _rhs(xt, v1, v2, e1, e2, p, signed, k4, fs, fe)
+        for i in range(ns):
             x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
@@ -284,31 +336,36 @@ _MOTOR_P = np.array([_P.index(k) for k in ("k1", "k2", "T11", "T10", "T21", "T20
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
-def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block, ext, w0, w1, out,
-                 extra, costs, a_mat, b_vec, scores):
+def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block, ext, fs, tq, w0, w1,
+                 out, extra, costs, a_mat, b_vec, scores):
     """Windows w0..w1-1 of one pass: predictions (out), each window's weighted cost (costs), normal equations
     (a_mat, b_vec) and its blocks' scores, written into the caller's arrays (disjoint slices: windows can run
     in threads).  Each window starts from its fitted angles and rates (starts) and the motor states of
     motor_starts (mstart).  ``ext`` (n, 2): exogenous torques [N m] held over each sample interval, or (0, 2)
-    for none."""
+    for none.  ``fs``: slots of freed model values with exact sensitivities (columns NU.. of the normal
+    equations, then those of ``extra``); ``tq`` (n, 2, m): the exogenous torques per unit parameter, held like
+    ``ext`` (slot _NP + j reads tq[:, :, j])."""
     n = u1.size
     has_ext = ext.shape[0] > 0
     nw = starts.shape[0]
     nb = scores.shape[0]
+    nf = fs.size
     m = extra.shape[2]
-    nt = NU + m
-    x = np.zeros(_NS)
-    xt = np.empty(_NS)
-    k1 = np.empty(_NS)
-    k2 = np.empty(_NS)
-    k3 = np.empty(_NS)
-    k4 = np.empty(_NS)
+    nt = NU + nf + m
+    ns = _NS + 4 * nf
+    x = np.zeros(ns)
+    xt = np.empty(ns)
+    k1 = np.empty(ns)
+    k2 = np.empty(ns)
+    k3 = np.empty(ns)
+    k4 = np.empty(ns)
+    fe = np.zeros((nf, 2))
     ja = np.empty(nt)
     jb = np.empty(nt)
     for w in range(w0, w1):
         s = w * win
         e = n if w == nw - 1 else s + win
-        for i in range(_NS):  # the angles restart: their sensitivities are relative to this window's start
+        for i in range(ns):  # the angles restart: their sensitivities are relative to this window's start
             x[i] = 0.0
         for i in range(7):
             x[_MOTOR[i]] = mstart[w, i]
@@ -325,9 +382,12 @@ def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub,
             for c in range(NU):
                 ja[c] = x[_S0 + 4 * c] * inv_sig[0]
                 jb[c] = x[_S0 + 4 * c + 2] * inv_sig[1]
+            for c in range(nf):
+                ja[NU + c] = x[_NS + 4 * c] * inv_sig[0]
+                jb[NU + c] = x[_NS + 4 * c + 2] * inv_sig[1]
             for c in range(m):
-                ja[NU + c] = extra[k, 0, c] * inv_sig[0]
-                jb[NU + c] = extra[k, 1, c] * inv_sig[1]
+                ja[NU + nf + c] = extra[k, 0, c] * inv_sig[0]
+                jb[NU + nf + c] = extra[k, 1, c] * inv_sig[1]
             q = min(k // block, nb - 1)
             for i in range(nt):
                 g = ja[i] * ra + jb[i] * rb
@@ -340,10 +400,13 @@ def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub,
             # hold the voltages over the actual interval, each switching at its own time
             cuts, v1, v2 = _pieces(k, u1, u2, h, dsw)
             e1, e2 = (ext[k, 0], ext[k, 1]) if has_ext else (0.0, 0.0)
+            for c in range(nf):
+                if fs[c] >= _NP:
+                    fe[c, 0], fe[c, 1] = tq[k, 0, fs[c] - _NP], tq[k, 1, fs[c] - _NP]
             for j in range(3):
                 dur = cuts[j + 1] - cuts[j]
                 if dur > 0.0:
-                    _rk4(x, xt, k1, k2, k3, k4, v1[j], v2[j], e1, e2, p, signed, dur, max_sub)
+                    _rk4(x, xt, k1, k2, k3, k4, v1[j], v2[j], e1, e2, p, signed, dur, max_sub, fs, fe)
         costs[w] = cost
         for i in range(nt):
             for j in range(i):
@@ -372,11 +435,12 @@ def motor_response(free, m0):
 
 
 def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub, win, block, out, extra,
-                      motor_free=None, ext=None):
+                      motor_free=None, ext=None, fs=None, tq=None):
     """One pass over the log: predictions (out), weighted cost, per-window normal equations in the
     NU unknowns (J1, B1, J2, B2, tau1(0), tau2(0), zeta(0), alpha0, alpha'0, beta0, beta'0), then one per
-    column of ``extra`` (n, 2, m: sensitivities of alpha, beta to freed known values, computed by the
-    caller), and per-block scores.  ``h``: the n - 1 sample intervals [s]; each is integrated in RK4
+    slot in ``fs`` (freed model values, DIRECT_SLOTS or exogenous: exact forward sensitivities; ``tq`` (n, 2, m)
+    the exogenous torques per unit parameter), then one per column of ``extra`` (n, 2, m: sensitivities of
+    alpha, beta to further freed values, computed by the caller), and per-block scores.  ``h``: the n - 1 sample intervals [s]; each is integrated in RK4
     sub-steps <= max_sub.  ``dsw`` (n, 2): u1[k], u2[k] take effect dsw[k] [s] after sample k (before that the
     previous voltage holds); zeros when every voltage acts from its own stamp.
 
@@ -387,7 +451,9 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
     n = u1.size
     nw = starts.shape[0]
     nb = max(n // block, 1)
-    nt = NU + extra.shape[2]
+    fs = np.zeros(0, dtype=np.int64) if fs is None else np.asarray(fs, dtype=np.int64)
+    tq = np.zeros((0, 2, 0)) if tq is None else tq
+    nt = NU + fs.size + extra.shape[2]
     costs = np.zeros(nw)
     a_mat = np.zeros((nw, nt, nt))
     b_vec = np.zeros((nw, nt))
@@ -396,7 +462,7 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
         motor_free = motor_starts(u1, u2, p, h, dsw, max_sub, win, nw, np.zeros(3))
     mstart = motor_response(motor_free, m0)
     args = (u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block,
-            np.zeros((0, 2)) if ext is None else ext)
+            np.zeros((0, 2)) if ext is None else ext, fs, tq)
     tail = (out, extra, costs, a_mat, b_vec, scores)
     groups = min(_threads(), nw) if n >= THREAD_MIN_SAMPLES else 1
     if groups <= 1:
@@ -495,20 +561,22 @@ def _scaled_inverse(s_mat):
     return np.linalg.pinv(s_mat / np.outer(d, d), rcond=1e-13) / np.outer(d, d)
 
 
-def _globals_first(res, m):
-    """The kernel orders unknowns J/B, start states, window starts, freed values; put the freed values with
-    the globals, before the window starts."""
-    if m == 0:
-        return res
-    cost, a, b, scores = res
-    perm = np.r_[0:NG, NU:NU + m, NG:NU]
-    return cost, a[:, perm][:, :, perm], b[:, perm], scores[:, perm]
+#: model-vector slots whose sensitivities the kernel integrates exactly (_direct): every known value but the
+#: motors' (k1, k2, T11, T10, T21, T20, Tp act through the motor states, which run on through the whole log and
+#: are integrated before the windows: theirs are forward differences), every effect slot and every exogenous
+#: torque's parameter (slots from _NP on)
+DIRECT_SLOTS = frozenset([_P.index(k) for k in ("a1", "b1", "a2", "b2", "Mg", "Kg", "kc", "T0")] +
+                         list(range(19, _NP)))
+
+
+def _exact(i: int) -> bool:
+    return i in DIRECT_SLOTS or i >= _NP
 
 
 @dataclass
 class _Problem:
-    """One log and model, evaluated at any parameters: the kernel pass, plus finite-difference columns for
-    known values set free (their sensitivities are not in the compiled model)."""
+    """One log and model, evaluated at any parameters: the kernel pass with the freed values' sensitivities
+    (exact for DIRECT_SLOTS and exogenous torques, forward differences for the motors' values)."""
     u1: np.ndarray
     u2: np.ndarray
     y: np.ndarray
@@ -525,6 +593,11 @@ class _Problem:
     #: parameters sit after _NP in the model vector (model_vector's ``exogenous``)
     torques: np.ndarray | None = None
 
+    @property
+    def differenced(self) -> list:
+        """The freed values whose sensitivities are forward differences (one more pass each)."""
+        return [i for i in self.free_idx if not _exact(i)]
+
     def vector(self, th):
         """The kernel's model vector at th: J/B and the freed values over the table/file values."""
         pv = self.base.copy()
@@ -539,7 +612,7 @@ class _Problem:
             return None
         return np.ascontiguousarray(self.torques @ pv[_NP:])
 
-    def _pass(self, pv, th, st, out, max_sub, extra):
+    def _pass(self, pv, th, st, out, max_sub, extra, exact=()):
         ext = np.zeros((self.y.shape[0], 2, 0)) if extra is None else extra
         key = (max_sub, pv[_MOTOR_P].tobytes())  # the motor states depend on the motors' values alone
         if key not in self.motor_cache:
@@ -547,10 +620,7 @@ class _Problem:
                                                  st.shape[0], np.zeros(3))
         return gauss_newton_pass(self.u1, self.u2, self.y, self.inv_sig, st, th[4:NG], pv, self.signed, self.h,
                                  self.dsw, max_sub, self.win, self.block, out, ext, self.motor_cache[key],
-                                 self.exogenous(pv))
-
-    def run(self, th, st, out, max_sub=MAX_SUBSTEP_S, extra=None):
-        return self._pass(self.vector(th), th, st, out, max_sub, extra)
+                                 self.exogenous(pv), np.array(exact, dtype=np.int64), self.torques)
 
     def columns(self, th, st, pred, idx, max_sub=MAX_SUBSTEP_S):
         """(n, 2, len(idx)) forward-difference sensitivities of alpha, beta to the model values at ``idx``."""
@@ -564,13 +634,28 @@ class _Problem:
             cols[:, :, c] = (tmp - pred) / step
         return cols
 
-    def evaluate(self, th, st, out, max_sub=MAX_SUBSTEP_S):
-        """Cost, normal equations (globals first) and scores at th, st; predictions in ``out``."""
-        res = self.run(th, st, out, max_sub)
-        if not self.free_idx:
+    def evaluate(self, th, st, out, max_sub=MAX_SUBSTEP_S, more=(), cost_only=False):
+        """Cost, normal equations and scores at th, st; predictions in ``out``.  The unknowns in the order J/B,
+        start states, the freed values (free_idx's order), the model values at ``more`` (a score test's
+        candidates), then each window's start.  ``cost_only``: the cost and predictions are all the caller
+        needs (a line search's trial): no pass for the differenced columns, whose entries are then missing."""
+        idx = list(self.free_idx) + list(more)
+        exact = [i for i in idx if _exact(i)]
+        diff = [i for i in idx if not _exact(i)]
+        pv = self.vector(th)
+        if diff:
+            res = self._pass(pv, th, st, out, max_sub, None)  # the predictions the differences start from
+            if cost_only:
+                return res
+            res = self._pass(pv, th, st, out, max_sub, self.columns(th, st, out, diff, max_sub), exact)
+        else:
+            res = self._pass(pv, th, st, out, max_sub, None, exact)
+        if not idx:
             return res
-        cols = self.columns(th, st, out, self.free_idx, max_sub)
-        return _globals_first(self.run(th, st, out, max_sub, cols), len(self.free_idx))
+        kernel = exact + diff  # the kernel's columns after the NU fixed ones
+        perm = np.r_[0:NG, [NU + kernel.index(i) for i in idx], NG:NU]
+        cost, a, b, scores = res
+        return cost, a[:, perm][:, :, perm], b[:, perm], scores[:, perm]
 
 
 def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict, noise_rad: dict,
@@ -642,7 +727,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
             th_new = theta + lam * step
             trial_cost = math.nan
             if np.all(th_new[:4] > 0):
-                res = prob.run(th_new, starts + lam * step_starts, trial)
+                res = prob.evaluate(th_new, starts + lam * step_starts, trial, cost_only=True)
                 if res[0] <= cost:
                     accepted = th_new, starts + lam * step_starts, res
                     break
@@ -652,7 +737,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
             converged = bool(np.all(np.abs(step[:4]) <= np.maximum(1e-6 * theta[:4], 0.1 * se[:4])))
             break
         theta, starts, res = accepted
-        if prob.free_idx:  # the freed values' columns need their own passes
+        if prob.differenced:  # the differenced columns need their own passes
             cost, a, b, scores = prob.evaluate(theta, starts, out)
         else:  # the trial pass was the full pass at the accepted point: keep it
             (cost, a, b, scores), out = res, trial
@@ -743,11 +828,8 @@ def suspect_known_values(r: Refined, candidates: tuple[str, ...] = SUSPECTS) -> 
     n = prob.y.shape[0]
     ng = fit.a.shape[1] - NL
     cand = [k for k in candidates if _P.index(k) not in prob.free_idx]
-    pred = np.empty((n, 2))
-    prob.run(fit.theta, fit.starts, pred)
-    cols = prob.columns(fit.theta, fit.starts, pred, prob.free_idx + [_P.index(k) for k in cand])
     # order: globals (J/B, start states), freed, candidates, window starts
-    cost, a, b, _ = _globals_first(prob.run(fit.theta, fit.starts, pred, extra=cols), cols.shape[2])
+    cost, a, b, _ = prob.evaluate(fit.theta, fit.starts, np.empty((n, 2)), more=[_P.index(k) for k in cand])
     s_mat, s_rhs, _ = _schur(a, b, ng + len(cand))
     base = s_rhs[:ng] @ _scaled_inverse(s_mat[:ng, :ng]) @ s_rhs[:ng]
     excess = max(cost - 2.0 * n, 1e-300)
