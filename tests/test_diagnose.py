@@ -618,3 +618,33 @@ def test_the_findings_model_is_checked_at_its_converged_fit(monkeypatch):
     assert short[0] is False and len(short) == 2  # the short fit, then one that went on from it
     assert max(stopped.base(model, values, theta0).rms_rad[a] / stopped.noise_floor[a] for a in stopped.noise) > 2.0
     assert checked == pytest.approx(full, rel=0.02)
+
+
+def test_the_equation_error_orders_and_the_output_error_test_decides(monkeypatch):
+    # a clean log, with the equation-error test made to pass a yaw cable that is not there: the output-error fit
+    # carries a cable, so its held-out test decides, and it does not pass it (the equation error used to decide)
+    import trms_ident.diagnosis.run as run_mod
+    from trms_ident.diagnosis.select import Test
+
+    real = run_mod._try
+
+    def forced(c, *args):
+        res = real(c, *args)
+        if res is not None and c.key == "cable_stiffness:yaw":
+            res = {**res, "test": Test(gain=0.5, t=20.0, p=1e-12, share=0.1, passed=True), "value": 0.005}
+        return res
+
+    monkeypatch.setattr(run_mod, "_try", forced)
+    d, _ = _diag("multisine", 200.0, 60.0, noise=5e-4, seed=41)
+    assert not d.findings and d.verdict == "consistent"
+    (refused,) = [r for r in d.refused if r["effect"] == "cable_stiffness"]
+    assert refused["reason"].startswith("the equation-error test passed it, the output-error test that decides does "
+                                        "not: ")
+    assert any(t["effect"] == "cable_stiffness" and not t["passed"] for t in d.oe_tested)
+    # and a real yaw drag: the equation error passes it, the output-error test decides it, the evidence says so
+    monkeypatch.undo()
+    d, _ = _diag("multisine", 100.0, 90.0, [dict(effect="quadratic_drag", axis="yaw", value=0.02)])
+    (f,) = d.findings
+    assert (f.effect, f.axis) == ("quadratic_drag", "yaw") and f.parameter["value"] == pytest.approx(0.02, rel=0.05)
+    assert "the output-error test that decides passed it: output-error fit with the effect's parameter free" in f.evidence
+    assert any(t["effect"] == "quadratic_drag" and t["passed"] for t in d.oe_tested)

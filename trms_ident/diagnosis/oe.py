@@ -502,8 +502,23 @@ def motor_start(r) -> dict:
 def passes(fit: OEFit, n_tests: int, alpha: float) -> bool:
     """Beyond chance for the family (Bonferroni), of practical size, and above round-off (on a noise-free log
     the integrators' differences, ~1e-12 rad, pass for significant otherwise)."""
-    return (fit.p < alpha / max(n_tests, 1) and fit.cost_drop >= MIN_COST_DROP and fit.explained >= MIN_SIGNAL_SHARE
-            and fit.torque_share >= (MIN_MODIFICATION_SHARE if fit.profiled else MIN_TORQUE_SHARE))
+    return not shortfall(fit, n_tests, alpha)
+
+
+def shortfall(fit: OEFit, n_tests: int, alpha: float) -> list[str]:
+    """What keeps the fit from passing (passes), in words; empty when it passes."""
+    floor = MIN_MODIFICATION_SHARE if fit.profiled else MIN_TORQUE_SHARE
+    out = []
+    if not fit.p < alpha / max(n_tests, 1):
+        out.append(f"p = {fit.p:.1e}, not below the family level {alpha:g} / {max(n_tests, 1)}")
+    if not fit.cost_drop >= MIN_COST_DROP:
+        out.append(f"it lowers the angle error by {100 * fit.cost_drop:.2g} % (at least {100 * MIN_COST_DROP:g} % "
+                   "needed)")
+    if not fit.explained >= MIN_SIGNAL_SHARE:
+        out.append("what it removes is at the round-off floor")
+    if not fit.torque_share >= floor:
+        out.append(f"its torque is {100 * fit.torque_share:.2g} % of the thrust torque ({100 * floor:g} % needed)")
+    return out
 
 
 def evidence(fit: OEFit, dt_s: float) -> str:

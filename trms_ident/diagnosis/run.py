@@ -169,6 +169,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
     fitter = oe.Fitter(log, p, law)  # output-error fits of candidates (oe.py)
     oe_values: dict = {}  # findings the output-error test decided: key -> its fitted value
     oe_tested: list = []
+    turned_down: list = []  # passed by the equation error, not by the output-error test that can judge them
     for round_i in range(MAX_FINDINGS):
         results = []
         for i, c in enumerate(cands):
@@ -189,31 +190,42 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                        "parameter": r["value"]} for r in results]
         ok = [r for r in results if r["test"].passed and r["c"].plausible(r["value"]) and
               _practical(r["c"], r["value"], log, p, law)]
-        if not ok:  # the equation error finds nothing: the output-error fit judges its best candidates
-            rescue = _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests, fitter,
-                                oe_tested)
-            if rescue is None:
-                break
-            ok = [rescue]
-            oe_values[rescue["c"].key] = rescue["value"]
-        ok.sort(key=lambda r: -r["test"].gain)
-        best = ok[0]
-        alts = [r["c"].key for r in ok[1:] if r["test"].gain >= ALIAS_GAIN_RATIO * best["test"].gain and
-                _alias(best, r) and not _separable(best, r)]
-        told = None
-        if best["c"].key in PAIR and any(k in PAIR for k in alts):
-            best, alts, told = _offsets_by_output_error(best, alts, ok, log, p, law, current)
-        else:  # close rivals in the equation error: the output-error fit decides when it can carry them
-            best, alts, told = _alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache, ids,
-                                                             score_now, reg_now, n_tests, fitter, oe_tested)
-            if "oe" in best:
-                oe_values[best["c"].key] = best["value"]
-        if "oe" not in best and best["c"].step:  # the output-error profile sets its value
-            refined = _oe_confirm({**best, "before": (current, reg_now, score_now)}, log, p, law, a, cache, ids,
-                                  n_tests, fitter, oe_tested)
-            if refined is not None:
-                best = refined
-                oe_values[best["c"].key] = best["value"]
+        best, rescued = None, False
+        while best is None:
+            if not ok:  # the equation error finds nothing (more): the output-error fit judges its best candidates
+                rescue = None if rescued else _oe_rescue(results, log, p, law, a, current, cache, ids, score_now,
+                                                         reg_now, n_tests, fitter, oe_tested)
+                rescued = True
+                if rescue is None:
+                    break
+                ok = [rescue]
+                oe_values[rescue["c"].key] = rescue["value"]
+            ok.sort(key=lambda r: -r["test"].gain)
+            best = ok[0]
+            alts = [r["c"].key for r in ok[1:] if r["test"].gain >= ALIAS_GAIN_RATIO * best["test"].gain and
+                    _alias(best, r) and not _separable(best, r)]
+            told = None
+            if best["c"].key in PAIR and any(k in PAIR for k in alts):
+                best, alts, told = _offsets_by_output_error(best, alts, ok, log, p, law, current)
+            else:  # close rivals in the equation error: the output-error fit decides when it can carry them
+                best, alts, told = _alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache, ids,
+                                                                 score_now, reg_now, n_tests, fitter, oe_tested)
+                if "oe" in best:
+                    oe_values[best["c"].key] = best["value"]
+            if "oe" not in best:  # the equation error only orders: the output-error test decides when it can
+                judged, failed = _oe_confirm({**best, "before": (current, reg_now, score_now)}, log, p, law, a, cache,
+                                             ids, n_tests, fitter, oe_tested, gate=not best["c"].step)
+                if judged is not None:
+                    best = judged
+                    if "oe" in best:
+                        oe_values[best["c"].key] = best["value"]
+                elif failed:
+                    turned_down.append({"effect": best["c"].effect, "axis": best["c"].axis,
+                                        "parameter": best["value"], "reason": failed})
+                    ok = [r for r in ok if r["c"].key != best["c"].key]
+                    best = None
+        if best is None:
+            break
         best["told_apart"] = told
         for r in ok:
             if r is not best:
@@ -226,7 +238,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
     drop_search_columns(cache)
     progress("prediction fits", _SEED_SHARE + _ROUNDS_SHARE)
     fit_before, over_before = _fits(log, p, law, Model(), {}, nominal, start=seed.get("start_states"))
-    refused = []
+    refused = turned_down
     while True:  # accept only findings that keep J/B physical and raise the fit of every axis they touch
         augmented, values, fit_after, over_after = _model_fits(log, p, law, current, reg_now, score_now, oe_values,
                                                                seed.get("start_states"), _last_oe(findings))
@@ -238,7 +250,8 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         # the output-error fit judges it again, also when the equation error's J/B with it are not physical
         # (measured: a 0.008 N m pitch friction on a bench with B1 = 0.0095 gave B1 = -0.015 to -0.023)
         last = findings[-1][0]
-        confirmed = None if "oe" in last else _oe_confirm(last, log, p, law, a, cache, ids, n_tests, fitter, oe_tested)
+        confirmed = None if "oe" in last else _oe_confirm(last, log, p, law, a, cache, ids, n_tests, fitter,
+                                                           oe_tested)[0]
         if confirmed is not None:  # the output-error fit carries it and its held-out test passes: judged there
             findings[-1] = (confirmed, findings[-1][1])
             oe_values[confirmed["c"].key] = confirmed["value"]
@@ -304,6 +317,9 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         if "oe" in best:  # decided by the output-error fit (the equation error alone did not pass it)
             evidence = (oe.evidence(best["oe"], log.sample_time_s) + "; the equation-error test alone: " +
                         evidence)
+        if best.get("oe_gate"):  # passed by the equation error, decided by the output-error test
+            evidence += "; the output-error test that decides passed it: " + oe.evidence(best["oe_gate"],
+                                                                                         log.sample_time_s)
         if best.get("told_apart"):
             evidence += "; " + best["told_apart"]
         if best.get("polished"):
@@ -894,22 +910,31 @@ def _oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested)
     return f, ok
 
 
-def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested):
-    """A finding the equation error passed, judged again by the output-error fit when that fit can carry it
-    (with its held-out test): when the prediction fit would refuse it, and for step modifications (Candidate.step)
-    to set their value; the finding as _oe_rescue returns one, or None."""
+def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested, gate: bool = False):
+    """A finding the equation error passed, judged by the output-error fit when that fit can carry it (with its
+    held-out test; for step modifications, Candidate.step, its profile sets the value): (the finding as
+    _oe_rescue returns one, None) when the test passes; (None, why not) when the fit carries it and the test
+    does not pass; (None, None) when the fit cannot judge it (the equation error's finding then stands).
+    ``gate``: the test only decides; a finding it passes keeps the equation error's value, model and J/B (fitted
+    together), with the output-error fit under "oe_gate" for its evidence."""
     c = best["c"]
     before, reg_b, sc_b = best["before"]
     if not oe.fittable(c.key) or not oe.representable(before):
-        return None
+        return None, None
     f, ok = _oe_fit(c, best["value"], fitter, before, _effect_values(before, sc_b, reg_b), _oe_start(sc_b, reg_b, p),
                     log, p, n_tests, tested)
+    if f is None:
+        return None, None
     if not ok:
-        return None
+        why = oe.shortfall(f, n_tests, FAMILY_ALPHA) or [f"its fitted value {f.value:.4g} is not plausible"]
+        return None, ("the equation-error test passed it, the output-error test that decides does not: "
+                      + "; ".join(why))
+    if gate:
+        return {**best, "oe_gate": f}, None
     res = (_at_value(c, f.value, log, p, law, a, before, cache, ids, sc_b, n_tests) if oe.profiled(c.key)
            else dict(best))
     res.update(oe=f, value=f.value, before=best["before"], told_apart=best.get("told_apart"))
-    return res
+    return res, None
 
 
 #: the pitch offsets, found by the equation error (the output-error fit cannot carry an encoder offset, and the
