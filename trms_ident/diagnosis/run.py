@@ -916,7 +916,10 @@ def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested, gate:
     _oe_rescue returns one, None) when the test passes; (None, why not) when the fit carries it and the test
     does not pass; (None, None) when the fit cannot judge it (the equation error's finding then stands).
     ``gate``: the test only decides; a finding it passes keeps the equation error's value, model and J/B (fitted
-    together), with the output-error fit under "oe_gate" for its evidence."""
+    together), with the output-error fit under "oe_gate" for its evidence.  The gate asks the output-error test
+    for significance, not for the torque-share floor (oe.MIN_TORQUE_SHARE, made for the candidates that test
+    decides alone): the equation-error test's own practical size passed the candidate (measured: a right 0.03
+    pitch drag on a 100 Hz multisine, 0.48 % of the thrust torque, was refused by the floor)."""
     c = best["c"]
     before, reg_b, sc_b = best["before"]
     if not oe.fittable(c.key) or not oe.representable(before):
@@ -925,8 +928,12 @@ def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested, gate:
                     log, p, n_tests, tested)
     if f is None:
         return None, None
+    if gate:  # the equation error's practical size (a 5 % held-out drop) passed it: no torque-share floor here
+        ok = not oe.shortfall(f, n_tests, FAMILY_ALPHA, torque_floor=False) and c.plausible(f.value)
+        tested[-1].update(passed=bool(ok), torque_floor=False)  # _oe_fit's record of this fit
     if not ok:
-        why = oe.shortfall(f, n_tests, FAMILY_ALPHA) or [f"its fitted value {f.value:.4g} is not plausible"]
+        why = oe.shortfall(f, n_tests, FAMILY_ALPHA, torque_floor=not gate) or [
+            f"its fitted value {f.value:.4g} is not plausible"]
         return None, ("the equation-error test passed it, the output-error test that decides does not: "
                       + "; ".join(why))
     if gate:
