@@ -638,8 +638,8 @@ def test_the_equation_error_orders_and_the_output_error_test_decides(monkeypatch
     d, _ = _diag("multisine", 200.0, 60.0, noise=5e-4, seed=41)
     assert not d.findings and d.verdict == "consistent"
     (refused,) = [r for r in d.refused if r["effect"] == "cable_stiffness"]
-    assert refused["reason"].startswith("the equation-error test passed it, the output-error test that decides does "
-                                        "not: ")
+    assert refused["reason"].startswith("in round 1, the equation-error test passed it, the output-error test that "
+                                        "decides does not: ")
     assert any(t["effect"] == "cable_stiffness" and not t["passed"] for t in d.oe_tested)
     # and a real yaw drag: the equation error passes it, the output-error test decides it, the evidence says so
     monkeypatch.undo()

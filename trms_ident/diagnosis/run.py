@@ -221,7 +221,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                         oe_values[best["c"].key] = best["value"]
                 elif failed:
                     turned_down.append({"effect": best["c"].effect, "axis": best["c"].axis,
-                                        "parameter": best["value"], "reason": failed})
+                                        "parameter": best["value"], "reason": f"in round {round_i + 1}, {failed}"})
                     ok = [r for r in ok if r["c"].key != best["c"].key]
                     best = None
         if best is None:
