@@ -169,7 +169,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
     fitter = oe.Fitter(log, p, law)  # output-error fits of candidates (oe.py)
     oe_values: dict = {}  # findings the output-error test decided: key -> its fitted value
     oe_tested: list = []
-    turned_down: list = []  # passed by the equation error, not by the output-error test that can judge them
+    refused: list = []  # findings refused, first those the output-error test turned down in the rounds
     for round_i in range(MAX_FINDINGS):
         results = []
         for i, c in enumerate(cands):
@@ -220,8 +220,8 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                     if "oe" in best:
                         oe_values[best["c"].key] = best["value"]
                 elif failed:
-                    turned_down.append({"effect": best["c"].effect, "axis": best["c"].axis,
-                                        "parameter": best["value"], "reason": f"in round {round_i + 1}, {failed}"})
+                    refused.append({"effect": best["c"].effect, "axis": best["c"].axis,
+                                    "parameter": best["value"], "reason": f"in round {round_i + 1}, {failed}"})
                     ok = [r for r in ok if r["c"].key != best["c"].key]
                     best = None
         if best is None:
@@ -238,7 +238,6 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
     drop_search_columns(cache)
     progress("prediction fits", _SEED_SHARE + _ROUNDS_SHARE)
     fit_before, over_before = _fits(log, p, law, Model(), {}, nominal, start=seed.get("start_states"))
-    refused = turned_down
     while True:  # accept only findings that keep J/B physical and raise the fit of every axis they touch
         augmented, values, fit_after, over_after = _model_fits(log, p, law, current, reg_now, score_now, oe_values,
                                                                seed.get("start_states"), _last_oe(findings))
@@ -894,19 +893,20 @@ def _oe_start(sc, reg, p: dict) -> dict:
     return est if all(math.isfinite(v) and v > 0 for v in est.values()) else {k: p[k] for k in est}
 
 
-def _oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested):
+def _oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested, torque_floor: bool = True):
     """Candidate c fitted by output error on top of ``current`` (an input modification by a profile over its
-    value, from the equation error's ``value0``); the fit (or None) and whether it passes.  Recorded in
-    ``tested``."""
+    value, from the equation error's ``value0``); the fit (or None) and whether it passes (oe.shortfall, with or
+    without the torque-share floor).  Recorded in ``tested``."""
     if oe.profiled(c.key):
         f = fitter.profile(current, values, theta0, c.key, _grid(c, log, p), value0)
     else:
         f = fitter.candidate(current, values, theta0, c.key)
-    ok = f is not None and oe.passes(f, n_tests, FAMILY_ALPHA) and c.plausible(f.value)
+    ok = f is not None and not oe.shortfall(f, n_tests, FAMILY_ALPHA, torque_floor) and c.plausible(f.value)
     if f is not None:
         tested.append({"effect": c.effect, "axis": c.axis, "after": list(current.keys), "parameter": f.value,
                        "se": f.se, "t": f.t, "p": f.p, "cost_drop": f.cost_drop, "excess_share": f.excess_share,
-                       "torque_share": f.torque_share, "passed": bool(ok)})
+                       "torque_share": f.torque_share, "passed": bool(ok),
+                       **({} if torque_floor else {"torque_floor": False})})
     return f, ok
 
 
@@ -924,13 +924,11 @@ def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested, gate:
     before, reg_b, sc_b = best["before"]
     if not oe.fittable(c.key) or not oe.representable(before):
         return None, None
+    # gate: the equation error's practical size (a 5 % held-out drop) passed it, so no torque-share floor here
     f, ok = _oe_fit(c, best["value"], fitter, before, _effect_values(before, sc_b, reg_b), _oe_start(sc_b, reg_b, p),
-                    log, p, n_tests, tested)
+                    log, p, n_tests, tested, torque_floor=not gate)
     if f is None:
         return None, None
-    if gate:  # the equation error's practical size (a 5 % held-out drop) passed it: no torque-share floor here
-        ok = not oe.shortfall(f, n_tests, FAMILY_ALPHA, torque_floor=False) and c.plausible(f.value)
-        tested[-1].update(passed=bool(ok), torque_floor=False)  # _oe_fit's record of this fit
     if not ok:
         why = oe.shortfall(f, n_tests, FAMILY_ALPHA, torque_floor=not gate) or [
             f"its fitted value {f.value:.4g} is not plausible"]
