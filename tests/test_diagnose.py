@@ -648,3 +648,13 @@ def test_the_equation_error_orders_and_the_output_error_test_decides(monkeypatch
     assert (f.effect, f.axis) == ("quadratic_drag", "yaw") and f.parameter["value"] == pytest.approx(0.02, rel=0.05)
     assert "the output-error test that decides passed it: output-error fit with the effect's parameter free" in f.evidence
     assert any(t["effect"] == "quadratic_drag" and t["passed"] for t in d.oe_tested)
+
+
+def test_findings_whose_refitted_j_b_are_not_credible_never_explain_the_log():
+    from trms_ident.diagnosis.run import _credible
+    good = {"J1": 0.07, "B1": 0.005, "J2": 0.021, "B2": 0.09}
+    assert _credible("explained", "s.", good) == ("explained", "s.")
+    verdict, sentence = _credible("explained", "s.", {**good, "J1": 1.3e15})
+    assert verdict == "partly_explained"
+    assert "(J1 = 1.3e+15: not positive, or more than 1000x from Table 1)" in sentence and "leads" in sentence
+    assert _credible("partly_explained", "s.", {**good, "B2": -1.0})[0] == "partly_explained"

@@ -4,7 +4,7 @@ from pathlib import Path
 import pytest
 
 from trms_ident.errors import ParameterFileError
-from trms_ident.params import PARAMETERS, load_parameter_file, merge
+from trms_ident.params import PARAMETERS, implausible, load_parameter_file, marked, merge
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -49,3 +49,15 @@ def test_true_values_of_the_unknowns_only_for_the_simulator(tmp_path):
 def test_missing_parameter_file(tmp_path):
     with pytest.raises(ParameterFileError, match="parameter file not found"):
         load_parameter_file(tmp_path / "none.toml")
+
+
+@pytest.mark.parametrize("name, value, expected", [
+    ("J1", 0.05, None), ("J1", 0.068 * 999, None), ("B2", 1e-9, None),  # a friction may be tiny
+    ("J1", -0.3, "not physical"), ("B1", float("nan"), "not physical"), ("J2", 0.0, "not physical"),
+    ("J1", 1.3e15, "implausible: 1.9e+16x Table 1's 0.068 kg m^2"),
+    ("J2", 1e-6, "implausible: 5e-05x Table 1's 0.02 kg m^2"),  # an inertia may not
+    ("B2", 1258.0, "implausible: 1.3e+04x Table 1's 0.1 N m s/rad"),
+])
+def test_an_estimate_far_from_any_bench_is_called_so(name, value, expected):
+    assert implausible(name, value) == expected
+    assert marked(name, value) == f"{value:.6g}" + (f" ({expected})" if expected else "")

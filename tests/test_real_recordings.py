@@ -18,6 +18,7 @@ from trms_ident.errors import EXIT_BAD_PARAMETERS, EXIT_INADEQUATE
 from trms_ident.identify import Settings, identify
 from trms_ident.io.csv_log import write_csv_log
 from trms_ident.log import validated
+from trms_ident.params import implausible, marked
 
 from .plants.rotondo import simulate_log as rotondo_log
 
@@ -173,6 +174,19 @@ def test_real_ce150_recordings_get_an_honest_verdict(tmp_path, name):
     assert doc["verdict"] in ("unexplained", "partly_explained")
     assert "Traceback" not in dia.output and "Warning" not in dia.stderr
     assert "nan %" not in dia.stderr  # a fit that is not a number is said in words
+    # a J or B that is not positive or is orders of magnitude off Table 1 is never printed as if it were a value
+    # of this bench: marked in the estimates line, listed in the JSON, and said in the verdict when it is the
+    # findings' model
+    line = next((x for x in dia.stderr.splitlines() if x.startswith("  estimates  ")), "")
+    flagged = doc["estimates"]["not_credible"]
+    for which in ("nominal", "augmented"):
+        for k, v in doc["estimates"][which].items():
+            why = implausible(k, v)
+            assert flagged[which].get(k) == why
+            if why and doc["findings"]:
+                assert f"{k} {marked(k, v)}" in line or f"-> {marked(k, v)}" in line
+    if doc["findings"] and flagged["augmented"]:
+        assert "are not credible" in doc["verdict_sentence"]
 
 
 def test_diagnose_verdicts_on_the_sample_logs():

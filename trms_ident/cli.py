@@ -28,7 +28,7 @@ import typer  # noqa: E402
 from . import __version__
 from .errors import EXIT_ALL_FAILED, EXIT_INADEQUATE, EXIT_INTERNAL, EXIT_SOME_FAILED, SettingsError, TrmsError
 from .settings import GAIN_CONVENTIONS, HEADLINES, Settings
-from .params import ESTIMATED, THRUST_LAWS, UNITS, load_parameter_file
+from .params import ESTIMATED, THRUST_LAWS, UNITS, load_parameter_file, marked
 
 app = typer.Typer(
     name="trms-ident",
@@ -438,7 +438,8 @@ def diagnose(
                 f"{with_unit(f.parameter['value'], f.parameter['unit'])}")
             say(f"     {f.explanation[0].upper() + f.explanation[1:]}.")
             say(f"     fit {fit_change(f.fit_before, f.fit_after)}; {f.evidence}")
-        say("  estimates  " + "  ".join(f"{k} {d.nominal[k]:.5g} -> {d.augmented[k]:.5g}" for k in ESTIMATED))
+        say("  estimates  " + "  ".join(f"{k} {marked(k, d.nominal[k])} -> {marked(k, d.augmented[k])}"
+                                        for k in ESTIMATED))
     for r in d.refused:
         say(f"  refused: {r['effect']} on {r['axis']}: {r['reason']}")
     for c in d.corrections:

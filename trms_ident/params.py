@@ -62,6 +62,32 @@ def defaults() -> dict[str, float]:
     return {p.name: p.value for p in PARAMETERS}
 
 
+#: how far from Table 1 an estimated J or B may sit before it is called implausible: a factor of 1000 spans
+#: the laboratory twin-rotor benches we know of (Humusoft CE150, Feedback 33-949S / 33-007, the paper's); friction
+#: coefficients may be arbitrarily small, so B has only the upper bound
+PLAUSIBLE_FACTOR = 1e3
+
+
+def implausible(name: str, value: float) -> str | None:
+    """Why an estimated J or B (``name`` in ESTIMATED) is not credible as a bench's value, or None.
+
+    Not finite or not positive: "not physical".  A J outside [1/PLAUSIBLE_FACTOR, PLAUSIBLE_FACTOR] times its
+    Table 1 value, or a B above PLAUSIBLE_FACTOR times it: "implausible" (the least squares of a model far
+    from the log returns such values; seen on the real CE150 recordings, J1 = 1.3e15 kg m^2)."""
+    if not (math.isfinite(value) and value > 0):
+        return "not physical"
+    ratio = value / BY_NAME[name].value
+    if ratio > PLAUSIBLE_FACTOR or (name.startswith("J") and ratio < 1.0 / PLAUSIBLE_FACTOR):
+        return f"implausible: {ratio:.2g}x Table 1's {BY_NAME[name].value:g} {BY_NAME[name].unit}"
+    return None
+
+
+def marked(name: str, value: float) -> str:
+    """An estimated J or B as text, followed by why it is not credible when it is not (:func:`implausible`)."""
+    why = implausible(name, value)
+    return f"{value:.6g}" + (f" ({why})" if why else "")
+
+
 def merge(overrides: Mapping[str, float] | None, *, source: str = "overrides") -> dict[str, float]:
     """Table defaults updated by ``overrides``; unknown names or bad values raise."""
     values = defaults()

@@ -12,7 +12,7 @@ from ..log import Log
 from ..numerics.adequacy import AXIS_OF, RMS_OVER_NOISE
 from ..numerics.design import design_filters
 from ..numerics.stats import block_length
-from ..params import merge
+from ..params import ESTIMATED, PLAUSIBLE_FACTOR, implausible, merge
 from . import effects, oe
 from .discriminate import PAIR, tell_offsets_apart
 from .effects import UNOBSERVABLE, Candidate
@@ -350,6 +350,8 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
     lag = lag_profile([delay["parameter"]], [delay["held_out_gain"]]) if delay else {}
     overlay = {axis: (log.t_s, getattr(log, AXIS_ANGLE[axis]), over_before[axis], over_after[axis]) for axis in axes}
     verdict, sentence = _verdict(log, seed, out, fit_after, seg, oe_check)
+    if out:
+        verdict, sentence = _credible(verdict, sentence, augmented)
     corrections = []
     if verdict in ("partly_explained", "unexplained"):
         progress("data-driven correction", 0.95)
@@ -724,6 +726,20 @@ def _verdict(log: Log, seed: dict, findings: list, fit_after: dict, seg: dict, o
                              + (f" ({', '.join(g['context'])})" if g.get("context") else ""))
     return "unexplained", (VERDICTS["unexplained"] + ". " + seed.get("sentence", "") +
                            (" The residual is largest at " + "; ".join(where) + "." if where else ""))
+
+
+def _credible(verdict: str, sentence: str, augmented: dict) -> tuple[str, str]:
+    """The verdict and sentence, told when J/B refitted with the findings are not credible (params.implausible):
+    the findings' model then sits far from the bench, so "explained" becomes "partly_explained" and the sentence
+    says the findings' values are leads to check, not measurements."""
+    bad = {k: why for k in ESTIMATED if (why := implausible(k, augmented[k]))}
+    if not bad:
+        return verdict, sentence
+    told = ", ".join(f"{k} = {augmented[k]:.3g}" for k in bad)
+    return ("partly_explained" if verdict == "explained" else verdict,
+            sentence + f" The J/B refitted with the findings are not credible ({told}: not positive, or more than "
+                       f"{PLAUSIBLE_FACTOR:g}x from Table 1): the findings' model is far from this bench, so read the "
+                       "findings and their values as leads to check, not measurements.")
 
 
 def _params_of(axes) -> list[str]:

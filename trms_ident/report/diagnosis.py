@@ -2,12 +2,12 @@
 from __future__ import annotations
 
 import html
-import math
 
 from ..diagnosis.effects import with_unit
 from ..diagnosis.predict import fit_change, fit_text
 from ..diagnosis.run import Diagnosis
 from ..log import Log
+from ..params import ESTIMATED, implausible, marked
 from .summary import units_text, versions
 
 
@@ -24,7 +24,9 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
         "corrections": [{"axis": c.axis, "terms": c.terms, "sentence": c.sentence, "held_out_gain": c.held_out_gain,
                          "t": c.t, "p": c.p, "fit_before": c.fit_before, "fit_after": c.fit_after,
                          "estimates": c.estimates} for c in d.corrections],
-        "estimates": {"nominal": d.nominal, "augmented": d.augmented},
+        "estimates": {"nominal": d.nominal, "augmented": d.augmented,
+                      "not_credible": {which: {k: why for k in ESTIMATED if (why := implausible(k, est[k]))}
+                                       for which, est in (("nominal", d.nominal), ("augmented", d.augmented))}},
         "fit": {"measure": f"NRMSE fit [%] of {d.settings['horizon_s']:g} s multi-step predictions, each window "
                            "started from the angle and velocity fitted to it (a free run drifts on yaw, which has "
                            "no restoring force)",
@@ -38,6 +40,10 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
         "versions": versions(),
         "meaning": {
             "estimates.nominal": "J, B by least squares on the filtered regression (3) of the seed model",
+            "estimates.not_credible": "per J or B of nominal and augmented that is not finite and positive (not "
+                                      "physical) or is more than 1000x from Table 1 (implausible; a B may be "
+                                      "arbitrarily small): why; such a value is a least-squares number of a model "
+                                      "far from the bench, not a measurement",
             "estimates.augmented": "the same with the findings' terms added and refitted together; where those are "
                                    "not physical, the J, B of the output-error fit that decided the last finding "
                                    "(settings.estimates_augmented_from)",
@@ -132,12 +138,6 @@ def finding_figure(step: dict):
     return fig
 
 
-def _jb(value: float) -> str:
-    """A J or B for the table, marked when it is not physical (the least squares of a model that does not fit
-    the log can give any sign; seen on the real CE150 recordings)."""
-    return f"{value:.6g}" if math.isfinite(value) and value > 0 else f"{value:.6g} (not physical)"
-
-
 def render(doc: dict, d: Diagnosis, log: Log) -> str:
     from .figures import png_data_uri
 
@@ -220,9 +220,9 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
         + html.escape(", ".join(f"{t['term']} = {with_unit(t['coefficient'], t['unit'])}" for t in c["terms"]))
         + "</span></li>" for c in doc["corrections"])
     corrected = {k: v for c in doc["corrections"] for k, v in c["estimates"].items()}
-    est = "".join(f"<tr><td>{k}</td><td>{_jb(doc['estimates']['nominal'][k])}</td>"
-                  f"<td>{_jb(doc['estimates']['augmented'][k])}</td>"
-                  + (f"<td>{_jb(corrected[k])}</td>" if k in corrected else ("<td></td>" if corrected else ""))
+    est = "".join(f"<tr><td>{k}</td><td>{marked(k, doc['estimates']['nominal'][k])}</td>"
+                  f"<td>{marked(k, doc['estimates']['augmented'][k])}</td>"
+                  + (f"<td>{marked(k, corrected[k])}</td>" if k in corrected else ("<td></td>" if corrected else ""))
                   + "</tr>" for k in ("J1", "B1", "J2", "B2"))
     est_head = "<th>with the correction</th>" if corrected else ""
     aug_from = (" (output-error fit: the equation error's were not physical)"
