@@ -658,3 +658,31 @@ def test_findings_whose_refitted_j_b_are_not_credible_never_explain_the_log():
     assert verdict == "partly_explained"
     assert "(J1 = 1.3e+15: not positive, or more than 1000x from Table 1)" in sentence and "leads" in sentence
     assert _credible("partly_explained", "s.", {**good, "B2": -1.0})[0] == "partly_explained"
+
+
+@pytest.mark.parametrize("rho, within", [(0.0, 0.1), (0.95, 0.3)])
+def test_a_profiled_values_standard_error_holds_when_the_errors_are_correlated(rho, within):
+    # y = v g + e, fitted by profiling v: the profile's per-block costs at three values around the minimum give
+    # the standard error.  Against the spread of the estimate over 200 draws: with white e it is the curvature's
+    # 1/sqrt(g'g); with e correlated over ~20 samples (a model that misses something) batch means keep it
+    # honest where the curvature claims six times too little
+    from scipy.signal import lfilter
+
+    from trms_ident.diagnosis.oe import profile_se
+
+    rng = np.random.default_rng(7)
+    n, per_block = 4000, 100
+    g = np.sin(np.arange(n) * 0.01) + 0.5
+    estimates, ses = [], []
+    for _ in range(200):
+        e = lfilter([math.sqrt(1.0 - rho * rho)], [1.0, -rho], rng.standard_normal(n))
+        y = g + e
+        v = float(g @ y / (g @ g))
+        x = v + np.array([-0.05, 0.0, 0.05])
+        costs = np.array([np.sum(((y - xi * g) ** 2).reshape(-1, per_block), axis=1) for xi in x])
+        estimates.append(v)
+        ses.append(profile_se(x, costs, v))
+    spread = float(np.std(estimates))
+    assert float(np.median(ses)) == pytest.approx(spread, rel=within)
+    if rho:
+        assert float(np.median(ses)) > 3.0 / math.sqrt(g @ g)  # the curvature's white-noise answer

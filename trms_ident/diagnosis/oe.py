@@ -109,7 +109,7 @@ class OEFit:
     torque_share: float  # its torque over its axis' thrust torque (RMS)
     estimates: dict  # J1, B1, J2, B2 of this fit
     samples: int  # how many of the log's samples the fit used
-    profiled: bool = False  # an input modification: se from the profile's curvature, t and p held out
+    profiled: bool = False  # an input modification: se from the profile's blocks (profile_se), t and p held out
     #: axis -> (simulation fit of the current model, with the candidate) [%, NRMSE] over the fitted samples
     fits: dict = field(default_factory=dict)
     #: the motors' states at the first sample estimated with the candidate in (refine's START_NAMES)
@@ -431,15 +431,14 @@ class Fitter:
         if not vs:
             return None
         j = min(range(len(vs)), key=lambda i: cost(vs[i]))
-        se = math.inf
-        if 0 < j < len(vs) - 1:
-            x, y = np.array(vs[j - 1:j + 2]), np.array([cost(v) for v in vs[j - 1:j + 2]])
+        around = vs[j - 1:j + 2] if 0 < j < len(vs) - 1 else []
+        if around:
+            x, y = np.array(around), np.array([cost(v) for v in around])
             curv, slope, _ = np.polyfit(np.log(x), y, 2)
             if curv > 0:
                 at(float(np.exp(np.clip(-slope / (2 * curv), np.log(x[0]), np.log(x[2])))))
-            k = np.polyfit(x, y, 2)[0]  # cost ~ k (v - v*)^2 + c: for noise-weighted squares, var(v*) = 1 / k
-            se = 1.0 / math.sqrt(k) if k > 0 else math.inf
         best = min((v for v in tried if tried[v] is not None), key=cost)
+        se = profile_se(np.array(around), np.array([tried[v][1][0] for v in around]), best) if around else math.inf
         se = max(se, self._resolution(key, best))
         c_best, _, rms_best, est_best, start_best = tried[best]
         # held out: the value chosen on the even blocks scores the odd ones, and the other way round.  The drop
@@ -493,6 +492,25 @@ class Fitter:
         return out
 
 
+def profile_se(x: np.ndarray, block_costs: np.ndarray, at: float) -> float:
+    """The standard error of a profiled value at ``at`` from its fits at three values ``x`` around the minimum,
+    ``block_costs`` (3, blocks) their noise-weighted squared angle errors per block: batch means, as the
+    torque terms' (refine's sandwich, one unknown).  Each block's cost is a parabola through the three; the
+    spread of the blocks' slopes at ``at`` over the total curvature is the error (the parameters refitted at
+    each value enter through the profile).  Never below the curvature's own 1 / sqrt(k), what white errors
+    would give (cost ~ k (v - v*)^2 + c): a model that misses something leaves errors correlated over
+    seconds, whose slopes vary far more from block to block; the curvature alone had claimed a CE150 pitch
+    dead zone to +/- 3e-6 of 0.475."""
+    coef = np.polyfit(np.asarray(x, dtype=float), np.asarray(block_costs, dtype=float), 2)  # (3, blocks)
+    k = float(np.sum(coef[0]))
+    if not k > 0:
+        return math.inf
+    slopes = 2.0 * coef[0] * at + coef[1]
+    nb = slopes.size
+    spread = nb / max(nb - 1, 1) * float(np.sum((slopes - slopes.mean()) ** 2))
+    return max(1.0 / math.sqrt(k), math.sqrt(spread) / (2.0 * k))
+
+
 def motor_start(r) -> dict:
     """The motors' start states of a refinement result (tau1_0, tau2_0, zeta_0), {} when not all finite."""
     s = {k: float(r.start_states.get(k, math.nan)) for k in ("tau1_0", "tau2_0", "zeta_0")}
@@ -529,8 +547,8 @@ def evidence(fit: OEFit, dt_s: float) -> str:
 
 def _evidence(fit: OEFit, dt_s: float) -> str:
     if fit.profiled:
-        return (f"output-error fits over the modification's value: best at {fit.value:.4g} (+/- {fit.se:.2g} from "
-                f"the profile's curvature), held-out drop in angle error t = {fit.t:.1f} (p = {fit.p:.1e}), "
+        return (f"output-error fits over the modification's value: best at {fit.value:.4g} (+/- {fit.se:.2g}, batch "
+                f"means over the profile's blocks), held-out drop in angle error t = {fit.t:.1f} (p = {fit.p:.1e}), "
                 f"noise-weighted squared angle error {-100 * fit.cost_drop:+.1f} % over the first "
                 f"{fit.samples * dt_s:.4g} s")
     return (f"output-error fit with the effect's parameter free: {fit.value:.4g} +/- {fit.se:.2g} (t = {fit.t:.1f}, "

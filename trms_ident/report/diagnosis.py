@@ -53,7 +53,7 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                                    "output-error candidates, fitted by output error (the effect's parameter free "
                                    "with J, B, the findings' parameters and the motors' start states; an input "
                                    "modification by a profile over its value): value, standard error (batch means; a "
-                                   "modification's from the profile's curvature), t, p (passes below 0.05 / "
+                                   "modification's from the profile's per-block costs), t, p (passes below 0.05 / "
                                    "candidates; a modification's t is its held-out drop in angle error), the "
                                    "relative drop of the noise-weighted squared angle error (passes from 1 %), the "
                                    "share of the misfit above the noise floor it removes (information), and its "
