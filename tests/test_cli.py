@@ -147,3 +147,12 @@ def test_the_command_line_runs_blas_on_one_thread_unless_told(given, expected):
                           timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == expected
+
+
+def test_an_interval_is_printed_with_the_digits_that_show_its_width():
+    from trms_ident.report.summary import interval_text
+
+    assert interval_text(0.067996, 0.0680131, 0.0680046) == "[0.067996, 0.0680131]"
+    # +/- 4e-7 about 0.1 was printed "[0.1, 0.1]"
+    assert interval_text(0.09999996, 0.1000005, 0.1000002) == "[0.09999996, 0.1000005]"
+    assert interval_text(1.0, 1.0) == "[1, 1]"  # a zero-width interval stays what it is

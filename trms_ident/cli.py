@@ -275,7 +275,7 @@ def estimate(
         ("" if samp["uniform"] else f" (jittered stamps: steps {samp['min_step_over_median']:.3g}-"
          f"{samp['max_step_over_median']:.3g} x the median, {samp['dropped_samples']} dropped; voltages held over "
          "each actual interval)"))
-    from .report.summary import voltage_timing_text
+    from .report.summary import interval_text, voltage_timing_text
 
     timing_line = voltage_timing_text(s["input"])
     if timing_line:
@@ -290,13 +290,13 @@ def estimate(
             say(f"  {k}: not identifiable from this log ({s['identifiability'][k]})")
             continue
         line = f"  {k} = {est:<11.6g} {UNITS[k]:<10}"
-        line += f" 95 % [{lo:.6g}, {hi:.6g}]" if lo is not None else " (no interval: log too short)"
+        line += f" 95 % {interval_text(lo, hi, est)}" if lo is not None else " (no interval: log too short)"
         line += "" if check["adequate"] or lo is None else " (conditional on a model that does not fit)"
         if tv:
             line += f"   truth {tv['values'][k]:.6g}, error {tv['error_percent'][k]:+.3f} %"
         say(line)
     for k, v in ((s.get("refined") or {}).get("known_values_estimated") or {}).items():
-        say(f"  {k} = {v['estimate']:<11.6g} {UNITS[k]:<10} 95 % [{v['ci95'][0]:.6g}, {v['ci95'][1]:.6g}]   "
+        say(f"  {k} = {v['estimate']:<11.6g} {UNITS[k]:<10} 95 % {interval_text(*v['ci95'], v['estimate'])}   "
             f"(estimated with --free; given {v['table_or_file_value']:.6g})")
     say("wrote " + ", ".join(str(p) for p in res.written))
     if json_path:

@@ -87,7 +87,7 @@ def _refined_cell(refined: dict | None, k: str) -> str:
 
 def render(doc: dict, result: Result, log: Log) -> str:
     from .figures import signals_figure, traces_figure  # matplotlib only when a report is asked for
-    from .summary import units_text
+    from .summary import interval_text, units_text
 
     settings = doc["settings"]
     truth = doc.get("truth", {}).get("values")
@@ -100,7 +100,7 @@ def render(doc: dict, result: Result, log: Log) -> str:
         est = doc["estimates"][k]
         lo, hi = doc["ci95"][k]
         r = [k, UNITS[k], _g(est) if est is not None else "not identifiable",
-             f"[{_g(lo)}, {_g(hi)}]" if lo is not None else "-", _g(doc["drem_final"][k]), _g(doc["offline_optimum"][k]),
+             interval_text(lo, hi, est) if lo is not None else "-", _g(doc["drem_final"][k]), _g(doc["offline_optimum"][k]),
              _refined_cell(doc["refined"], k)]
         if truth:
             err = doc["truth"]["error_percent"][k]

@@ -132,6 +132,17 @@ def _verdict(intervals) -> str:
     return ("good" if worst < 0.01 else "adequate") + f": widest 95 % interval ±{100 * worst:.2g} %"
 
 
+def interval_text(low: float, high: float, estimate: float | None = None) -> str:
+    """"[low, high]" with as many significant digits (6 to 12) as it takes for the ends to differ from each other
+    and from ``estimate``: an interval of +/- 2e-7 about 0.1 printed as "[0.1, 0.1]" claims no width at all."""
+    values = [low, high] + ([] if estimate is None else [estimate])
+    for d in range(6, 13):
+        text = [f"{v:.{d}g}" for v in values]
+        if len(set(text)) == len(text):
+            break
+    return f"[{text[0]}, {text[1]}]"
+
+
 def units_text(inp: dict) -> str | None:
     """One line on the units the log was read in (Log.meta["units"]), or None when the input does not say."""
     u = inp.get("units")
