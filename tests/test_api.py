@@ -62,3 +62,19 @@ def test_export_writes_a_model_simulate_and_params_accept(tmp_path):
     assert "J2" not in known and known["Mg"] == as_truth["Mg"]
     bad = runner.invoke(app, ["export", str(tmp_path / "m.toml")])
     assert bad.exit_code == 4 and "not a result.json of trms-ident estimate" in bad.output
+
+
+def test_an_estimate_far_from_any_bench_is_marked_in_the_json_and_the_report():
+    import dataclasses
+    from pathlib import Path
+
+    from trms_ident.report.html import render
+    from trms_ident.report.summary import summarize
+
+    est = ti.estimate(Path(__file__).resolve().parents[1] / "sample_logs" / "bench_multisine_12bit.csv")
+    assert est.doc["not_credible"] == {}
+    # a J1 of 150 kg m^2 (e.g. voltages logged in another unit) stays a number, with why it is not credible
+    r = dataclasses.replace(est.result, estimates={**est.result.estimates, "J1": 150.0})
+    doc = summarize(r, est.log)
+    assert doc["not_credible"] == {"J1": "implausible: 2.2e+03x Table 1's 0.068 kg m^2"}
+    assert "150 (implausible: 2.2e+03x Table 1" in render(doc, r, est.log)

@@ -292,6 +292,8 @@ def estimate(
         line = f"  {k} = {est:<11.6g} {UNITS[k]:<10}"
         line += f" 95 % {interval_text(lo, hi, est)}" if lo is not None else " (no interval: log too short)"
         line += "" if check["adequate"] or lo is None else " (conditional on a model that does not fit)"
+        if k in s["not_credible"]:
+            line += f" ({s['not_credible'][k]}: check the log's units and the known values)"
         if tv:
             line += f"   truth {tv['values'][k]:.6g}, error {tv['error_percent'][k]:+.3f} %"
         say(line)

@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 import html
 
 from ..log import Log
-from ..params import ESTIMATED, UNITS
+from ..params import ESTIMATED, UNITS, marked
 
 if TYPE_CHECKING:
     from ..identify import Result
@@ -99,7 +99,7 @@ def render(doc: dict, result: Result, log: Log) -> str:
     for k in ESTIMATED:
         est = doc["estimates"][k]
         lo, hi = doc["ci95"][k]
-        r = [k, UNITS[k], _g(est) if est is not None else "not identifiable",
+        r = [k, UNITS[k], (marked(k, est) if est is not None else "not identifiable"),
              interval_text(lo, hi, est) if lo is not None else "-", _g(doc["drem_final"][k]), _g(doc["offline_optimum"][k]),
              _refined_cell(doc["refined"], k)]
         if truth:
