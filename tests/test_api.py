@@ -76,5 +76,5 @@ def test_an_estimate_far_from_any_bench_is_marked_in_the_json_and_the_report():
     # a J1 of 150 kg m^2 (e.g. voltages logged in another unit) stays a number, with why it is not credible
     r = dataclasses.replace(est.result, estimates={**est.result.estimates, "J1": 150.0})
     doc = summarize(r, est.log)
-    assert doc["not_credible"] == {"J1": "implausible: 2.2e+03x Table 1's 0.068 kg m^2"}
-    assert "150 (implausible: 2.2e+03x Table 1" in render(doc, r, est.log)
+    assert doc["not_credible"] == {"J1": "implausible: 2.21e+03x Table 1's 0.068 kg m^2"}
+    assert "150 (implausible: 2.21e+03x Table 1" in render(doc, r, est.log)

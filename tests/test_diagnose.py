@@ -656,7 +656,7 @@ def test_findings_whose_refitted_j_b_are_not_credible_never_explain_the_log():
     assert _credible("explained", "s.", good) == ("explained", "s.")
     verdict, sentence = _credible("explained", "s.", {**good, "J1": 1.3e15})
     assert verdict == "partly_explained"
-    assert "(J1 = 1.3e+15: not positive, or more than 1000x from Table 1)" in sentence and "leads" in sentence
+    assert "(J1 = 1.3e+15: not positive, or more than 100x from Table 1)" in sentence and "leads" in sentence
     assert _credible("partly_explained", "s.", {**good, "B2": -1.0})[0] == "partly_explained"
 
 

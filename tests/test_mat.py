@@ -1,4 +1,5 @@
 """MATLAB logs: v5/v7 (scipy.io) and v7.3 (HDF5) with named vectors, matrices, Simulink structures."""
+import html
 import json
 from pathlib import Path
 
@@ -88,3 +89,21 @@ def test_real_ce150_mat_files_load_with_a_rate_and_get_a_verdict(tmp_path, name)
     assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout)
     assert doc["model_check"]["adequate"] is False and doc["input"]["samples"] == 10001
+
+
+def test_batch_of_real_ce150_files_marks_what_is_not_credible(tmp_path):
+    from trms_ident.params import implausible
+
+    if not CE150.exists():
+        pytest.skip("the shared real recordings are not beside this checkout")
+    res = runner.invoke(app, ["batch", str(CE150), "-o", str(tmp_path / "b"), "--rate", "100", "--angle-unit", "deg",
+                              "--no-report", "--json", "-"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    page = (tmp_path / "b" / "index.html").read_text()
+    assert len(doc["files"]) == 2 and all(f["adequate"] is False for f in doc["files"])
+    for f in doc["files"]:  # every estimate's credibility, in the summary and on the page
+        expected = {k: implausible(k, v) for k, v in f["estimates"].items() if v is not None and implausible(k, v)}
+        assert f["not_credible"] == expected
+        for why in expected.values():
+            assert html.escape(why) in page

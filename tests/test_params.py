@@ -52,11 +52,13 @@ def test_missing_parameter_file(tmp_path):
 
 
 @pytest.mark.parametrize("name, value, expected", [
-    ("J1", 0.05, None), ("J1", 0.068 * 999, None), ("B2", 1e-9, None),  # a friction may be tiny
+    ("J1", 0.05, None), ("J1", 0.068 * 99, None), ("B2", 1e-9, None),  # a friction may be tiny
+    ("J1", 0.00437, None), ("J2", 0.00414, None), ("B1", 0.00184, None),  # the Humusoft CE150's
+    ("J2", 6.47, "implausible: 324x Table 1's 0.02 kg m^2"),  # a real CE150 azimuth sweep's estimate
     ("J1", -0.3, "not physical"), ("B1", float("nan"), "not physical"), ("J2", 0.0, "not physical"),
-    ("J1", 1.3e15, "implausible: 1.9e+16x Table 1's 0.068 kg m^2"),
-    ("J2", 1e-6, "implausible: 5e-05x Table 1's 0.02 kg m^2"),  # an inertia may not
-    ("B2", 1258.0, "implausible: 1.3e+04x Table 1's 0.1 N m s/rad"),
+    ("J1", 1.3e15, "implausible: 1.91e+16x Table 1's 0.068 kg m^2"),
+    ("J2", 1e-4, "implausible: 0.005x Table 1's 0.02 kg m^2"),  # an inertia may not
+    ("B2", 1258.0, "implausible: 1.26e+04x Table 1's 0.1 N m s/rad"),
 ])
 def test_an_estimate_far_from_any_bench_is_called_so(name, value, expected):
     assert implausible(name, value) == expected

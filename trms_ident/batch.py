@@ -76,7 +76,7 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
 
     path_p, out = Path(path), Path(out_dir)
     row = {"path": path, "output": out_dir, "status": "failed", "error": None, "skipped": False,
-           "estimates": None, "adequate": None, "report": None}
+           "estimates": None, "adequate": None, "report": None, "not_credible": {}}
     try:
         key = json.loads(json.dumps(job_key(path_p, settings, options)))  # as stored: tuples become lists
         stamp = out / BATCH_KEY
@@ -86,6 +86,7 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
                     doc = json.loads((out / "result.json").read_text())
                     row.update(status="ok", skipped=True, estimates=doc["estimates"],
                                adequate=doc.get("model_check", {}).get("adequate"),
+                               not_credible=doc.get("not_credible", {}),
                                report=str(out / "report.html") if (out / "report.html").exists() else None)
                     return row
             except (ValueError, KeyError):
@@ -96,6 +97,7 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
                             voltage_time=options.get("voltage_time", "stamp"), rate_hz=options.get("rate_hz"))
         write_text(stamp, json.dumps(key, indent=1))
         row.update(status="ok", estimates=res.summary["estimates"], adequate=res.summary["model_check"]["adequate"],
+                   not_credible=res.summary["not_credible"],
                    report=str(out / "report.html") if options.get("html", True) else None)
         if res.log.meta.get("warnings"):
             row["error"] = "warning: " + res.log.meta["warnings"]
@@ -148,7 +150,8 @@ def write_summary(out_dir: Path, rows: list[dict]) -> list[Path]:
     from .report.summary import to_json
 
     names = ("J1", "B1", "J2", "B2")
-    doc = {"files": [{k: r[k] for k in ("path", "status", "adequate", "error", "estimates", "skipped", "output")}
+    doc = {"files": [{k: r[k] for k in ("path", "status", "adequate", "error", "estimates", "not_credible", "skipped",
+                                        "output")}
                      for r in rows],
            "ok": sum(r["status"] == "ok" for r in rows), "failed": sum(r["status"] != "ok" for r in rows),
            "inadequate": sum(r["adequate"] is False for r in rows)}
@@ -167,7 +170,9 @@ def write_summary(out_dir: Path, rows: list[dict]) -> list[Path]:
         link = f'<a href="{html.escape(rel)}">{html.escape(r["path"])}</a>' if rel else html.escape(r["path"])
         est = r["estimates"] or {}
         cond = ' class="cond" title="conditional on a model that does not fit this log"' if r["adequate"] is False else ""
-        cells = "".join(f"<td{cond}>{'' if est.get(k) is None else f'{est[k]:.6g}'}</td>" for k in names)
+        why = r.get("not_credible") or {}
+        cells = "".join(f"<td{cond}>{'' if est.get(k) is None else f'{est[k]:.6g}'}"
+                        + (f" ({html.escape(why[k])})" if k in why else "") + "</td>" for k in names)
         fits = {None: "", True: '<td class="ok">yes</td>', False: '<td class="failed">NO: model does not fit</td>'}
         items.append(f'<tr><td>{link}</td><td class="{r["status"]}">{r["status"]}</td>'
                      f'{fits[r["adequate"]] or "<td></td>"}{cells}'

@@ -41,7 +41,7 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
         "meaning": {
             "estimates.nominal": "J, B by least squares on the filtered regression (3) of the seed model",
             "estimates.not_credible": "per J or B of nominal and augmented that is not finite and positive (not "
-                                      "physical) or is more than 1000x from Table 1 (implausible; a B may be "
+                                      "physical) or is more than 100x from Table 1 (implausible; a B may be "
                                       "arbitrarily small): why; such a value is a least-squares number of a model "
                                       "far from the bench, not a measurement",
             "estimates.augmented": "the same with the findings' terms added and refitted together; where those are "
