@@ -686,3 +686,18 @@ def test_a_profiled_values_standard_error_holds_when_the_errors_are_correlated(r
     assert float(np.median(ses)) == pytest.approx(spread, rel=within)
     if rho:
         assert float(np.median(ses)) > 3.0 / math.sqrt(g @ g)  # the curvature's white-noise answer
+
+
+def test_an_axis_the_findings_model_cannot_predict_is_never_explained():
+    # a prediction fit that is not a number (J or B not physical) had made the error ratio NaN, which compares
+    # false with every threshold: such a model could be called explained; a real CE150 sweep printed "nanx"
+    from types import SimpleNamespace
+
+    from trms_ident.diagnosis.run import _verdict
+
+    log = SimpleNamespace(alpha_rad=np.linspace(0, 0.3, 100), beta_rad=np.linspace(0, 0.2, 100))
+    seed = {"adequate": False, "axes": {"pitch": {"noise_floor_rad": 1e-3}, "yaw": {"noise_floor_rad": 1e-3}}}
+    verdict, sentence = _verdict(log, seed, ["a finding"], {"pitch": math.nan, "yaw": 99.99}, {}, None)
+    assert verdict == "partly_explained"
+    assert "(the pitch prediction error cannot be told: the findings' model has no prediction of it)" in sentence
+    assert "nan" not in sentence

@@ -63,3 +63,12 @@ def test_missing_parameter_file(tmp_path):
 def test_an_estimate_far_from_any_bench_is_called_so(name, value, expected):
     assert implausible(name, value) == expected
     assert marked(name, value) == f"{value:.6g}" + (f" ({expected})" if expected else "")
+
+
+def test_a_bundled_bench_is_a_parameter_file_by_name(tmp_path):
+    known = load_parameter_file("humusoft_ce150")
+    assert known["Mg"] == 0.0383 and known["kc"] == 0.00162 and "J1" not in known  # [identified] is not known
+    assert load_parameter_file("humusoft_ce150", allow_estimated=True)["J1"] == 0.00437  # simulate's truth
+    with pytest.raises(ParameterFileError, match="nosuch: parameter file not found; expected a TOML file or a "
+                                                 "bundled bench: humusoft_ce150"):
+        load_parameter_file("nosuch")

@@ -13,6 +13,7 @@ The command line calls the same functions (commands.py: estimate_with, Estimate.
 from __future__ import annotations
 
 import hashlib
+import math
 import threading
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -225,7 +226,24 @@ def simulate(ref: str = "square", **options):
     from sim import SimSettings
     from sim import simulate as run
 
-    return run(SimSettings(ref=ref, **options))
+    from .errors import SettingsError
+
+    r = run(SimSettings(ref=ref, **options))
+    # the PID of eq. (9) is tuned for Table 1's bench: other parameters (a bundled bench's, a --params file's)
+    # can leave it unstable, and a log whose pitch leaves the bench's range is no recording of anything
+    bad = ~np.isfinite(r.alpha_rad) | (np.abs(r.alpha_rad) > PITCH_RANGE_RAD) | ~np.isfinite(r.beta_rad)
+    if np.any(bad):
+        k = int(np.argmax(bad))
+        raise SettingsError(
+            f"the simulated closed loop is unstable with these parameters: at t = {r.t_s[k]:.4g} s the pitch is "
+            f"{r.alpha_rad[k]:.4g} rad (the bench's range is +/- {PITCH_RANGE_RAD:.3g} rad); the PID of eq. (9) is "
+            "tuned for Table 1's bench: change --u-limit, the reference or the parameters")
+    return r
+
+
+#: the pitch a simulated log may reach [rad]: a TRMS arm swings less than +/- 90 deg (logs beyond it read as
+#: degrees, io/csv_log.py)
+PITCH_RANGE_RAD = math.pi / 2
 
 
 def log_frame(sim_result):

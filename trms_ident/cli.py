@@ -118,7 +118,8 @@ def emit_json(doc: dict, target: str) -> None:
 
 
 # ---- options shared by estimate and batch (defined once) ----------------------------------------
-ParamsOpt = Annotated[Optional[Path], typer.Option("--params", help="TOML file overriding known parameters.")]
+ParamsOpt = Annotated[Optional[Path], typer.Option("--params", help="TOML file overriding known parameters, or a "
+                                                   "bundled bench's name: humusoft_ce150.")]
 AOpt = Annotated[str, typer.Option("--a", help="Bandwidth of F(s), eq. (3) [rad/s], or 'auto': designed from the "
                                    "log's noise level and excitation.")]
 BOpt = Annotated[str, typer.Option("--b", help="Bandwidth of H(s), eq. (5) [rad/s], or 'auto' (2 a).")]
@@ -483,7 +484,8 @@ def simulate(
     noise: Annotated[float, typer.Option(help="Gaussian measurement noise, standard deviation [rad].")] = 0.0,
     quantization: Annotated[float, typer.Option(help="Encoder quantum [rad] (0 = none).")] = 0.0,
     encoder_bits: Annotated[Optional[int], typer.Option(help="Encoder resolution; sets quantum = 2 pi / 2^bits.")] = None,
-    params: Annotated[Optional[Path], typer.Option("--params", help="TOML file overriding true parameters.")] = None,
+    params: Annotated[Optional[Path], typer.Option("--params", help="TOML file overriding true parameters, or a "
+                                                   "bundled bench's name: humusoft_ce150.")] = None,
     thrust_law: Annotated[str, typer.Option(help=f"One of {tuple(THRUST_LAWS)}.")] = "quadratic",
     u_limit: Annotated[float, typer.Option(help="Controller output limit [V].")] = 2.5,
     effect: Annotated[Optional[list[str]], typer.Option(help="Inject unmodelled physics, NAME[:AXIS]=VALUE "

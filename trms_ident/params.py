@@ -117,17 +117,36 @@ def to_toml(known: dict[str, float], identified: dict[str, float], header: list[
     return "\n".join(lines) + "\n"
 
 
+#: parameter files of benches other than Table 1's, shipped with the package: ``--params NAME``
+BENCHES = Path(__file__).with_name("benches")
+
+
+def bench_names() -> list[str]:
+    """The bundled benches' names (``--params NAME``)."""
+    return sorted(p.stem for p in BENCHES.glob("*.toml"))
+
+
+def resolve_parameter_file(path: str | Path) -> Path:
+    """``path`` itself when it exists or names a file; a bundled bench's file when it is a bare name of one."""
+    p = Path(path)
+    if not p.exists() and p.parent == Path(".") and not p.suffix and (BENCHES / f"{p.name}.toml").exists():
+        return BENCHES / f"{p.name}.toml"
+    return p
+
+
 def load_parameter_file(path: str | Path, allow_estimated: bool = False) -> dict[str, float]:
-    """Read parameter overrides from TOML: top-level ``name = value`` or a ``[parameters]`` table.
+    """Read parameter overrides from TOML: top-level ``name = value`` or a ``[parameters]`` table; ``path`` may
+    be a bundled bench's name (:func:`bench_names`, e.g. ``humusoft_ce150``).
 
     J1, B1, J2, B2 are refused unless ``allow_estimated`` (the simulator's true values): for estimate and
     diagnose they are the unknowns, and a value given for them would silently mean nothing.  An
     ``[identified]`` table (written by ``export``) holds J/B: read with ``allow_estimated``, ignored otherwise."""
-    path = Path(path)
+    path = resolve_parameter_file(path)
     try:
         raw = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise ParameterFileError(f"{path}: parameter file not found") from None
+        raise ParameterFileError(f"{path}: parameter file not found; expected a TOML file or a bundled bench: "
+                                 f"{', '.join(bench_names())}") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise ParameterFileError(f"{path}: not valid TOML ({exc})") from None
     table = raw.get("parameters", raw)

@@ -421,13 +421,14 @@ def _finding_steps(log, p, law, findings, states, values, fits, cache, seg) -> l
 
 
 def _over_noise(log: Log, seed: dict, fits: dict) -> dict:
-    """Per axis: the prediction error's RMS over the seed check's noise floor."""
+    """Per axis: the prediction error's RMS over the seed check's noise floor (inf when the axis has no
+    prediction: its J or B not physical, the fit not a number)."""
     out = {}
     for axis in ("pitch", "yaw"):
         y = getattr(log, AXIS_ANGLE[axis])
         floor = seed.get("axes", {}).get(axis, {}).get("noise_floor_rad", 0.0)
         rms = (100.0 - fits.get(axis, -math.inf)) / 100.0 * float(np.std(y))
-        out[axis] = rms / floor if floor > 0 else math.inf
+        out[axis] = rms / floor if floor > 0 and math.isfinite(rms) else math.inf
     return out
 
 
@@ -706,8 +707,9 @@ def _verdict(log: Log, seed: dict, findings: list, fit_after: dict, seg: dict, o
         ratios = _over_noise(log, seed, fit_after)
         if any(r > EXPLAINED_RMS_OVER_NOISE for r in ratios.values()):
             worst = max(ratios, key=ratios.get)
-            return "partly_explained", (VERDICTS["partly_explained"] + f" (the {worst} prediction error is still "
-                                        f"{ratios[worst]:.3g}x its noise level).")
+            still = (f"is still {ratios[worst]:.3g}x its noise level" if math.isfinite(ratios[worst]) else
+                     "cannot be told: the findings' model has no prediction of it")
+            return "partly_explained", VERDICTS["partly_explained"] + f" (the {worst} prediction error {still})."
         if oe_check is None:
             return "explained", (VERDICTS["explained"] + " in its 2 s predictions (the output-error simulation "
                                  "cannot carry these findings, so it did not check them).")
