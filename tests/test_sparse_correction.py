@@ -80,3 +80,9 @@ def test_cli_reports_the_correction_in_words_and_json(tmp_path):
     assert "outside the library, yaw" in res.stderr
     html = (tmp_path / "out" / "report.html").read_text()
     assert "outside the library" in html and "Correction of the yaw torque" in html
+
+
+def test_a_small_relative_change_is_said_with_its_digits():
+    from trms_ident.diagnosis.sparse import _pct
+
+    assert (_pct(0.4), _pct(-0.4), _pct(0.0038)) == ("40%", "40%", "0.38%")  # was "0%"

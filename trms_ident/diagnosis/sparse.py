@@ -51,7 +51,9 @@ class Term:
 
 
 def _pct(x: float) -> str:
-    return f"{abs(x):.0%}"
+    """A relative size in words: whole percent, two digits below 1 % (a real CE150 sweep read "about 0 %
+    stronger")."""
+    return f"{abs(x):.0%}" if abs(x) >= 0.01 else f"{100 * abs(x):.2g}%"
 
 
 def _thrust_words(rotor: str, sign: str, axis: str, direction: str):
