@@ -72,3 +72,21 @@ def test_a_bundled_bench_is_a_parameter_file_by_name(tmp_path):
     with pytest.raises(ParameterFileError, match="nosuch: parameter file not found; expected a TOML file or a "
                                                  "bundled bench: humusoft_ce150"):
         load_parameter_file("nosuch")
+
+
+def test_a_parameter_file_says_the_input_unit_its_known_values_take(tmp_path):
+    from trms_ident.log import INPUTS_ASSUMED
+    from trms_ident.params import declared_inputs, parameter_file_inputs_unit
+
+    assert parameter_file_inputs_unit("humusoft_ce150").startswith("MU (the CE150's normalised machine units")
+    flat = tmp_path / "flat.toml"
+    flat.write_text('Mg = 0.3\n[units]\ninputs = "percent of full scale"\n')
+    assert load_parameter_file(flat) == {"Mg": 0.3}  # [units] is no parameter
+    assert parameter_file_inputs_unit(flat) == "percent of full scale"
+    plain = tmp_path / "plain.toml"
+    plain.write_text("Mg = 0.3\n")
+    assert parameter_file_inputs_unit(plain) is None
+    # the assumed volts give way to the declared unit; a unit the log itself gives stays
+    assert declared_inputs({"inputs": INPUTS_ASSUMED}, "MU")["inputs"].startswith("MU (the unit the known values")
+    assert declared_inputs({"inputs": "V (the file's units row)"}, "MU")["inputs"] == "V (the file's units row)"
+    assert declared_inputs({"inputs": INPUTS_ASSUMED}, None)["inputs"] == INPUTS_ASSUMED

@@ -210,6 +210,7 @@ def test_real_ce150_recordings_with_the_ce150s_published_values(tmp_path, name, 
     assert doc["model_check"]["adequate"] is False  # its noise floor is unmeasurable (smoothed angles): said so
     assert doc["table_defaults_changed"] == sorted(["a1", "b1", "a2", "b2", "Mg", "Kg", "k1", "k2", "T11", "T21",
                                                     "kc", "T0", "Tp"])
+    assert doc["input"]["units"]["inputs"].startswith("MU (the CE150's normalised machine units")  # not "V"
     if axis == "pitch":
         assert doc["estimates"]["B1"] == pytest.approx(0.00184, rel=0.1)
         assert doc["estimates"]["J1"] == pytest.approx(0.00437, rel=0.5)

@@ -138,7 +138,7 @@ def estimate(log, *, params: dict | str | Path | None = None, truth: dict | None
     ``thrust_law``, ``filter_a_rad_s``, ...) and the reader's (``angle_unit``, ``time_unit``, ``signals``,
     ``time_source``, ``voltage_time``).  Same numbers as ``trms-ident estimate`` with the same options."""
     from .errors import SettingsError
-    from .params import load_parameter_file
+    from .params import load_parameter_file, parameter_file_inputs_unit
 
     unknown = set(options) - _SETTINGS - set(_READ)
     if unknown:
@@ -146,7 +146,9 @@ def estimate(log, *, params: dict | str | Path | None = None, truth: dict | None
                             f"{', '.join(sorted(_SETTINGS - {'overrides'}))} or {', '.join(_READ)}")
     read = {k: options.pop(k) for k in _READ if k in options}
     if isinstance(params, (str, Path)):
-        params = load_parameter_file(params)
+        path, params = params, load_parameter_file(params)
+        if parameter_file_inputs_unit(path):
+            options.setdefault("inputs_unit", parameter_file_inputs_unit(path))
     settings = Settings(overrides=dict(params or {}), **{k: (tuple(v) if k == "free" else v)
                                                           for k, v in options.items()})
     settings.validate()
@@ -189,11 +191,22 @@ def estimate_with(log, settings: Settings, *, truth: dict | None = None, truth_s
             settings.refine == "auto" and _size(log) <= REFINE_WARM_UP_BYTES)):
         threading.Thread(target=_load_refinement, daemon=True).start()  # identify waits for it if needed
     stage("reading")
-    data = _as_log(log, read)
+    data = with_inputs_unit(_as_log(log, read), settings.inputs_unit)
     warm.join()
     stage("identifying")
     result = identify(data, settings)
     return Estimate(data, result, summarize(result, data, truth, truth_source or ("given" if truth else None)))
+
+
+def with_inputs_unit(log: Log, unit: str | None) -> Log:
+    """``log`` with the inputs' unit a parameter file declares said in its units (params.declared_inputs)."""
+    import dataclasses
+
+    from .params import declared_inputs
+
+    units = log.meta.get("units", {})
+    said = declared_inputs(units, unit)
+    return log if said is units else dataclasses.replace(log, meta={**log.meta, "units": said})
 
 
 def _size(path: str | Path) -> int:
@@ -210,13 +223,15 @@ def diagnose(log, *, params: dict | str | Path | None = None, thrust_law: str = 
     ``progress(stage, fraction done)`` is called as the search advances (the CLI draws its bar with it)."""
     from .diagnosis.run import diagnose as run
     from .errors import SettingsError
-    from .params import THRUST_LAWS, load_parameter_file
+    from .params import THRUST_LAWS, load_parameter_file, parameter_file_inputs_unit
 
     if thrust_law not in THRUST_LAWS:
         raise SettingsError(f"thrust law must be one of {tuple(THRUST_LAWS)}, got {thrust_law!r}")
+    data = _as_log(log, read)
     if isinstance(params, (str, Path)):
-        params = load_parameter_file(params)
-    return run(_as_log(log, read), dict(params or {}), thrust_law, filter_a_rad_s, progress=progress)
+        path, params = params, load_parameter_file(params)
+        data = with_inputs_unit(data, parameter_file_inputs_unit(path))
+    return run(data, dict(params or {}), thrust_law, filter_a_rad_s, progress=progress)
 
 
 def simulate(ref: str = "square", **options):

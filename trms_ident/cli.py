@@ -28,7 +28,7 @@ import typer  # noqa: E402
 from . import __version__
 from .errors import EXIT_ALL_FAILED, EXIT_INADEQUATE, EXIT_INTERNAL, EXIT_SOME_FAILED, SettingsError, TrmsError
 from .settings import GAIN_CONVENTIONS, HEADLINES, Settings
-from .params import ESTIMATED, THRUST_LAWS, UNITS, load_parameter_file, marked
+from .params import ESTIMATED, THRUST_LAWS, UNITS, load_parameter_file, marked, parameter_file_inputs_unit
 
 app = typer.Typer(
     name="trms-ident",
@@ -176,7 +176,8 @@ def build_settings(a: str, b: str, gain_convention: str, gamma: str, settle: flo
                         gain_convention=gain_convention, gamma=parse_gamma(gamma), settle_time_s=settle,
                         thrust_law=thrust_law, headline=headline, refine=refine,
                         free=tuple(x.strip() for x in free.split(",") if x.strip()),
-                        overrides=load_parameter_file(params) if params else {})
+                        overrides=load_parameter_file(params) if params else {},
+                        inputs_unit=parameter_file_inputs_unit(params) if params else None)
     settings.validate()
     return settings
 
@@ -413,6 +414,7 @@ def diagnose(
     from .report.summary import to_json
 
     from .api import diagnose as run_diagnosis
+    from .api import with_inputs_unit
 
     check_units(angle_unit, time_unit)
     if thrust_law not in THRUST_LAWS:
@@ -422,6 +424,8 @@ def diagnose(
     progress and progress("reading")
     data = read_log(log, angle_unit=angle_unit, signals=signal, time_source=time_source, time_unit=time_unit,
                     voltage_time=voltage_time, rate_hz=rate)
+    if params:  # checked above (load_parameter_file)
+        data = with_inputs_unit(data, parameter_file_inputs_unit(params))
     for note in data.meta.get("assumed", {}).values():
         say(f"note: {note}")
     if progress:

@@ -134,6 +134,24 @@ def resolve_parameter_file(path: str | Path) -> Path:
     return p
 
 
+def parameter_file_inputs_unit(path: str | Path) -> str | None:
+    """The input unit a parameter file's known values take (``[units] inputs = "..."``), or None when it does not
+    say (then eq. (1)'s volts).  Read after :func:`load_parameter_file` has checked the file."""
+    units = tomllib.loads(resolve_parameter_file(path).read_text(encoding="utf-8")).get("units", {})
+    unit = units.get("inputs") if isinstance(units, dict) else None
+    return unit if isinstance(unit, str) and unit.strip() else None
+
+
+def declared_inputs(meta_units: dict, unit: str | None) -> dict:
+    """A log's units (Log.meta["units"]) with the inputs' unit a parameter file declares (``unit``) in place of
+    the assumed volts; unchanged when the file does not say or the log itself says its unit."""
+    from .log import INPUTS_ASSUMED
+
+    if not unit or meta_units.get("inputs", INPUTS_ASSUMED) != INPUTS_ASSUMED:
+        return meta_units
+    return {**meta_units, "inputs": f"{unit} (the unit the known values of --params take; the log does not say)"}
+
+
 def load_parameter_file(path: str | Path, allow_estimated: bool = False) -> dict[str, float]:
     """Read parameter overrides from TOML: top-level ``name = value`` or a ``[parameters]`` table; ``path`` may
     be a bundled bench's name (:func:`bench_names`, e.g. ``humusoft_ce150``).
@@ -152,7 +170,7 @@ def load_parameter_file(path: str | Path, allow_estimated: bool = False) -> dict
     table = raw.get("parameters", raw)
     if not isinstance(table, dict):
         raise ParameterFileError(f"{path}: [parameters] must be a table of name = value")
-    overrides = {k: v for k, v in table.items() if k not in ("parameters", "identified")}
+    overrides = {k: v for k, v in table.items() if k not in ("parameters", "identified", "units")}
     identified = raw.get("identified", {})  # an exported model's J/B: true values for the simulator only
     if allow_estimated and isinstance(identified, dict):
         overrides.update({k: v for k, v in identified.items() if k in ESTIMATED})

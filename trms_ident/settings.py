@@ -32,6 +32,7 @@ class Settings:
     refine: str = "auto"  # prediction-error refinement after DREM: auto (by log length), on, off
     overrides: dict = field(default_factory=dict)  # known-parameter values replacing the table's
     free: tuple = ()  # known values estimated with J/B by the refinement (--free), started from table/file
+    inputs_unit: str | None = None  # the input unit the known values take ([units] of --params); None: volts
 
     def validate(self) -> None:
         for name in ("filter_a_rad_s", "filter_b_rad_s", "settle_time_s"):
