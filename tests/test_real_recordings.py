@@ -168,6 +168,9 @@ def test_real_ce150_recordings_get_an_honest_verdict(tmp_path, name):
     assert doc["input"]["units"]["inputs"].startswith("V (assumed")  # machine units: the tool cannot know
     for k, est in doc["estimates"].items():
         assert est is None or "conditional on a model that does not fit" in res.stderr
+    for k, why in doc["not_credible"].items():  # marked, with where known values for other benches come from
+        assert f"({why}: check the log's units and the known values; for a bench with its own: --params FILE or " \
+               "a bundled one, humusoft_ce150)" in res.stderr
     dia = runner.invoke(app, ["diagnose", str(path), "--angle-unit", "deg", "--json", "-"])
     assert dia.exit_code == 0, dia.output
     doc = json.loads(dia.stdout, parse_constant=lambda name: pytest.fail(f"{name} in the JSON (not JSON)"))

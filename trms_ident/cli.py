@@ -28,7 +28,8 @@ import typer  # noqa: E402
 from . import __version__
 from .errors import EXIT_ALL_FAILED, EXIT_INADEQUATE, EXIT_INTERNAL, EXIT_SOME_FAILED, SettingsError, TrmsError
 from .settings import GAIN_CONVENTIONS, HEADLINES, Settings
-from .params import ESTIMATED, THRUST_LAWS, UNITS, load_parameter_file, marked, parameter_file_inputs_unit
+from .params import (ESTIMATED, THRUST_LAWS, UNITS, bench_names, load_parameter_file, marked,
+                     parameter_file_inputs_unit)
 
 app = typer.Typer(
     name="trms-ident",
@@ -295,7 +296,8 @@ def estimate(
         line += f" 95 % {interval_text(lo, hi, est)}" if lo is not None else " (no interval: log too short)"
         line += "" if check["adequate"] or lo is None else " (conditional on a model that does not fit)"
         if k in s["not_credible"]:
-            line += f" ({s['not_credible'][k]}: check the log's units and the known values)"
+            line += (f" ({s['not_credible'][k]}: check the log's units and the known values; for a bench with "
+                     f"its own: --params FILE or a bundled one, {', '.join(bench_names())})")
         if tv:
             line += f"   truth {tv['values'][k]:.6g}, error {tv['error_percent'][k]:+.3f} %"
         say(line)
