@@ -147,8 +147,9 @@ def estimate(log, *, params: dict | str | Path | None = None, truth: dict | None
     read = {k: options.pop(k) for k in _READ if k in options}
     if isinstance(params, (str, Path)):
         path, params = params, load_parameter_file(params)
-        if parameter_file_inputs_unit(path):
-            options.setdefault("inputs_unit", parameter_file_inputs_unit(path))
+        unit = parameter_file_inputs_unit(path)
+        if unit:
+            options.setdefault("inputs_unit", unit)
     settings = Settings(overrides=dict(params or {}), **{k: (tuple(v) if k == "free" else v)
                                                           for k, v in options.items()})
     settings.validate()

@@ -84,6 +84,11 @@ def implausible(name: str, value: float) -> str | None:
     return None
 
 
+def not_credible(estimates: dict) -> dict[str, str]:
+    """J/B name -> why it is not credible (:func:`implausible`), for the estimates given (None: not estimated)."""
+    return {k: why for k in ESTIMATED if estimates.get(k) is not None and (why := implausible(k, estimates[k]))}
+
+
 def marked(name: str, value: float) -> str:
     """An estimated J or B as text, followed by why it is not credible when it is not (:func:`implausible`)."""
     why = implausible(name, value)

@@ -12,7 +12,7 @@ from ..log import Log
 from ..numerics.adequacy import AXIS_OF, RMS_OVER_NOISE
 from ..numerics.design import design_filters
 from ..numerics.stats import block_length
-from ..params import ESTIMATED, PLAUSIBLE_FACTOR, implausible, merge
+from ..params import PLAUSIBLE_FACTOR, merge, not_credible
 from . import effects, oe
 from .discriminate import PAIR, tell_offsets_apart
 from .effects import UNOBSERVABLE, Candidate
@@ -734,7 +734,7 @@ def _credible(verdict: str, sentence: str, augmented: dict) -> tuple[str, str]:
     """The verdict and sentence, told when J/B refitted with the findings are not credible (params.implausible):
     the findings' model then sits far from the bench, so "explained" becomes "partly_explained" and the sentence
     says the findings' values are leads to check, not measurements."""
-    bad = {k: why for k in ESTIMATED if (why := implausible(k, augmented[k]))}
+    bad = not_credible(augmented)
     if not bad:
         return verdict, sentence
     told = ", ".join(f"{k} = {augmented[k]:.3g}" for k in bad)

@@ -7,7 +7,7 @@ from ..diagnosis.effects import with_unit
 from ..diagnosis.predict import fit_change, fit_text
 from ..diagnosis.run import Diagnosis
 from ..log import Log
-from ..params import ESTIMATED, implausible, marked
+from ..params import PLAUSIBLE_FACTOR, marked, not_credible
 from .summary import units_text, versions
 
 
@@ -25,8 +25,7 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                          "t": c.t, "p": c.p, "fit_before": c.fit_before, "fit_after": c.fit_after,
                          "estimates": c.estimates} for c in d.corrections],
         "estimates": {"nominal": d.nominal, "augmented": d.augmented,
-                      "not_credible": {which: {k: why for k in ESTIMATED if (why := implausible(k, est[k]))}
-                                       for which, est in (("nominal", d.nominal), ("augmented", d.augmented))}},
+                      "not_credible": {"nominal": not_credible(d.nominal), "augmented": not_credible(d.augmented)}},
         "fit": {"measure": f"NRMSE fit [%] of {d.settings['horizon_s']:g} s multi-step predictions, each window "
                            "started from the angle and velocity fitted to it (a free run drifts on yaw, which has "
                            "no restoring force)",
@@ -41,9 +40,9 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
         "meaning": {
             "estimates.nominal": "J, B by least squares on the filtered regression (3) of the seed model",
             "estimates.not_credible": "per J or B of nominal and augmented that is not finite and positive (not "
-                                      "physical) or is more than 100x from Table 1 (implausible; a B may be "
-                                      "arbitrarily small): why; such a value is a least-squares number of a model "
-                                      "far from the bench, not a measurement",
+                                      f"physical) or is more than {PLAUSIBLE_FACTOR:g}x from Table 1 (implausible; "
+                                      "a B may be arbitrarily small): why; such a value is a least-squares number of "
+                                      "a model far from the bench, not a measurement",
             "estimates.augmented": "the same with the findings' terms added and refitted together; where those are "
                                    "not physical, the J, B of the output-error fit that decided the last finding "
                                    "(settings.estimates_augmented_from)",

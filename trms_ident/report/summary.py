@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 from .. import __version__
 from ..settings import AXES
 from ..log import Log
-from ..params import BY_NAME, ESTIMATED, THRUST_LAWS, UNITS, defaults, implausible
+from ..params import BY_NAME, ESTIMATED, THRUST_LAWS, UNITS, defaults, not_credible
 
 if TYPE_CHECKING:
     from ..identify import Result
@@ -61,8 +61,7 @@ def summarize(result: Result, log: Log, truth: dict | None = None, truth_source:
                          "measure the noise, not the model's error, and the true values may lie far outside"),
         "identifiable": {k: result.intervals[k].identifiable for k in ESTIMATED},
         "identifiability": {k: result.intervals[k].reason for k in ESTIMATED},
-        "not_credible": {k: why for k in ESTIMATED
-                         if result.estimates[k] is not None and (why := implausible(k, result.estimates[k]))},
+        "not_credible": not_credible(result.estimates),
         "units": {k: UNITS[k] for k in ESTIMATED},
         "headline": result.headline,
         "headline_meaning": HEADLINE_MEANING[result.headline],
