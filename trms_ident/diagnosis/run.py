@@ -530,8 +530,8 @@ def _backward(findings, current, augmented, values, fit_after, log, p, law, a, c
             why = _refusal(c, {}, augmented, fit_wo, fit_after)
             if why is not None and oe.fittable(c.key) and oe.representable(without):
                 value0 = oe_values.get(c.key, best["value"])
-                _, ok = _oe_fit(c, value0, fitter, without, vals, _oe_start(sc, reg, p), log, p, n_tests, tested)
-                why = None if ok else why + "; the output-error held-out test given the others does not pass"
+                _, short = _oe_fit(c, value0, fitter, without, vals, _oe_start(sc, reg, p), log, p, n_tests, tested)
+                why = None if not short else why + "; the output-error held-out test given the others does not pass"
             elif why is not None and "oe" in best:
                 why = None
         reg = sc = None
@@ -842,12 +842,12 @@ def _alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache
     values = _effect_values(current, score_now, reg_now)
     fits, fitted = {}, []
     for r in pool:
-        f, good = _oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested)
+        f, short = _oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested)
         if f is None and r is best:  # the best cannot be fitted (a torque needs a converged current model, a
             return best, alts, None  # profile does not): nothing to compare the rivals with
         if f is not None:
             fitted.append(r)
-        if good:
+        if not short:
             fits[r["c"].key] = f
     if not fits:
         return best, alts, None
@@ -891,8 +891,8 @@ def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now,
                    key=lambda r: -r["test"].gain)[:OE_TOP_K]
     good = []
     for r in order:
-        f, ok = _oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested)
-        if ok:
+        f, short = _oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested)
+        if not short:
             good.append((r, f))
     if not good:
         return None
@@ -913,19 +913,23 @@ def _oe_start(sc, reg, p: dict) -> dict:
 
 def _oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested, torque_floor: bool = True):
     """Candidate c fitted by output error on top of ``current`` (an input modification by a profile over its
-    value, from the equation error's ``value0``); the fit (or None) and whether it passes (oe.shortfall, with or
-    without the torque-share floor).  Recorded in ``tested``."""
+    value, from the equation error's ``value0``); the fit (or None) and what keeps it from passing, in words
+    (oe.shortfall, with or without the torque-share floor, and the value's plausibility; empty: it passes).
+    Recorded in ``tested``."""
     if oe.profiled(c.key):
         f = fitter.profile(current, values, theta0, c.key, _grid(c, log, p), value0)
     else:
         f = fitter.candidate(current, values, theta0, c.key)
-    ok = f is not None and not oe.shortfall(f, n_tests, FAMILY_ALPHA, torque_floor) and c.plausible(f.value)
-    if f is not None:
-        tested.append({"effect": c.effect, "axis": c.axis, "after": list(current.keys), "parameter": f.value,
-                       "se": f.se, "t": f.t, "p": f.p, "cost_drop": f.cost_drop, "excess_share": f.excess_share,
-                       "torque_share": f.torque_share, "passed": bool(ok),
-                       **({} if torque_floor else {"torque_floor": False})})
-    return f, ok
+    if f is None:
+        return None, ["the output-error fit failed"]
+    why = oe.shortfall(f, n_tests, FAMILY_ALPHA, torque_floor)
+    if not c.plausible(f.value):
+        why.append(f"its fitted value {f.value:.4g} is not plausible")
+    tested.append({"effect": c.effect, "axis": c.axis, "after": list(current.keys), "parameter": f.value,
+                   "se": f.se, "t": f.t, "p": f.p, "cost_drop": f.cost_drop, "excess_share": f.excess_share,
+                   "torque_share": f.torque_share, "passed": not why,
+                   **({} if torque_floor else {"torque_floor": False})})
+    return f, why
 
 
 def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested, gate: bool = False):
@@ -943,13 +947,11 @@ def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested, gate:
     if not oe.fittable(c.key) or not oe.representable(before):
         return None, None
     # gate: the equation error's practical size (a 5 % held-out drop) passed it, so no torque-share floor here
-    f, ok = _oe_fit(c, best["value"], fitter, before, _effect_values(before, sc_b, reg_b), _oe_start(sc_b, reg_b, p),
-                    log, p, n_tests, tested, torque_floor=not gate)
+    f, why = _oe_fit(c, best["value"], fitter, before, _effect_values(before, sc_b, reg_b),
+                     _oe_start(sc_b, reg_b, p), log, p, n_tests, tested, torque_floor=not gate)
     if f is None:
         return None, None
-    if not ok:
-        why = oe.shortfall(f, n_tests, FAMILY_ALPHA, torque_floor=not gate) or [
-            f"its fitted value {f.value:.4g} is not plausible"]
+    if why:
         return None, ("the equation-error test passed it, the output-error test that decides does not: "
                       + "; ".join(why))
     if gate:
