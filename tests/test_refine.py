@@ -8,6 +8,7 @@ from typer.testing import CliRunner
 import trms_ident.identify as identify_mod
 from trms_ident.cli import app
 from trms_ident.identify import Settings, identify
+from trms_ident.model import plant as P
 from trms_ident.numerics import refine as R
 from trms_ident.numerics.filters import discretize
 from trms_ident.numerics.hold import motor_states_on_grid
@@ -68,7 +69,7 @@ def test_forward_sensitivities_match_finite_differences(jitter, effects):
     r = simulate(SimSettings(ref="square", duration_s=10.0, jitter=jitter, seed=2))
     n = r.t_s.size
     h = np.diff(r.t_s)
-    base = R.model_vector(defaults(), effects=effects)
+    base = P.model_vector(defaults(), effects=effects)
     starts, m0 = np.array([[0.01, 0.2, 0.02, 0.3]]), np.array([0.3, -0.2, 0.1])
     out = np.empty((n, 2))
     _, a, b, _ = _pass(r, base, starts, m0, h, out)
@@ -170,17 +171,17 @@ def test_freed_values_sensitivities_are_exact(signed):
     effects = {"coulomb_friction:pitch": 2e-3, "coulomb_friction:yaw": 3e-3, "quadratic_drag:pitch": 0.01,
                "quadratic_drag:yaw": 0.02, "cable_stiffness:yaw": 0.005, "thrust_asymmetry:pitch": -0.2,
                "thrust_asymmetry:yaw": 0.3, "com_offset:pitch": 0.04}
-    pv0 = R.model_vector(defaults(), effects=effects, exogenous=("gain",))
-    pv0[R._NP] = 0.5
+    pv0 = P.model_vector(defaults(), effects=effects, exogenous=("gain",))
+    pv0[P.N_SLOTS] = 0.5
     tq = np.ascontiguousarray(np.stack([np.sin(r.beta_rad), np.cos(3 * r.alpha_rad)], axis=1)[:, :, None])
     starts, m0 = np.array([[0.01, 0.2, 0.02, 0.3]]), np.array([0.3, -0.2, 0.1])
-    slots = sorted(R.DIRECT_SLOTS) + [R._NP]
-    assert set(slots) >= set(R.EFFECT_SLOTS.values()) and {R._P.index(k) for k in ("Mg", "Kg", "a1", "kc")} <= set(slots)
+    slots = sorted(R.DIRECT_SLOTS) + [P.N_SLOTS]
+    assert set(slots) >= set(P.EFFECT_SLOTS.values()) and {P.PARAM_ORDER.index(k) for k in ("Mg", "Kg", "a1", "kc")} <= set(slots)
 
     def run(pv, fs=()):
         out = np.empty((n, 2))
         res = R.gauss_newton_pass(r.u1_v, r.u2_v, y, np.ones(2), starts, m0, pv, signed, h, np.zeros((n, 2)),
-                                  R.MAX_SUBSTEP_S, n, 1000, out, np.zeros((n, 2, 0)), ext=tq @ pv[R._NP:],
+                                  R.MAX_SUBSTEP_S, n, 1000, out, np.zeros((n, 2, 0)), ext=tq @ pv[P.N_SLOTS:],
                                   fs=np.array(fs, dtype=np.int64), tq=tq)
         return res, out
 
@@ -199,7 +200,7 @@ def test_freed_values_sensitivities_are_exact(signed):
     for c, i in enumerate(slots):
         jac = central(i, 1e-6 * max(abs(pv0[i]), 1e-2))
         j = R.NU + c
-        assert np.sum(jac ** 2) > 0, R._P[i] if i < len(R._P) else i
+        assert np.sum(jac ** 2) > 0, P.PARAM_ORDER[i] if i < len(P.PARAM_ORDER) else i
         np.testing.assert_allclose(a[0, j, j], np.sum(jac ** 2), rtol=1e-4, err_msg=str(i))
         np.testing.assert_allclose(b[0, j], np.sum(jac * (y - out)), rtol=1e-3, err_msg=str(i))
         # and its cross term with J1's column
@@ -214,7 +215,7 @@ def test_windows_give_the_same_pass_in_one_thread_or_several(monkeypatch):
     n = r.t_s.size
     h = np.diff(r.t_s)
     y = np.column_stack([r.alpha_rad, r.beta_rad])
-    pv = R.model_vector(defaults())
+    pv = P.model_vector(defaults())
     win, nw = 2000, n // 2000
     starts = np.column_stack([r.alpha_rad[::win][:nw], np.zeros(nw), r.beta_rad[::win][:nw], np.zeros(nw)])
     m0 = np.array([0.3, -0.2, 0.1])

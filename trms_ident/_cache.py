@@ -10,7 +10,7 @@ import os
 import tempfile
 from pathlib import Path
 
-PACKAGES = ("trms_ident", "trms_ident/numerics", "trms_ident/io", "sim")
+PACKAGES = ("trms_ident", "trms_ident/model", "trms_ident/numerics", "trms_ident/diagnosis", "trms_ident/io", "sim")
 
 
 def _writable(folder: Path) -> bool:

@@ -18,7 +18,7 @@ prediction fit, its share of the thrust torque and its figure derive from it (th
 are written so).
 
 The torque effects written before this interface carry hand-written code in those stages instead (compiled
-into the output-error kernel with the simulated states, numerics.refine.EFFECT_SLOTS): faster, and exact in the
+into the output-error kernel with the simulated states, model.plant.EFFECT_SLOTS): faster, and exact in the
 states; tests check that the two paths agree (tests/test_model_room.py).  The transport delay and a motor's
 time constant act on both axes or on the motor's dynamics and keep their own code in model.modified_inputs.
 """

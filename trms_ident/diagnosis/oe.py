@@ -15,7 +15,7 @@ and its torque is at least MIN_TORQUE_SHARE of its axis' thrust torque (a physic
 The batch-means t alone is optimistic on noise-free quantized logs (t ~ 5 for a 6e-6 rad offset on a clean
 square-wave log); the practical size decides there.
 
-Which effects the output-error model carries: numerics.refine.EFFECT_SLOTS (Coulomb friction and quadratic
+Which effects the output-error model carries: model.plant.EFFECT_SLOTS (Coulomb friction and quadratic
 drag on either axis, the yaw cable, a reversed rotor's thrust asymmetry, the centre-of-mass offset), compiled
 with the simulated states, and every effect the model room declares by its torque alone (effects.py), whose
 torque is computed from the measured states and enters the simulation as an exogenous torque; the
@@ -48,11 +48,10 @@ import numpy as np
 from scipy.special import stdtr
 
 from ..log import Log
+from ..model.plant import EFFECT_SLOTS, thrust_law
 from ..numerics.design import angle_noise_rad
-from ..numerics.refine import BLOCK_S
-from ..numerics.refine import EFFECT_SLOTS, substeps
+from ..numerics.refine import BLOCK_S, substeps
 from ..numerics.refine import refine as oe_refine
-from ..numerics.regressors import thrust
 from . import effects as room
 from .model import Model, modified_inputs, state_signals
 from .select import MIN_SIGNAL_SHARE
@@ -200,7 +199,7 @@ def _steady_thrust(u: np.ndarray, pitch: bool, p: dict, law: str) -> tuple[np.nd
     """tau at the steady state of the voltages u [V] and the axis' thrust torque M(tau) [N m] (eq. 1)."""
     k, t0, a, b = (p["k1"], p["T10"], p["a1"], p["b1"]) if pitch else (p["k2"], p["T20"], p["a2"], p["b2"])
     tau = k / t0 * u
-    return tau, thrust(tau, a, b, law)
+    return tau, thrust_law(tau, a, b, law)
 
 
 def _motor_lag_share(log: Log, p: dict, pp: dict, law: str, pitch: bool) -> float:
@@ -212,7 +211,7 @@ def _motor_lag_share(log: Log, p: dict, pp: dict, law: str, pitch: bool) -> floa
     m = []
     for q in (p, pp):
         ps = plant_signals(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, log.sample_time_s, q, law, rows="motors")
-        m.append(thrust(ps.tau1 if pitch else ps.tau2, a, b, law))
+        m.append(thrust_law(ps.tau1 if pitch else ps.tau2, a, b, law))
     scale = float(np.sqrt(np.mean(m[0] * m[0])))
     return float(np.sqrt(np.mean((m[1] - m[0]) ** 2))) / scale if scale > 0 else 0.0
 

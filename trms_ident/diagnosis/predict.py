@@ -17,6 +17,8 @@ import math
 import numpy as np
 from numba import njit
 
+from ..model.plant import coulomb_sign, friction, pitch_torque, reversed_gain, thrust, yaw_torque
+
 HORIZON_S = 2.0
 
 
@@ -25,15 +27,13 @@ def _rhs(pitch, x, v, tau_m, other, s2, scw, ext, th, fx):
     # th: J, B, a, b, Mg, Kg, signed;  fx: Fc, c, k_cable, com_delta, sensor_delta, thrust asymmetry s, yaw dJ
     # s2 = sin^2(alpha), scw = sin(alpha) cos(alpha) alpha' (measured; used by the yaw axis only);
     # ext: an extra torque [N m] from the measured states (a data-driven correction, diagnosis/sparse.py)
-    m = th[2] * tau_m * (abs(tau_m) if th[6] > 0 else tau_m) + th[3] * tau_m
-    if tau_m < 0.0:
-        m *= 1.0 + fx[5]
-    fric = -fx[0] * math.tanh(v / 1e-3) - fx[1] * v * abs(v) + ext
+    m = reversed_gain(tau_m, fx[5]) * thrust(tau_m, th[2], th[3], th[6] > 0)  # eq. (1), with thrust asymmetry
+    fric = friction(coulomb_sign(v), v, fx[0], fx[1]) + ext
     if pitch:
-        acc = m - th[4] * math.sin(x + fx[3]) - th[5] * m * other * math.cos(x) + fric
+        acc = pitch_torque(m, math.sin(x + fx[3]), math.cos(x), other, th[4], th[5]) + fric  # eq. (1), pitch
         acc -= fx[6] * math.sin(x) * math.cos(x) * other * other  # centrifugal: J'(alpha) beta'^2 / 2
         return (acc - th[1] * v) / th[0]
-    acc = m - other - fx[2] * x + fric + 2.0 * fx[6] * scw * v
+    acc = yaw_torque(m, other) - fx[2] * x + fric + 2.0 * fx[6] * scw * v  # eq. (1), yaw
     return (acc - th[1] * v) / (th[0] - fx[6] * s2)
 
 

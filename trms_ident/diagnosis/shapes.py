@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..numerics.regressors import thrust
+from ..model.plant import thrust_law
 from .effects import Candidate, with_unit
 from .model import _delay
 
@@ -87,7 +87,7 @@ def term_shape(c: Candidate, value: float, p: dict, law: str, velocity: np.ndarr
         k, t1, t0, qa, qb = ((p["k1"], p["T11"], p["T10"], p["a1"], p["b1"]) if ax == "pitch" else
                              (p["k2"], p["T21"], p["T20"], p["a2"], p["b2"]))
         tau = _span(k / t0 * u_v)  # the motor state's steady range
-        table = thrust(tau, qa, qb, law)  # eq. (1) thrust law
+        table = thrust_law(tau, qa, qb, law)  # eq. (1) thrust law
         return Shape(f"{'main' if ax == 'pitch' else 'tail'} motor state tau", tau, "thrust torque [N m]",
                      np.where(tau < 0, (1.0 + value) * table, table), table,
                      f"thrust asymmetry: (1 + s) M(tau) for tau < 0, s = {value:+.3g}")

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from ..model.plant import pitch_torque, reaction_moment, thrust, yaw_torque
 from .coefficients import bilinear_second_order, zoh_first_order, zoh_reaction
 from .drem import gradient_step
 
@@ -60,7 +61,7 @@ def _sample(k, pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, 
     if first:
         _init(b, a, TAU, u_tau[0], z)
     tau = _step(b, a, TAU, u_tau[k], z)
-    m = th_a * tau * (abs(tau) if signed else tau) + th_b * tau  # eq. (1) thrust
+    m = thrust(tau, th_a, th_b, signed)  # eq. (1)
     if pitch:
         # beta' by central difference (edges: second-order one-sided, as numpy.gradient)
         if k == 0:
@@ -69,11 +70,11 @@ def _sample(k, pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, 
             db = (3.0 * beta[k] - 4.0 * beta[k - 1] + beta[k - 2]) / (2.0 * dt)
         else:
             db = (beta[k + 1] - beta[k - 1]) / (2.0 * dt)
-        y = m - mg * math.sin(x[k]) - kg * m * db * math.cos(x[k])  # eq. (1), pitch
+        y = pitch_torque(m, math.sin(x[k]), math.cos(x[k]), db, mg, kg)  # eq. (1), pitch
     else:
         if first:
             _init(b, a, MR, u1[0], z)
-        y = m - _step(b, a, MR, u1[k], z)  # eq. (1), yaw: M2 - M_R
+        y = yaw_torque(m, _step(b, a, MR, u1[k], z))  # eq. (1), yaw: M2 - M_R
     if first:
         _init(b, a, F0, y, z)
     g = _step(b, a, F0, y, z)  # eq. (3)
@@ -257,7 +258,7 @@ def _motor_states(u1, u2, c1, c2, kc, t0, tp, x0, out):
     for k in range(u1.size):
         out[0, k] = t1
         out[1, k] = t2
-        out[4, k] = kc * (t0 / tp * t1 + (1.0 - t0 / tp) * z)
+        out[4, k] = reaction_moment(t1, z, kc, t0, tp)
         t1, z = c1[0] * t1 + c1[3] * u1[k], c1[2] * t1 + c1[1] * z + c1[4] * u1[k]
         t2 = c2[0] * t2 + c2[1] * u2[k]
 
@@ -305,14 +306,14 @@ def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed,
             out[4, k] = mr
             out[5, k] = db
         if torques:
-            m1 = a1 * t1 * (abs(t1) if signed else t1) + b1 * t1
-            m2 = a2 * t2 * (abs(t2) if signed else t2) + b2 * t2
+            m1 = thrust(t1, a1, b1, signed)
+            m2 = thrust(t2, a2, b2, signed)
             if rows == ROWS_ALL:
                 out[2, k] = m1
                 out[3, k] = m2
             s_ad = sin_a[k] if delta == 0.0 else sin_a[k] * cd + cos_a[k] * sd  # sin(alpha + delta)
-            out[6, k] = m1 - mg * s_ad - kg * m1 * db * cos_a[k]  # eq. (1), pitch
-            out[7, k] = m2 - mr  # eq. (1), yaw
+            out[6, k] = pitch_torque(m1, s_ad, cos_a[k], db, mg, kg)  # eq. (1), pitch
+            out[7, k] = yaw_torque(m2, mr)  # eq. (1), yaw
 
 
 def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str, gravity_offset_rad: float = 0.0,

@@ -43,6 +43,10 @@ import numpy as np
 from numba import njit
 from scipy.special import stdtrit
 
+from ..model.plant import (EFFECT_SLOTS, FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, N_SLOTS, PARAM_ORDER,
+                           coulomb_sign, friction, lag_rate, model_vector, motor_rate, pitch_torque, reaction_moment,
+                           reversed_gain, slot, steady_motor_states, thrust, thrust_slope, yaw_torque)
+
 #: window length [s]: long against the pitch damping time J1/B1 (~11 s) is best for B1 and J1 (over 10
 #: noise seeds of a 120 s multisine at 200 Hz, 1 mrad: J1 rms error 0.023 % with 10 s windows, 0.018 % with
 #: 20 s, 0.012 % with 40 s or one window), and windows stop model errors piling up over a whole log
@@ -70,19 +74,10 @@ START_NAMES = ("tau1_0", "tau2_0", "zeta_0")
 NG = 7  # global unknowns: J1, B1, J2, B2, tau1(0), tau2(0), zeta(0)
 NL = 4  # per-window unknowns: alpha, alpha', beta, beta' at the window's first sample
 NU = NG + NL
-# the model vector handed to the compiled kernel
-_P = ("J1", "B1", "J2", "B2", "a1", "b1", "a2", "b2", "Mg", "Kg", "k1", "k2", "T11", "T10", "T21", "T20", "kc",
-      "T0", "Tp")
-#: the model vector's slots after _P: the gravity offset (19), then the effects the output-error fit can carry
-#: (numerics' share of diagnose's library; 0 = absent): Coulomb friction Fc [N m] (smoothed sign, as the
-#: prediction model), quadratic drag c [N m s^2/rad^2], yaw cable stiffness k [N m/rad], thrust asymmetry s of a
-#: reversed rotor ((1 + s) times the thrust law for tau < 0)
-EFFECT_SLOTS = {"com_offset:pitch": 19, "coulomb_friction:pitch": 20, "coulomb_friction:yaw": 21,
-                "quadratic_drag:pitch": 22, "quadratic_drag:yaw": 23, "cable_stiffness:yaw": 24,
-                "thrust_asymmetry:pitch": 25, "thrust_asymmetry:yaw": 26}
-_NP = 27
-#: Coulomb friction's sign is smoothed as tanh(omega / FRICTION_SMOOTH_RAD_S) (RK4 needs a smooth right side)
-FRICTION_SMOOTH_RAD_S = 1e-3
+# the model vector handed to the compiled kernel (model/plant.py): the table's values, the gravity offset, the
+# effects' slots, then exogenous torques' parameters
+_P = PARAM_ORDER
+_NP = N_SLOTS
 # state layout: [0:7] alpha, alpha', beta, beta', tau1, tau2, zeta; then per unknown c in the NU order (J1, B1,
 # J2, B2, tau1(0), tau2(0), zeta(0), alpha0, alpha'0, beta0, beta'0) the sensitivities of alpha, alpha', beta,
 # beta' at [7 + 4c : 11 + 4c]; then the motor-state sensitivities d tau1/d tau1(0), d tau2/d tau2(0),
@@ -112,16 +107,6 @@ class Refined:
     fit: object = None  # _Fit, for score tests on further unknowns (suspect_known_values)
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _thrust(tau, a, b, signed):
-    return a * tau * (abs(tau) if signed else tau) + b * tau
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _thrust_slope(tau, a, b, signed):
-    return 2.0 * a * (abs(tau) if signed else tau) + b
-
-
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
 def _direct(slot, x, p, signed, g1, g2, m1, sg, cg, ca, th1, th2, fe1, fe2):
     """The torques' derivatives [N m per unit] on pitch and yaw (eq. 1) in the model value at ``slot`` with the
@@ -129,23 +114,23 @@ def _direct(slot, x, p, signed, g1, g2, m1, sg, cg, ca, th1, th2, fe1, fe2):
     T10, T21, T20, Tp: they act through the motor states, DIRECT_SLOTS leaves them out).  fe1, fe2: an exogenous
     torque's per-unit torques at this instant (slots from _NP on)."""
     gyro = 1.0 - p[9] * x[3] * ca  # d(pitch torque)/d M1: the thrust and its gyroscopic coupling
-    if slot == 4:  # a1
-        return g1 * x[4] * (abs(x[4]) if signed else x[4]) * gyro, 0.0
+    if slot == 4:  # a1: d thrust / d a = tau^2 (or tau|tau|)
+        return g1 * thrust(x[4], 1.0, 0.0, signed) * gyro, 0.0
     if slot == 5:  # b1
-        return g1 * x[4] * gyro, 0.0
+        return g1 * thrust(x[4], 0.0, 1.0, signed) * gyro, 0.0
     if slot == 6:  # a2
-        return 0.0, g2 * x[5] * (abs(x[5]) if signed else x[5])
+        return 0.0, g2 * thrust(x[5], 1.0, 0.0, signed)
     if slot == 7:  # b2
-        return 0.0, g2 * x[5]
+        return 0.0, g2 * thrust(x[5], 0.0, 1.0, signed)
     if slot == 8:  # Mg
         return -sg, 0.0
     if slot == 9:  # Kg
         return -m1 * x[3] * ca, 0.0
-    if slot == 16:  # kc: M_R = kc (T0/Tp tau1 + (1 - T0/Tp) zeta)
-        return 0.0, -(p[17] / p[18] * x[4] + (1.0 - p[17] / p[18]) * x[6])
+    if slot == 16:  # kc: M_R is linear in kc
+        return 0.0, -reaction_moment(x[4], x[6], 1.0, p[17], p[18])
     if slot == 17:  # T0
         return 0.0, -p[16] * (x[4] - x[6]) / p[18]
-    if slot == 19:  # centre-of-mass offset delta in Mg sin(alpha + delta)
+    if slot == GRAVITY_OFFSET_SLOT:  # centre-of-mass offset delta in Mg sin(alpha + delta)
         return -p[8] * cg, 0.0
     if slot == 20:  # Coulomb friction, pitch
         return -th1, 0.0
@@ -158,9 +143,9 @@ def _direct(slot, x, p, signed, g1, g2, m1, sg, cg, ca, th1, th2, fe1, fe2):
     if slot == 24:  # cable stiffness
         return 0.0, -x[2]
     if slot == 25:  # thrust asymmetry of a reversed rotor: (1 + s) times the thrust for tau < 0
-        return (_thrust(x[4], p[4], p[5], signed) * gyro if x[4] < 0.0 else 0.0), 0.0
+        return (thrust(x[4], p[4], p[5], signed) * gyro if x[4] < 0.0 else 0.0), 0.0
     if slot == 26:
-        return 0.0, (_thrust(x[5], p[6], p[7], signed) if x[5] < 0.0 else 0.0)
+        return 0.0, (thrust(x[5], p[6], p[7], signed) if x[5] < 0.0 else 0.0)
     return fe1, fe2  # an exogenous torque's parameter
 
 
@@ -173,29 +158,28 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe):
     vector's slots of freed values (DIRECT_SLOTS or exogenous), whose sensitivities follow at [_NS + 4 j:
     _NS + 4 j + 4]; ``fe`` (len(fs), 2): the exogenous ones' per-unit torques now (0 for the others)."""
     j1, b1, j2, b2 = p[0], p[1], p[2], p[3]
-    eps = FRICTION_SMOOTH_RAD_S
-    m1 = _thrust(x[4], p[4], p[5], signed)
-    m2 = _thrust(x[5], p[6], p[7], signed)
-    g1 = 1.0 + p[25] if x[4] < 0.0 else 1.0  # thrust asymmetry of a reversed rotor
-    g2 = 1.0 + p[26] if x[5] < 0.0 else 1.0
-    m1 *= g1
-    m2 *= g2
-    mr = p[16] * (p[17] / p[18] * x[4] + (1.0 - p[17] / p[18]) * x[6])
+    eps = FRICTION_SMOOTH_RAD_S  # the Jacobian's derivative of coulomb_sign
+    g1 = reversed_gain(x[4], p[25])  # thrust asymmetry of a reversed rotor (1 without)
+    g2 = reversed_gain(x[5], p[26])
+    m1 = g1 * thrust(x[4], p[4], p[5], signed)
+    m2 = g2 * thrust(x[5], p[6], p[7], signed)
+    mr = reaction_moment(x[4], x[6], p[16], p[17], p[18])
     sa, ca = math.sin(x[0]), math.cos(x[0])
-    # gravity Mg sin(alpha + delta): p[19] = delta, a centre-of-mass offset (0 in the seed model)
-    sg, cg = (sa, ca) if p[19] == 0.0 else (math.sin(x[0] + p[19]), math.cos(x[0] + p[19]))
-    th1, th2 = math.tanh(x[1] / eps), math.tanh(x[3] / eps)
-    fr1 = -p[20] * th1 - p[22] * x[1] * abs(x[1])  # friction beyond B: Coulomb (smoothed) and drag
-    fr2 = -p[21] * th2 - p[23] * x[3] * abs(x[3])
-    f1 = (m1 - b1 * x[1] - p[8] * sg - p[9] * m1 * x[3] * ca + fr1 + e1) / j1  # eq. (1), pitch
-    f3 = (m2 - b2 * x[3] - mr - p[24] * x[2] + fr2 + e2) / j2  # eq. (1), yaw (with a cable: -k beta)
+    # gravity Mg sin(alpha + delta): delta, a centre-of-mass offset (0 in the seed model)
+    dg = p[GRAVITY_OFFSET_SLOT]
+    sg, cg = (sa, ca) if dg == 0.0 else (math.sin(x[0] + dg), math.cos(x[0] + dg))
+    th1, th2 = coulomb_sign(x[1]), coulomb_sign(x[3])
+    fr1 = friction(th1, x[1], p[20], p[22])  # friction beyond B: Coulomb (smoothed) and drag
+    fr2 = friction(th2, x[3], p[21], p[23])
+    f1 = (pitch_torque(m1, sg, ca, x[3], p[8], p[9]) - b1 * x[1] + fr1 + e1) / j1  # eq. (1), pitch
+    f3 = (yaw_torque(m2, mr) - b2 * x[3] - p[24] * x[2] + fr2 + e2) / j2  # eq. (1), yaw (a cable: -k beta)
     d[0] = x[1]
     d[1] = f1
     d[2] = x[3]
     d[3] = f3
-    d[4] = (p[10] * u1 - p[13] * x[4]) / p[12]
-    d[5] = (p[11] * u2 - p[15] * x[5]) / p[14]
-    d[6] = (x[4] - x[6]) / p[18]
+    d[4] = motor_rate(u1, x[4], p[10], p[12], p[13])
+    d[5] = motor_rate(u2, x[5], p[11], p[14], p[15])
+    d[6] = lag_rate(x[4], x[6], p[18])
     # the Jacobian A: pitch row (alpha'') and yaw row (beta''); alpha'' does not depend on beta, beta'' not on
     # alpha or alpha'
     a10 = (-p[8] * cg + p[9] * m1 * x[3] * sa) / j1
@@ -205,10 +189,10 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe):
     b13 = (-b2 - p[21] * (1.0 - th2 * th2) / eps - 2.0 * p[23] * abs(x[3])) / j2
     # direct terms: J/B, then the start states through the thrusts and M_R
     p1, p2 = p[13] / p[12], p[15] / p[14]
-    df1_t1 = g1 * _thrust_slope(x[4], p[4], p[5], signed) * (1.0 - p[9] * x[3] * ca) / j1
+    df1_t1 = g1 * thrust_slope(x[4], p[4], p[5], signed) * (1.0 - p[9] * x[3] * ca) / j1
     df3_t1 = -p[16] * p[17] / p[18] / j2
     df3_z = -p[16] * (1.0 - p[17] / p[18]) / j2
-    df3_t2 = g2 * _thrust_slope(x[5], p[6], p[7], signed) / j2
+    df3_t2 = g2 * thrust_slope(x[5], p[6], p[7], signed) / j2
     for c in range(NU):
         i = _S0 + 4 * c
         d[i] = x[i + 1]
@@ -276,9 +260,9 @@ def _pieces(k, u1, u2, h, dsw):
 def _motor_rhs(x, u1, u2, p, d):
     """The motor lags and M_R's lag state of eq. (1) with their sensitivities to the start states: the layout's
     states 4, 5, 6, 39, 40, 41, 42 as x[0..6] (the same formulas as _rhs; they depend on no J/B or angle)."""
-    d[0] = (p[10] * u1 - p[13] * x[0]) / p[12]
-    d[1] = (p[11] * u2 - p[15] * x[1]) / p[14]
-    d[2] = (x[0] - x[2]) / p[18]
+    d[0] = motor_rate(u1, x[0], p[10], p[12], p[13])
+    d[1] = motor_rate(u2, x[1], p[11], p[14], p[15])
+    d[2] = lag_rate(x[0], x[2], p[18])
     d[3] = -p[13] / p[12] * x[3]
     d[4] = -p[15] / p[14] * x[4]
     d[5] = (x[3] - x[5]) / p[18]
@@ -488,33 +472,6 @@ def warm_up() -> None:
                       np.zeros((n, 2, 0)))
 
 
-def model_vector(params: dict, gravity_offset_rad: float = 0.0, effects: dict | None = None,
-                 exogenous: tuple[str, ...] = ()) -> np.ndarray:
-    """The compiled kernel's parameter vector: the table's values in _P order, the gravity offset, the effects'
-    slots (EFFECT_SLOTS; ``effects``: key -> value, absent ones 0), then the exogenous torques' parameters in
-    the order of ``exogenous`` (the kernel reads none of these: _Problem turns them into torques)."""
-    pv = np.zeros(_NP + len(exogenous))
-    pv[:len(_P)] = [params[k] for k in _P]
-    pv[19] = gravity_offset_rad
-    for key, v in (effects or {}).items():
-        pv[slot(key, exogenous)] = v
-    return pv
-
-
-def slot(name: str, exogenous: tuple[str, ...] = ()) -> int:
-    """Position in the model vector of a known value (_P), an effect (EFFECT_SLOTS) or an exogenous torque's
-    parameter (after them, in the order of ``exogenous``)."""
-    if name in EFFECT_SLOTS:
-        return EFFECT_SLOTS[name]
-    return _NP + exogenous.index(name) if name in exogenous else _P.index(name)
-
-
-def steady_motor_states(u1_0: float, u2_0: float, params: dict) -> np.ndarray:
-    """tau1, tau2, zeta at the steady state of held voltages u1_0, u2_0 [V] (eq. 1): the first guess only."""
-    t1 = params["k1"] / params["T10"] * u1_0
-    return np.array([t1, params["k2"] / params["T20"] * u2_0, t1])
-
-
 def _start_velocity(x: np.ndarray, t: np.ndarray, s: int) -> float:
     """Slope [rad/s] of a quadratic fitted to the first 50 ms (at least 5 samples) of a window."""
     dt = float(np.median(np.diff(t[s:s + 8]))) if t.size - s > 2 else 1.0
@@ -566,7 +523,7 @@ def _scaled_inverse(s_mat):
 #: are integrated before the windows: theirs are forward differences), every effect slot and every exogenous
 #: torque's parameter (slots from _NP on)
 DIRECT_SLOTS = frozenset([_P.index(k) for k in ("a1", "b1", "a2", "b2", "Mg", "Kg", "kc", "T0")] +
-                         list(range(19, _NP)))
+                         list(range(GRAVITY_OFFSET_SLOT, _NP)))
 
 
 def _exact(i: int) -> bool:

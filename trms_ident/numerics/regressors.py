@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..model.plant import pitch_torque, thrust_law, yaw_torque
 from .filters import discretize, second_order_lowpass
 
 
@@ -26,13 +27,6 @@ class PlantSignals:
     dbeta_rad_s: np.ndarray  # causal estimate of beta' [rad/s]
     y_pitch_nm: np.ndarray  # right-hand side of the pitch equation [N m]
     y_yaw_nm: np.ndarray  # right-hand side of the yaw equation [N m]
-
-
-def thrust(tau: np.ndarray, a: float, b: float, law: str) -> np.ndarray:
-    """Rotor thrust moment [N m] (eq. 1): a tau^2 + b tau, or a tau|tau| + b tau ("signed")."""
-    if law == "signed":
-        return a * tau * np.abs(tau) + b * tau
-    return a * tau * tau + b * tau
 
 
 def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str,
@@ -54,11 +48,12 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
     mr = discretize(p["kc"] * p["k1"] * np.array([p["T0"], 1.0]),
                     np.polymul([p["Tp"], 1.0], [p["T11"], p["T10"]]), dt_s, "zoh").apply(u1_v)
     dbeta = np.gradient(beta_rad, dt_s, edge_order=2) if beta_rad.size > 2 else np.zeros_like(beta_rad)
-    m1 = thrust(tau1, p["a1"], p["b1"], law)
-    m2 = thrust(tau2, p["a2"], p["b2"], law)
+    m1 = thrust_law(tau1, p["a1"], p["b1"], law)
+    m2 = thrust_law(tau2, p["a2"], p["b2"], law)
     # gravity_offset_rad: a centre-of-mass offset, Mg sin(alpha + delta) (diagnose's extended model)
-    y_p = m1 - p["Mg"] * np.sin(alpha_rad + gravity_offset_rad) - p["Kg"] * m1 * dbeta * np.cos(alpha_rad)
-    y_y = m2 - mr
+    y_p = pitch_torque.py_func(m1, np.sin(alpha_rad + gravity_offset_rad), np.cos(alpha_rad), dbeta, p["Mg"],
+                               p["Kg"])
+    y_y = yaw_torque.py_func(m2, mr)
     return PlantSignals(tau1, tau2, m1, m2, mr, dbeta, y_p, y_y)
 
 
