@@ -8,6 +8,7 @@ import pytest
 from typer.testing import CliRunner
 
 from trms_ident.cli import app
+from trms_ident.diagnosis import oe
 from trms_ident.diagnosis.model import _delay
 from trms_ident.diagnosis.predict import predict, predict_fitted_start
 from trms_ident.diagnosis.run import diagnose
@@ -48,6 +49,9 @@ def test_concealed_effect_is_named_fitted_and_improves_the_fit(effect, axis, val
     truth = r.truth["estimated"]
     for k in ("J1", "J2"):  # the augmented model recovers J where the nominal one was pulled away
         assert abs(d.augmented[k] / truth[k] - 1) <= abs(d.nominal[k] / truth[k] - 1) + 1e-3
+    if effect == "yaw_inertia_pitch":  # the output-error kernel carries the inertia too: its test decides
+        assert oe.carries("yaw_inertia_pitch:yaw") and "output-error test that decides passed it" in f.evidence, \
+            f.evidence
 
 
 def test_two_effects_are_both_named():
@@ -104,6 +108,11 @@ def test_output_error_fit_tells_the_two_offsets_apart(effect, value, ref, seed):
     assert f.parameter["value"] == pytest.approx(value, rel=0.05)
     if effect == "sensor_offset":
         assert "told apart" in f.evidence
+    # the output-error kernel carries either offset with its parameter free: its test judged the finding, and the
+    # candidates of the rounds after it
+    judged = [t for t in d.oe_tested if (t["effect"], t["axis"]) == (effect, "pitch") and not t["after"]]
+    assert judged and judged[0]["passed"] and judged[0]["parameter"] == pytest.approx(value, rel=0.05)
+    assert any(t["after"] == [f"{effect}:pitch"] for t in d.oe_tested)
 
 
 DURATION_OFFSETS_S = 90.0

@@ -19,7 +19,7 @@ PACKAGE = Path(__file__).resolve().parent.parent / "trms_ident"
 #: the effects the output-error kernel carries, with the simulator's names and sizes larger than any bench's
 EFFECTS = {"coulomb_friction:pitch": 3e-3, "coulomb_friction:yaw": 2e-2, "quadratic_drag:pitch": 0.02,
            "quadratic_drag:yaw": 0.03, "cable_stiffness:yaw": 0.01, "com_offset:pitch": 0.05,
-           "thrust_asymmetry:pitch": -0.3, "thrust_asymmetry:yaw": 0.4}
+           "thrust_asymmetry:pitch": -0.3, "thrust_asymmetry:yaw": 0.4, "yaw_inertia_pitch:yaw": 0.004}
 
 
 def _sim_vector(effects: dict) -> np.ndarray:
@@ -61,7 +61,7 @@ def test_the_prediction_model_and_the_simulator_agree_on_eq_1(law):
     # diagnose's per-axis prediction (measured beta' into pitch, M_R into yaw) against sim's right-hand side,
     # with every effect the prediction model carries
     p = defaults()
-    effects = {**EFFECTS, "yaw_inertia_pitch:yaw": 0.004}
+    effects = EFFECTS
     fx_sim = _sim_vector(effects)
     x, u = _states(np.random.default_rng(8))
     dx = np.empty(7)

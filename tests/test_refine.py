@@ -63,7 +63,8 @@ def _pass(r, pv, starts, m0, h, out):
     # the reversed rotors' thrust): the sensitivities must stay exact with them in
     (0.1, {"coulomb_friction:pitch": 2e-3, "quadratic_drag:yaw": 0.02, "cable_stiffness:yaw": 0.005,
            "thrust_asymmetry:pitch": -0.2, "thrust_asymmetry:yaw": 0.3, "coulomb_friction:yaw": 3e-3,
-           "quadratic_drag:pitch": 0.01, "com_offset:pitch": 0.04})])
+           "quadratic_drag:pitch": 0.01, "com_offset:pitch": 0.04, "yaw_inertia_pitch:yaw": 0.004,
+           "sensor_offset:pitch": 0.02})])
 def test_forward_sensitivities_match_finite_differences(jitter, effects):
     # every unknown: J1, B1, J2, B2, the start states tau1(0), tau2(0), zeta(0), the window's start angles/rates
     r = simulate(SimSettings(ref="square", duration_s=10.0, jitter=jitter, seed=2))
@@ -170,7 +171,8 @@ def test_freed_values_sensitivities_are_exact(signed):
     y = np.column_stack([r.alpha_rad, r.beta_rad])
     effects = {"coulomb_friction:pitch": 2e-3, "coulomb_friction:yaw": 3e-3, "quadratic_drag:pitch": 0.01,
                "quadratic_drag:yaw": 0.02, "cable_stiffness:yaw": 0.005, "thrust_asymmetry:pitch": -0.2,
-               "thrust_asymmetry:yaw": 0.3, "com_offset:pitch": 0.04}
+               "thrust_asymmetry:yaw": 0.3, "com_offset:pitch": 0.04, "yaw_inertia_pitch:yaw": 0.004,
+               "sensor_offset:pitch": 0.02}
     pv0 = P.model_vector(defaults(), effects=effects, exogenous=("gain",))
     pv0[P.N_SLOTS] = 0.5
     tq = np.ascontiguousarray(np.stack([np.sin(r.beta_rad), np.cos(3 * r.alpha_rad)], axis=1)[:, :, None])

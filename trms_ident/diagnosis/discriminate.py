@@ -5,10 +5,10 @@ equation at alpha - delta for the encoder.  They differ only in the gyroscopic t
 Kg M1 beta' cos(alpha), which the encoder offset shifts too.  In the equation error that
 difference drowns in the noise that F s^2 amplifies; in the angle itself it accumulates over
 seconds of motion.  So each hypothesis is fitted by the prediction-error refinement
-(numerics/refine.py: J1, B1, J2, B2 by Gauss-Newton, the offset by a scalar search), and the one
-with the smaller noise-weighted squared angle error wins when the gap is at least MIN_COST_GAP
-and its fit reaches the noise level.  Both models have the same number of parameters, so the gap is
-twice the log likelihood ratio under white angle noise; 10 is "very strong" evidence (a likelihood
+(numerics/refine.py: J1, B1, J2, B2 and the offset together by Gauss-Newton, the offset's sensitivity exact:
+model/plant.py carries both), and the one with the smaller noise-weighted squared angle error wins when the gap
+is at least MIN_COST_GAP and its fit reaches the noise level.  Both models have the same number of parameters, so
+the gap is twice the log likelihood ratio under white angle noise; 10 is "very strong" evidence (a likelihood
 ratio of e^5 ~ 150) on the usual scale of Kass and Raftery.
 """
 from __future__ import annotations
@@ -16,7 +16,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from ..log import Log
 from ..numerics.design import angle_noise_rad
@@ -42,23 +41,19 @@ def tell_offsets_apart(log: Log, u1: np.ndarray, u2: np.ndarray, p: dict, law: s
     noise = {"alpha": angle_noise_rad(log.alpha_rad), "beta": angle_noise_rad(log.beta_rad)}
     dt = log.sample_time_s
     fits = {}
-    for key in PAIR:
-        sensor = key.startswith("sensor")
-        tried = {}  # offset -> refinement, so the search's best point is not fitted again
-
-        def cost(d, sensor=sensor, tried=tried):
-            r = tried[d] = refine(u1, u2, log.alpha_rad - (d if sensor else 0.0), log.beta_rad, dt, p, law, theta0,
-                                  noise, gravity_offset_rad=0.0 if sensor else d)
-            return r.cost if r.converged else np.inf
-
-        d0 = delta0[key]
-        best = minimize_scalar(cost, bracket=(0.9 * d0, d0), tol=1e-4)
-        fits[key] = (float(best.x), tried[best.x])
+    for key in PAIR:  # each offset free from the equation error's value, in the sign convention of EFFECT_SLOTS
+        r = refine(u1, u2, log.alpha_rad, log.beta_rad, dt, p, law, theta0, noise, free=(key,),
+                   effects={key: delta0[key]})
+        fits[key] = (float(r.freed[key]["estimate"]), r)
+    unconverged = [k for k, (_, r) in fits.items() if not r.converged]
+    if unconverged:
+        return Verdict(None, 0.0, {k: v[0] for k, v in fits.items()},
+                       f"the output-error fit with {unconverged[0]} did not converge")
     (k_win, (d_win, r_win)), (k_lose, (_, r_lose)) = sorted(fits.items(), key=lambda kv: kv[1][1].cost)
     gap = r_lose.cost - r_win.cost
     offsets = {k: v[0] for k, v in fits.items()}
     ratio = max(r_win.rms_rad[a] / noise[a] for a in ("alpha", "beta") if noise[a] > 0)
-    if not r_win.converged or ratio > ADEQUATE_RMS_OVER_NOISE:
+    if ratio > ADEQUATE_RMS_OVER_NOISE:
         return Verdict(None, gap, offsets, f"the output-error fit does not reach the noise level ({ratio:.3g}x)")
     if gap < MIN_COST_GAP:
         return Verdict(None, gap, offsets, f"the output-error fits differ by only {gap:.3g} (noise-weighted squared "

@@ -16,11 +16,11 @@ The batch-means t alone is optimistic on noise-free quantized logs (t ~ 5 for a 
 square-wave log); the practical size decides there.
 
 Which effects the output-error model carries: model.plant.EFFECT_SLOTS (Coulomb friction and quadratic
-drag on either axis, the yaw cable, a reversed rotor's thrust asymmetry, the centre-of-mass offset), compiled
-with the simulated states, and every effect the model room declares by its torque alone (effects.py), whose
-torque is computed from the measured states and enters the simulation as an exogenous torque; the
-other findings (the encoder offset, the pitch-dependent yaw inertia) are not in it with a free parameter, so
-once one of them is a finding only the equation error judges.
+drag on either axis, the yaw cable, a reversed rotor's thrust asymmetry, the centre-of-mass offset, the
+pitch-dependent yaw inertia with its Lagrange terms, the pitch encoder's zero offset on the logged angle),
+compiled with the simulated states and their exact sensitivities, and every effect the model room declares by
+its torque alone (effects.py), whose torque is computed from the measured states and enters the simulation as an
+exogenous torque.
 
 Input modifications (PROFILE_KEYS: dead zone, saturation, transport delay, and a motor's time constant, which
 changes how the motor follows the voltages) change what drives the plant, not its equations: each is fitted by
@@ -53,11 +53,14 @@ from ..numerics.design import angle_noise_rad
 from ..numerics.refine import BLOCK_S, substeps
 from ..numerics.refine import refine as oe_refine
 from . import effects as room
-from .model import Model, modified_inputs, state_signals
+from .model import Model, modified_inputs, smoothed_velocity, state_signals
 from .select import MIN_SIGNAL_SHARE
 
 #: candidates the output-error fit carries compiled into its kernel (others: carries())
 OE_KEYS = tuple(EFFECT_SLOTS)
+#: the pitch offsets: the equation error fits them exactly as modifications of its regression (run.EXACT_OFFSETS),
+#: the output-error fit carries them with their parameter free like the torque effects
+OFFSETS = ("com_offset:pitch", "sensor_offset:pitch")
 #: a passing candidate must lower the noise-weighted squared angle error by this fraction of the current one
 #: (a practical size: on clean logs the drop was at most 2e-4 of it, on a 0.002 N m pitch friction 3e-2)
 MIN_COST_DROP = 0.01
@@ -134,7 +137,7 @@ def representable(model: Model) -> bool:
     """Can the output-error fit carry the model's findings with every parameter free?  (An input
     modification's value would stay at the equation error's estimate, and a fixed, slightly wrong dead zone or
     saturation leaves yaw drift that a tiny extra term then absorbs: measured, "cable 8e-5 N m/rad".)"""
-    return all(k == "com_offset:pitch" for k, _ in model.mods) and all(carries(k) for k in model.linear)
+    return all(k in OFFSETS for k, _ in model.mods) and all(carries(k) for k in model.linear)
 
 
 #: a candidate's torque must reach this share of its axis' thrust torque (RMS over the log): in 40 s windows
@@ -169,7 +172,11 @@ def torque_share(key: str, value: float, log: Log, p: dict, law: str) -> float:
               "quadratic_drag": lambda: abs(value) * rms(w * np.abs(w)),
               "cable_stiffness": lambda: abs(value) * rms(x),
               "thrust_asymmetry": lambda: abs(value) * rms(np.where(tau < 0, m, 0.0)),
-              "com_offset": gravity, "sensor_offset": gravity}[effect]()
+              "com_offset": gravity, "sensor_offset": gravity,
+              # d/dt(J(alpha) beta') - J2 beta'' = -dJ d/dt(sin^2(alpha) beta'), from the smoothed rate
+              "yaw_inertia_pitch": lambda: abs(value) * rms(np.gradient(
+                  np.sin(log.alpha_rad) ** 2 * smoothed_velocity(x, log.sample_time_s), log.sample_time_s))
+              }[effect]()
     scale = rms(m)
     return torque / scale if scale > 0 else 0.0
 
@@ -258,10 +265,10 @@ class Fitter:
         model's input modifications at their values, ``mods`` (key -> value) added or replacing them (fixed)."""
         n, log = self.n, self.log
         effects = {k: values[k] for k in model.linear}
-        effects.update({k: v for k, v in model.mods if k == "com_offset:pitch"})
+        effects.update({k: v for k, v in model.mods if k in OFFSETS})
         free = tuple(effects) + ((extra_key,) if extra_key else ())
         u1, u2, p = log.u1_v[:n], log.u2_v[:n], self.p
-        mods = {**{k: v for k, v in model.mods if k != "com_offset:pitch"}, **(mods or {})}
+        mods = {**{k: v for k, v in model.mods if k not in OFFSETS}, **(mods or {})}
         if mods:
             u1, u2, changes = modified_inputs(log.head(n), mods)
             p = {**p, **changes}

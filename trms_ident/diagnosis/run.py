@@ -962,9 +962,9 @@ def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested, gate:
     return res, None
 
 
-#: the pitch offsets, found by the equation error (the output-error fit cannot carry an encoder offset, and the
-#: centre-of-mass offset is an input to it), are held to the floor oe.passes asks of every candidate that fit
-#: judges (oe.MIN_TORQUE_SHARE of the thrust torque): on a noise-free log any consistent residual passes the
+#: the pitch offsets, found by the equation error (which fits them exactly, EXACT_OFFSETS), are held to the floor
+#: oe.passes asks of every candidate the output-error fit judges (oe.MIN_TORQUE_SHARE of the thrust torque) before
+#: that fit judges them: on a noise-free log any consistent residual passes the
 #: held-out test (measured: a 2.6e-5 rad encoder offset, 0.004 % of the thrust torque, named beside a 10 ms
 #: input delay on a noise-free 100 Hz log, and once that was refused a centre-of-mass offset of the same size;
 #: the smallest offsets of the diagnose benchmark, 0.005 rad, are 0.77-1.2 %)

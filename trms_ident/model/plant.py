@@ -35,12 +35,17 @@ PARAM_ORDER = ("J1", "B1", "J2", "B2", "a1", "b1", "a2", "b2", "Mg", "Kg", "k1",
 GRAVITY_OFFSET_SLOT = len(PARAM_ORDER)
 #: the slots after it: the effects the output-error kernel carries (0 = absent): Coulomb friction Fc [N m]
 #: (smoothed sign), quadratic drag c [N m s^2/rad^2], yaw cable stiffness k [N m/rad], thrust asymmetry s of a
-#: reversed rotor ((1 + s) times the thrust law for tau < 0)
+#: reversed rotor ((1 + s) times the thrust law for tau < 0), a yaw inertia that falls as the beam tilts,
+#: J2 - dJ sin^2(alpha) [kg m^2] (with its Lagrange terms: yaw_inertia, centrifugal_pitch, coriolis_yaw), and a
+#: pitch encoder's zero offset [rad] (the logged angle is the true one plus it: an output term, no torque)
 EFFECT_SLOTS = {"com_offset:pitch": GRAVITY_OFFSET_SLOT, "coulomb_friction:pitch": 20, "coulomb_friction:yaw": 21,
                 "quadratic_drag:pitch": 22, "quadratic_drag:yaw": 23, "cable_stiffness:yaw": 24,
-                "thrust_asymmetry:pitch": 25, "thrust_asymmetry:yaw": 26}
+                "thrust_asymmetry:pitch": 25, "thrust_asymmetry:yaw": 26, "yaw_inertia_pitch:yaw": 27,
+                "sensor_offset:pitch": 28}
+YAW_INERTIA_SLOT = EFFECT_SLOTS["yaw_inertia_pitch:yaw"]
+SENSOR_OFFSET_SLOT = EFFECT_SLOTS["sensor_offset:pitch"]
 #: the model vector's length without exogenous torques (their parameters follow from here on)
-N_SLOTS = 27
+N_SLOTS = 29
 #: Coulomb friction's sign is smoothed as tanh(omega / FRICTION_SMOOTH_RAD_S) [rad/s] (RK4 needs a smooth right
 #: side; the diagnosis' prediction model uses the same)
 FRICTION_SMOOTH_RAD_S = 1e-3
@@ -107,6 +112,25 @@ def coulomb_sign(omega):
 def friction(sign, omega, fc, c):
     """Friction beyond B omega [N m]: Coulomb -Fc sign(omega) (``sign``: coulomb_sign) and drag -c omega|omega|."""
     return -fc * sign - c * omega * abs(omega)
+
+
+@njit(**_TERM)
+def yaw_inertia(j2, dj, sin_a):
+    """The yaw inertia of a beam tilted by alpha [kg m^2]: J2 - dJ sin^2(alpha) (J2 itself in eq. 1, dJ = 0)."""
+    return j2 - dj * sin_a * sin_a
+
+
+@njit(**_TERM)
+def centrifugal_pitch(dj, sin_a, cos_a, dbeta):
+    """Pitch torque of a pitch-dependent yaw inertia [N m] (Lagrange: J'(alpha) beta'^2 / 2 = -dJ sin cos beta'^2)."""
+    return -dj * sin_a * cos_a * dbeta * dbeta
+
+
+@njit(**_TERM)
+def coriolis_yaw(dj, sin_a, cos_a, dalpha, dbeta):
+    """Yaw torque of a pitch-dependent yaw inertia [N m]: d/dt(J(alpha) beta') = J beta'' + J'(alpha) alpha' beta',
+    moved to the right-hand side, +2 dJ sin cos alpha' beta'."""
+    return 2.0 * dj * sin_a * cos_a * dalpha * dbeta
 
 
 def thrust_law(tau: np.ndarray, a: float, b: float, law: str) -> np.ndarray:

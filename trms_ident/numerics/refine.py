@@ -11,7 +11,8 @@ leaves angle errors above the noise level; the caller (identify) then keeps DREM
 Model: paper eq. (1), both axes together (the pitch equation takes beta' from the model, not
 differentiated from the log), state [alpha, alpha', beta, beta', tau1, tau2, zeta] with zeta
 the lag state of M_R = kc (T0 s + 1)/(Tp s + 1) tau1, plus the effects of EFFECT_SLOTS when diagnose
-puts a candidate in (friction, drag, cable, thrust asymmetry, centre-of-mass offset; 0 = absent), and
+puts a candidate in (friction, drag, cable, thrust asymmetry, centre-of-mass offset, a pitch-dependent yaw
+inertia, the pitch encoder's zero offset; 0 = absent: model/plant.py), and
 exogenous torques: effects diagnose's model room declares by their torque, computed by the caller from the
 measured states (refine's ``torques``).  The
 logged voltages are held over each actual sample interval t[k]..t[k+1] (the bench's controller holds them;
@@ -44,8 +45,9 @@ from numba import njit
 from scipy.special import stdtrit
 
 from ..model.plant import (EFFECT_SLOTS, FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, N_SLOTS, PARAM_ORDER,
-                           coulomb_sign, friction, lag_rate, model_vector, motor_rate, pitch_torque, reaction_moment,
-                           reversed_gain, slot, steady_motor_states, thrust, thrust_slope, yaw_torque)
+                           SENSOR_OFFSET_SLOT, YAW_INERTIA_SLOT, centrifugal_pitch, coriolis_yaw, coulomb_sign,
+                           friction, lag_rate, model_vector, motor_rate, pitch_torque, reaction_moment, reversed_gain,
+                           slot, steady_motor_states, thrust, thrust_slope, yaw_inertia, yaw_torque)
 
 #: window length [s]: long against the pitch damping time J1/B1 (~11 s) is best for B1 and J1 (over 10
 #: noise seeds of a 120 s multisine at 200 Hz, 1 mrad: J1 rms error 0.023 % with 10 s windows, 0.018 % with
@@ -108,11 +110,12 @@ class Refined:
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
-def _direct(slot, x, p, signed, g1, g2, m1, sg, cg, ca, th1, th2, fe1, fe2):
+def _direct(slot, x, p, signed, g1, g2, m1, sg, cg, sa, ca, th1, th2, f3, fe1, fe2):
     """The torques' derivatives [N m per unit] on pitch and yaw (eq. 1) in the model value at ``slot`` with the
-    state held: the direct term of that value's forward sensitivity.  Every slot but the motors' (k1, k2, T11,
-    T10, T21, T20, Tp: they act through the motor states, DIRECT_SLOTS leaves them out).  fe1, fe2: an exogenous
-    torque's per-unit torques at this instant (slots from _NP on)."""
+    state held: the direct term of that value's forward sensitivity (the caller divides by J1 and by the yaw
+    inertia).  Every slot but the motors' (k1, k2, T11, T10, T21, T20, Tp: they act through the motor states,
+    DIRECT_SLOTS leaves them out).  f3: beta'' now.  fe1, fe2: an exogenous torque's per-unit torques at this
+    instant (slots from _NP on).  The encoder offset has none: it acts on the logged angle (windows_pass)."""
     gyro = 1.0 - p[9] * x[3] * ca  # d(pitch torque)/d M1: the thrust and its gyroscopic coupling
     if slot == 4:  # a1: d thrust / d a = tau^2 (or tau|tau|)
         return g1 * thrust(x[4], 1.0, 0.0, signed) * gyro, 0.0
@@ -146,6 +149,11 @@ def _direct(slot, x, p, signed, g1, g2, m1, sg, cg, ca, th1, th2, fe1, fe2):
         return (thrust(x[4], p[4], p[5], signed) * gyro if x[4] < 0.0 else 0.0), 0.0
     if slot == 26:
         return 0.0, (thrust(x[5], p[6], p[7], signed) if x[5] < 0.0 else 0.0)
+    if slot == YAW_INERTIA_SLOT:  # dJ: its Lagrange torques, and beta'' through J2 - dJ sin^2(alpha)
+        return (centrifugal_pitch(1.0, sa, ca, x[3]),
+                coriolis_yaw(1.0, sa, ca, x[1], x[3]) + sa * sa * f3)
+    if slot == SENSOR_OFFSET_SLOT:
+        return 0.0, 0.0
     return fe1, fe2  # an exogenous torque's parameter
 
 
@@ -171,8 +179,13 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe):
     th1, th2 = coulomb_sign(x[1]), coulomb_sign(x[3])
     fr1 = friction(th1, x[1], p[20], p[22])  # friction beyond B: Coulomb (smoothed) and drag
     fr2 = friction(th2, x[3], p[21], p[23])
+    dj = p[YAW_INERTIA_SLOT]  # a yaw inertia J2 - dJ sin^2(alpha) (0 in the seed model)
+    j2e = yaw_inertia(j2, dj, sa)
     f1 = (pitch_torque(m1, sg, ca, x[3], p[8], p[9]) - b1 * x[1] + fr1 + e1) / j1  # eq. (1), pitch
-    f3 = (yaw_torque(m2, mr) - b2 * x[3] - p[24] * x[2] + fr2 + e2) / j2  # eq. (1), yaw (a cable: -k beta)
+    f3 = (yaw_torque(m2, mr) - b2 * x[3] - p[24] * x[2] + fr2 + e2) / j2e  # eq. (1), yaw (a cable: -k beta)
+    if dj != 0.0:
+        f1 += centrifugal_pitch(dj, sa, ca, x[3]) / j1
+        f3 += coriolis_yaw(dj, sa, ca, x[1], x[3]) / j2e
     d[0] = x[1]
     d[1] = f1
     d[2] = x[3]
@@ -180,36 +193,44 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe):
     d[4] = motor_rate(u1, x[4], p[10], p[12], p[13])
     d[5] = motor_rate(u2, x[5], p[11], p[14], p[15])
     d[6] = lag_rate(x[4], x[6], p[18])
-    # the Jacobian A: pitch row (alpha'') and yaw row (beta''); alpha'' does not depend on beta, beta'' not on
-    # alpha or alpha'
+    # the Jacobian A: pitch row (alpha'') and yaw row (beta''); alpha'' does not depend on beta, and beta'' depends
+    # on alpha and alpha' only through the yaw inertia's terms
     a10 = (-p[8] * cg + p[9] * m1 * x[3] * sa) / j1
     a11 = (-b1 - p[20] * (1.0 - th1 * th1) / eps - 2.0 * p[22] * abs(x[1])) / j1
     a13 = -p[9] * m1 * ca / j1
-    b12 = -p[24] / j2
-    b13 = (-b2 - p[21] * (1.0 - th2 * th2) / eps - 2.0 * p[23] * abs(x[3])) / j2
+    b12 = -p[24] / j2e
+    b13 = (-b2 - p[21] * (1.0 - th2 * th2) / eps - 2.0 * p[23] * abs(x[3])) / j2e
+    b10 = b11 = 0.0
+    if dj != 0.0:
+        c2a = ca * ca - sa * sa  # d(sin cos)/d alpha
+        a10 -= dj * c2a * x[3] * x[3] / j1
+        a13 -= 2.0 * dj * sa * ca * x[3] / j1
+        b10 = (2.0 * dj * c2a * x[1] * x[3] + 2.0 * dj * sa * ca * f3) / j2e  # and through J(alpha)'s own slope
+        b11 = 2.0 * dj * sa * ca * x[3] / j2e
+        b13 += 2.0 * dj * sa * ca * x[1] / j2e
     # direct terms: J/B, then the start states through the thrusts and M_R
     p1, p2 = p[13] / p[12], p[15] / p[14]
     df1_t1 = g1 * thrust_slope(x[4], p[4], p[5], signed) * (1.0 - p[9] * x[3] * ca) / j1
-    df3_t1 = -p[16] * p[17] / p[18] / j2
-    df3_z = -p[16] * (1.0 - p[17] / p[18]) / j2
-    df3_t2 = g2 * thrust_slope(x[5], p[6], p[7], signed) / j2
+    df3_t1 = -p[16] * p[17] / p[18] / j2e
+    df3_z = -p[16] * (1.0 - p[17] / p[18]) / j2e
+    df3_t2 = g2 * thrust_slope(x[5], p[6], p[7], signed) / j2e
     for c in range(NU):
         i = _S0 + 4 * c
         d[i] = x[i + 1]
         d[i + 1] = a10 * x[i] + a11 * x[i + 1] + a13 * x[i + 3]
         d[i + 2] = x[i + 3]
-        d[i + 3] = b12 * x[i + 2] + b13 * x[i + 3]
+        d[i + 3] = b10 * x[i] + b11 * x[i + 1] + b12 * x[i + 2] + b13 * x[i + 3]
     for c in range(fs.size):  # freed model values: the same A, their own direct terms
         i = _NS + 4 * c
-        q1, q3 = _direct(fs[c], x, p, signed, g1, g2, m1, sg, cg, ca, th1, th2, fe[c, 0], fe[c, 1])
+        q1, q3 = _direct(fs[c], x, p, signed, g1, g2, m1, sg, cg, sa, ca, th1, th2, f3, fe[c, 0], fe[c, 1])
         d[i] = x[i + 1]
         d[i + 1] = a10 * x[i] + a11 * x[i + 1] + a13 * x[i + 3] + q1 / j1
         d[i + 2] = x[i + 3]
-        d[i + 3] = b12 * x[i + 2] + b13 * x[i + 3] + q3 / j2
+        d[i + 3] = b10 * x[i] + b11 * x[i + 1] + b12 * x[i + 2] + b13 * x[i + 3] + q3 / j2e
     d[_S0 + 1] -= f1 / j1  # J1
     d[_S0 + 4 + 1] -= x[1] / j1  # B1
-    d[_S0 + 8 + 3] -= f3 / j2  # J2
-    d[_S0 + 12 + 3] -= x[3] / j2  # B2
+    d[_S0 + 8 + 3] -= f3 / j2e  # J2
+    d[_S0 + 12 + 3] -= x[3] / j2e  # B2
     st1, st2, sz1, sz0 = x[_MS], x[_MS + 1], x[_MS + 2], x[_MS + 3]
     d[_S0 + 16 + 1] += df1_t1 * st1  # tau1(0): through M1, and M_R's direct and lagged paths
     d[_S0 + 16 + 3] += df3_t1 * st1 + df3_z * sz1
@@ -334,6 +355,7 @@ def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub,
     nw = starts.shape[0]
     nb = scores.shape[0]
     nf = fs.size
+    offset = p[SENSOR_OFFSET_SLOT]
     m = extra.shape[2]
     nt = NU + nf + m
     ns = _NS + 4 * nf
@@ -358,16 +380,16 @@ def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub,
             x[_S0 + 4 * (NG + j) + j] = 1.0
         cost = 0.0
         for k in range(s, e):
-            out[k, 0] = x[0]
+            out[k, 0] = x[0] + offset  # the logged pitch: the true angle plus the encoder's zero offset
             out[k, 1] = x[2]
-            ra = (y[k, 0] - x[0]) * inv_sig[0]
+            ra = (y[k, 0] - out[k, 0]) * inv_sig[0]
             rb = (y[k, 1] - x[2]) * inv_sig[1]
             cost += ra * ra + rb * rb
             for c in range(NU):
                 ja[c] = x[_S0 + 4 * c] * inv_sig[0]
                 jb[c] = x[_S0 + 4 * c + 2] * inv_sig[1]
             for c in range(nf):
-                ja[NU + c] = x[_NS + 4 * c] * inv_sig[0]
+                ja[NU + c] = (x[_NS + 4 * c] + (1.0 if fs[c] == SENSOR_OFFSET_SLOT else 0.0)) * inv_sig[0]
                 jb[NU + c] = x[_NS + 4 * c + 2] * inv_sig[1]
             for c in range(m):
                 ja[NU + nf + c] = extra[k, 0, c] * inv_sig[0]
