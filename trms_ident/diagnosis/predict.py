@@ -17,7 +17,8 @@ import math
 import numpy as np
 from numba import njit
 
-from ..model.plant import coulomb_sign, friction, pitch_torque, reversed_gain, thrust, yaw_torque
+from ..model.plant import (centrifugal_pitch, coriolis_yaw, coulomb_sign, friction, pitch_torque, reversed_gain, thrust,
+                           yaw_torque)
 
 HORIZON_S = 2.0
 
@@ -31,10 +32,10 @@ def _rhs(pitch, x, v, tau_m, other, s2, scw, ext, th, fx):
     fric = friction(coulomb_sign(v), v, fx[0], fx[1]) + ext
     if pitch:
         acc = pitch_torque(m, math.sin(x + fx[3]), math.cos(x), other, th[4], th[5]) + fric  # eq. (1), pitch
-        acc -= fx[6] * math.sin(x) * math.cos(x) * other * other  # centrifugal: J'(alpha) beta'^2 / 2
+        acc += centrifugal_pitch(fx[6], math.sin(x), math.cos(x), other)  # J'(alpha) beta'^2 / 2
         return (acc - th[1] * v) / th[0]
-    acc = yaw_torque(m, other) - fx[2] * x + fric + 2.0 * fx[6] * scw * v  # eq. (1), yaw
-    return (acc - th[1] * v) / (th[0] - fx[6] * s2)
+    acc = yaw_torque(m, other) - fx[2] * x + fric + coriolis_yaw(fx[6], 1.0, scw, 1.0, v)  # eq. (1), yaw
+    return (acc - th[1] * v) / (th[0] - fx[6] * s2)  # over yaw_inertia(J2, dJ, sin alpha), s2 = sin^2 alpha
 
 
 @njit(cache=True)
