@@ -230,7 +230,7 @@ def test_log_that_begins_mid_run(ref, rate, noise, q, effect, axis, value):
 
 
 def test_every_candidate_has_a_term_shape_that_is_the_seed_model_at_its_neutral_value():
-    from trms_ident.diagnosis.effects import CANDIDATES
+    from trms_ident.model.effects import CANDIDATES
     from trms_ident.diagnosis.shapes import term_shape
     from trms_ident.params import defaults
 
@@ -353,7 +353,7 @@ def test_output_error_profile_fits_an_input_modification_and_leaves_a_clean_log_
     # effect does not pass
     from sim import SimSettings, simulate
     from trms_ident.diagnosis import oe
-    from trms_ident.diagnosis.effects import BY_KEY
+    from trms_ident.model.effects import BY_KEY
     from trms_ident.diagnosis.model import Model
     from trms_ident.diagnosis.run import FAMILY_ALPHA, _grid
     from trms_ident.params import defaults
@@ -419,7 +419,7 @@ def test_an_earlier_finding_is_judged_again_given_the_later_ones(first, value, s
     # findings come one per round; one that no longer helps once a later one is in (here a yaw dead zone the log
     # does not have, put first by hand) must go, a real one (a yaw friction beside the delay) must stay
     from trms_ident.diagnosis import oe
-    from trms_ident.diagnosis.effects import BY_KEY
+    from trms_ident.model.effects import BY_KEY
     from trms_ident.diagnosis.model import Model, regression
     from trms_ident.diagnosis.run import (_at_value, _backward, _effect_values, _estimates, _fits, _try, block_ids,
                                           block_length, score)
@@ -462,8 +462,9 @@ def test_a_rugged_dead_zone_profile_is_scanned_and_a_wrong_width_is_never_called
     # by that profile; left at the equation error's grid value (0.386 V) the findings' model does not fit, and
     # the verdict must say so rather than "explained"
     from sim import SimSettings, simulate
-    from trms_ident.diagnosis import effects, oe, run
-    from trms_ident.diagnosis.effects import BY_KEY
+    from trms_ident.diagnosis import oe, run
+    from trms_ident.model import effects
+    from trms_ident.model.effects import BY_KEY
     from trms_ident.diagnosis.model import Model
     from trms_ident.params import defaults
 
@@ -526,7 +527,7 @@ def test_a_pitch_offset_of_no_practical_size_is_not_a_finding():
     """The equation error passes any consistent residual on a clean log; a pitch offset must also move the
     gravity torque by oe.MIN_TORQUE_SHARE of the thrust torque, as the output-error fit asks of its candidates."""
     from trms_ident.diagnosis import oe
-    from trms_ident.diagnosis.effects import CANDIDATES
+    from trms_ident.model.effects import CANDIDATES
     from trms_ident.diagnosis.run import _practical
     from trms_ident.params import defaults
 

@@ -1,4 +1,4 @@
-"""The model room (trms_ident/diagnosis/effects.py): a new torque effect or input modification is one entry there,
+"""The model room (trms_ident/model/effects.py): a new torque effect or input modification is one entry there,
 and every stage of the diagnosis derives it from that entry's torque or voltage transform; the output-error fit's
 exogenous-torque path agrees with the compiled one."""
 import dataclasses
@@ -12,7 +12,8 @@ from typer.testing import CliRunner
 
 from sim import SimSettings, simulate
 from trms_ident.cli import app
-from trms_ident.diagnosis import effects, oe
+from trms_ident.diagnosis import oe
+from trms_ident.model import effects
 from trms_ident.diagnosis.model import Model
 from trms_ident.diagnosis.run import FAMILY_ALPHA, diagnose
 from trms_ident.diagnosis.shapes import declared_shape

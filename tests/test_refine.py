@@ -178,7 +178,8 @@ def test_freed_values_sensitivities_are_exact(signed):
     tq = np.ascontiguousarray(np.stack([np.sin(r.beta_rad), np.cos(3 * r.alpha_rad)], axis=1)[:, :, None])
     starts, m0 = np.array([[0.01, 0.2, 0.02, 0.3]]), np.array([0.3, -0.2, 0.1])
     slots = sorted(R.DIRECT_SLOTS) + [P.N_SLOTS]
-    assert set(slots) >= set(P.EFFECT_SLOTS.values()) and {P.PARAM_ORDER.index(k) for k in ("Mg", "Kg", "a1", "kc")} <= set(slots)
+    assert set(slots) >= set(P.EFFECT_SLOTS.values())
+    assert {P.PARAM_ORDER.index(k) for k in ("Mg", "Kg", "a1", "kc")} <= set(slots)
 
     def run(pv, fs=()):
         out = np.empty((n, 2))

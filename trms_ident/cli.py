@@ -408,7 +408,7 @@ def diagnose(
     rate: RateOpt = None,
 ) -> None:
     """Find where the model and the recording disagree, name the missing physics, fit it, show the gain."""
-    from .diagnosis.effects import with_unit
+    from .model.effects import with_unit
     from .diagnosis.predict import fit_change, fit_text
     from .io.atomic import write_text
     from .io.readers import read_log

@@ -18,7 +18,7 @@ from ..log import Log
 from ..numerics.filters import discretize, second_order_lowpass
 from ..numerics.fused import plant_signals  # compiled, equal to regressors.plant_signals to round-off
 from ..numerics.regressors import PlantSignals, filtered_regression
-from . import effects
+from ..model import effects
 
 AXIS_ANGLE = {"pitch": "alpha_rad", "yaw": "beta_rad"}
 
@@ -79,7 +79,7 @@ def modified_inputs(log: Log, mods: dict) -> tuple[np.ndarray, np.ndarray, dict]
         effect, axis = key.split(":")
         if effect == "input_delay":
             u = {ax: _delay(x, v / dt) for ax, x in u.items()}
-        elif effects.declared_modification(key):  # its voltage transform, from the model room (effects.py)
+        elif effects.declared_modification(key):  # its voltage transform, from the model room (model/effects.py)
             u[axis] = effects.by_key(key).modify(u[axis], v)
         elif effect == "motor_lag":
             changes["T11" if axis == "pitch" else "T21"] = v
@@ -322,7 +322,7 @@ def needs_plant(key: str) -> bool:
 
 def phi(effect: str, axis: str, log: Log, p: dict, ps, cache: dict) -> np.ndarray:
     """Torque per unit parameter that the effect adds to the right-hand side of eq. (1) [N m / unit]."""
-    if effects.generic(f"{effect}:{axis}"):  # declared by its torque alone (effects.py)
+    if effects.generic(f"{effect}:{axis}"):  # declared by its torque alone (model/effects.py)
         return np.asarray(effects.by_key(f"{effect}:{axis}").torque(state_signals(log, ps, p, cache)), dtype=float)
     dt = log.sample_time_s
     x = getattr(log, AXIS_ANGLE[axis])

@@ -19,7 +19,7 @@ Which effects the output-error model carries: model.plant.EFFECT_SLOTS (Coulomb 
 drag on either axis, the yaw cable, a reversed rotor's thrust asymmetry, the centre-of-mass offset, the
 pitch-dependent yaw inertia with its Lagrange terms, the pitch encoder's zero offset on the logged angle),
 compiled with the simulated states and their exact sensitivities, and every effect the model room declares by
-its torque alone (effects.py), whose torque is computed from the measured states and enters the simulation as an
+its torque alone (model/effects.py), whose torque is computed from the measured states and enters the simulation as an
 exogenous torque.
 
 Input modifications (PROFILE_KEYS: dead zone, saturation, transport delay, and a motor's time constant, which
@@ -52,7 +52,7 @@ from ..model.plant import EFFECT_SLOTS, thrust_law
 from ..numerics.design import angle_noise_rad
 from ..numerics.refine import BLOCK_S, substeps
 from ..numerics.refine import refine as oe_refine
-from . import effects as room
+from ..model import effects as room
 from .model import Model, modified_inputs, smoothed_velocity, state_signals
 from .select import MIN_SIGNAL_SHARE
 
@@ -183,7 +183,7 @@ def torque_share(key: str, value: float, log: Log, p: dict, law: str) -> float:
 
 def unit_torques(log: Log, p: dict, law: str, keys, u1=None, u2=None, cache: dict | None = None) -> dict:
     """key -> (n, 2) torque per unit parameter [N m / unit] on pitch and yaw of each effect the model room
-    declares by its torque (effects.py), from the log's measured states and the motor states that the voltages
+    declares by its torque (model/effects.py), from the log's measured states and the motor states that the voltages
     (u1, u2: the log's unless given, e.g. through input modifications) drive in the seed model ``p``."""
     from ..numerics.fused import plant_signals
 
@@ -331,8 +331,8 @@ class Fitter:
         """The findings' model checked as estimate checks the seed model (numerics/adequacy.py): fitted by output
         error with its input modifications at their values, J/B, its torque terms' parameters and the start
         states free, to convergence (a base fit that ran out of iterations goes on from where it stopped, once);
-        angle -> error RMS over the angle's noise floor.  None when a finding is one the fit cannot carry (the
-        encoder offset, the pitch-dependent yaw inertia) or the fit fails."""
+        angle -> error RMS over the angle's noise floor.  None when a finding is one the fit cannot carry or the fit
+        fails."""
         if not all(carries(k) for k in model.linear):
             return None
         r = self.base(model, values, theta0)

@@ -13,9 +13,10 @@ from ..numerics.adequacy import AXIS_OF, RMS_OVER_NOISE
 from ..numerics.design import design_filters
 from ..numerics.stats import block_length
 from ..params import PLAUSIBLE_FACTOR, merge, not_credible
-from . import effects, oe
+from ..model import effects
+from . import oe
 from .discriminate import PAIR, tell_offsets_apart
-from .effects import UNOBSERVABLE, Candidate
+from ..model.effects import UNOBSERVABLE, Candidate
 from .locate import lag_profile, regimes, segments
 from .model import (AXIS_ANGLE, Model, drop_search_columns, modified_inputs, regression, restart_velocity,
                     smoothed_velocity)
@@ -1039,7 +1040,7 @@ def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, ex
     ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, dt, pp, law, start=start, rows="motors")
     extra = {axis: (extra or {}).get(axis) for axis in ("pitch", "yaw")}
     for key, t in oe.unit_torques(log, pp, law, [k for k in model.linear if k in values], u1, u2).items():
-        for j, axis in enumerate(("pitch", "yaw")):  # the model room's torque effects (effects.py)
+        for j, axis in enumerate(("pitch", "yaw")):  # the model room's torque effects (model/effects.py)
             if np.any(t[:, j]):
                 extra[axis] = values[key] * t[:, j] + (0.0 if extra[axis] is None else extra[axis])
     del u1, u2

@@ -1,6 +1,6 @@
 """What a finding's fitted term looks like: the effect as a curve over the range the log visits.
 
-Pure numerics for the report's per-finding figures: each effect of the library (effects.py) drawn as the
+Pure numerics for the report's per-finding figures: each effect of the library (model/effects.py) drawn as the
 quantity it changes (a torque [N m], the voltage the motor sees [V], an inertia [kg m^2], ...) against its
 regime variable, beside what the seed model (paper eq. 1 with Table 1) assumes there.
 """
@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model.plant import thrust_law
-from .effects import Candidate, with_unit
+from ..model.effects import Candidate, with_unit
 from .model import _delay
 
 
@@ -41,7 +41,7 @@ BINS = 60
 
 def declared_shape(c: Candidate, value: float, regime_label: str, regime: np.ndarray, torque_nm: np.ndarray
                    ) -> Shape:
-    """A torque effect the model room declares by its torque alone (effects.py): its torque over the log
+    """A torque effect the model room declares by its torque alone (model/effects.py): its torque over the log
     (``torque_nm`` [N m] per sample at the finding's value) as the mean in BINS bins of its regime variable."""
     ok = np.isfinite(regime) & np.isfinite(torque_nm)
     x, t = regime[ok], torque_nm[ok]
@@ -96,7 +96,7 @@ def term_shape(c: Candidate, value: float, p: dict, law: str, velocity: np.ndarr
         return Shape("pitch angle alpha [rad]", a, "yaw inertia [kg m^2]", p["J2"] - value * np.sin(a) ** 2,
                      np.full_like(a, p["J2"]), f"yaw inertia J2 - dJ sin^2(alpha), dJ = {value:.3g} kg m^2 "
                      "(J2 of the table as the level)")
-    if c.modify is not None:  # a voltage transform declared in the model room (effects.py)
+    if c.modify is not None:  # a voltage transform declared in the model room (model/effects.py)
         u = _span(u_v)
         return Shape(f"logged {'u1' if ax != 'yaw' else 'u2'} [V]", u, "voltage the motor sees [V]",
                      c.modify(u, value), u, f"{e.replace('_', ' ')}: {value:.3g} {c.unit}")

@@ -19,7 +19,7 @@ testing, or a kernel compiled with the old term is loaded.
 The model vector (``model_vector``) is what the compiled output-error kernel reads: the parameter table's values
 in PARAM_ORDER, the centre-of-mass offset delta, then one slot per effect the kernel carries (EFFECT_SLOTS;
 0 = absent), then the parameters of exogenous torques (effects declared by their torque in
-diagnosis/effects.py, computed from the measured states by the caller).
+model/effects.py, computed from the measured states by the caller).
 """
 from __future__ import annotations
 

@@ -653,7 +653,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     is estimated with J/B, started from its value there (or 0).  ``max_iterations``: Gauss-Newton's limit (a
     profile over a candidate's value, diagnosis/oe.py, needs the cost near each trial value, not convergence).
     ``torques``: effect key -> (n, 2) its torque per unit parameter on pitch and yaw [N m / unit], computed by
-    the caller from the measured states (an effect not compiled into the kernel: diagnosis/effects.py); the
+    the caller from the measured states (an effect not compiled into the kernel: model/effects.py); the
     torque is held over each sample interval at the mean of its two ends, its parameter taken from
     ``effects`` (or 0) and estimated when its key is in ``free``."""
     n = alpha.size

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import html
 
-from ..diagnosis.effects import with_unit
+from ..model.effects import with_unit
 from ..diagnosis.predict import fit_change, fit_text
 from ..diagnosis.run import Diagnosis
 from ..log import Log

@@ -4,9 +4,9 @@ Kept apart from the simulator's own effect code (sim/effects.py): the diagnosis 
 what the simulator injected without sharing its implementation.
 
 A new torque effect is one entry here: a Candidate of kind "linear" with ``torque``, its torque per unit
-parameter as a function of the measured and reconstructed signals (model.state_signals: angles, smoothed
+parameter as a function of the measured and reconstructed signals (diagnosis.model.state_signals: angles, smoothed
 rates, the motor states and thrust torques of eq. 1).  From that one function every stage derives it: the
-equation-error regressor (model.phi, eq. 3), the output-error fit and its held-out test (the torque enters the
+equation-error regressor (diagnosis.model.phi, eq. 3), the output-error fit and its held-out test (the torque enters the
 simulation of eq. 1 as an input computed from the measured states: numerics.refine's exogenous torques), the
 prediction fit, its torque share (the practical-size floor), the report's shape of the term, and the
 plausible range (``bounds``).
@@ -20,7 +20,7 @@ are written so).
 The torque effects written before this interface carry hand-written code in those stages instead (compiled
 into the output-error kernel with the simulated states, model.plant.EFFECT_SLOTS): faster, and exact in the
 states; tests check that the two paths agree (tests/test_model_room.py).  The transport delay and a motor's
-time constant act on both axes or on the motor's dynamics and keep their own code in model.modified_inputs.
+time constant act on both axes or on the motor's dynamics and keep their own code in diagnosis.model.modified_inputs.
 """
 from __future__ import annotations
 
