@@ -15,10 +15,10 @@ import numpy as np
 from scipy import signal
 
 from ..log import Log
+from ..model import effects
 from ..numerics.filters import discretize, second_order_lowpass
 from ..numerics.fused import plant_signals  # compiled, equal to regressors.plant_signals to round-off
 from ..numerics.regressors import PlantSignals, filtered_regression
-from ..model import effects
 
 AXIS_ANGLE = {"pitch": "alpha_rad", "yaw": "beta_rad"}
 

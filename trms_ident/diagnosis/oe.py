@@ -19,8 +19,8 @@ Which effects the output-error model carries: model.plant.EFFECT_SLOTS (Coulomb 
 drag on either axis, the yaw cable, a reversed rotor's thrust asymmetry, the centre-of-mass offset, the
 pitch-dependent yaw inertia with its Lagrange terms, the pitch encoder's zero offset on the logged angle),
 compiled with the simulated states and their exact sensitivities, and every effect the model room declares by
-its torque alone (model/effects.py), whose torque is computed from the measured states and enters the simulation as an
-exogenous torque.
+its torque alone (model/effects.py), whose torque is computed from the measured states and enters the
+simulation as an exogenous torque.
 
 Input modifications (PROFILE_KEYS: dead zone, saturation, transport delay, and a motor's time constant, which
 changes how the motor follows the voltages) change what drives the plant, not its equations: each is fitted by
@@ -48,11 +48,11 @@ import numpy as np
 from scipy.special import stdtr
 
 from ..log import Log
+from ..model import effects as room
 from ..model.plant import EFFECT_SLOTS, thrust_law
 from ..numerics.design import angle_noise_rad
 from ..numerics.refine import BLOCK_S, substeps
 from ..numerics.refine import refine as oe_refine
-from ..model import effects as room
 from .model import Model, modified_inputs, smoothed_velocity, state_signals
 from .select import MIN_SIGNAL_SHARE
 
@@ -183,8 +183,8 @@ def torque_share(key: str, value: float, log: Log, p: dict, law: str) -> float:
 
 def unit_torques(log: Log, p: dict, law: str, keys, u1=None, u2=None, cache: dict | None = None) -> dict:
     """key -> (n, 2) torque per unit parameter [N m / unit] on pitch and yaw of each effect the model room
-    declares by its torque (model/effects.py), from the log's measured states and the motor states that the voltages
-    (u1, u2: the log's unless given, e.g. through input modifications) drive in the seed model ``p``."""
+    declares by its torque (model/effects.py), from the log's measured states and the motor states that the
+    voltages (u1, u2: the log's unless given, e.g. through input modifications) drive in the seed model ``p``."""
     from ..numerics.fused import plant_signals
 
     keys = [k for k in keys if room.generic(k)]

@@ -9,14 +9,14 @@ import numpy as np
 
 from ..errors import LogFormatError
 from ..log import Log
+from ..model import effects
+from ..model.effects import UNOBSERVABLE, Candidate
 from ..numerics.adequacy import AXIS_OF, RMS_OVER_NOISE
 from ..numerics.design import design_filters
 from ..numerics.stats import block_length
 from ..params import PLAUSIBLE_FACTOR, merge, not_credible
-from ..model import effects
 from . import oe
 from .discriminate import PAIR, tell_offsets_apart
-from ..model.effects import UNOBSERVABLE, Candidate
 from .locate import lag_profile, regimes, segments
 from .model import (AXIS_ANGLE, Model, drop_search_columns, modified_inputs, regression, restart_velocity,
                     smoothed_velocity)

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model.plant import thrust_law
 from ..model.effects import Candidate, with_unit
+from ..model.plant import thrust_law
 from .model import _delay
 
 

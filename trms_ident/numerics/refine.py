@@ -44,7 +44,7 @@ import numpy as np
 from numba import njit
 from scipy.special import stdtrit
 
-from ..model.plant import (EFFECT_SLOTS, FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, N_SLOTS, PARAM_ORDER,
+from ..model.plant import (FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, N_SLOTS, PARAM_ORDER,
                            SENSOR_OFFSET_SLOT, YAW_INERTIA_SLOT, centrifugal_pitch, coriolis_yaw, coulomb_sign,
                            friction, lag_rate, model_vector, motor_rate, pitch_torque, reaction_moment, reversed_gain,
                            slot, steady_motor_states, thrust, thrust_slope, yaw_inertia, yaw_torque)
