@@ -288,3 +288,27 @@ def test_backtracking_goes_to_the_parabolas_minimum_within_its_safeguards():
     while lam >= 1e-4:
         lam, n = R._backtrack(lam, 10.0, -4.0, 1e6), n + 1
     assert n <= 5
+
+
+def test_a_profile_over_an_offset_is_smooth_once_each_fit_has_converged():
+    # power benchmark log 5074: a bench off Table 1, a 12-bit square wave at 1 kHz cut 30 s into the run, a 0.08 rad
+    # centre-of-mass offset.  The stopping rule counted only what the global unknowns could still gain, so fits
+    # stopped while the windows' starts had ~20 to gain: the cost profile over the offset jumped by 24 between
+    # neighbouring values.  Converged fits give a parabola, whose second difference is the offset's curvature.
+    from trms_ident.numerics.design import angle_noise_rad
+
+    known = {"Mg": 0.35937742192749184, "a1": 0.010918889646463582, "b2": 0.07746372169176753,
+             "kc": -0.23427544669613243}
+    bench = {"J1": 0.10452220666112509, "B1": 0.005808182552502405, "J2": 0.02188675641021779,
+             "B2": 0.07931861814785898}
+    r = simulate(SimSettings(ref="square", sample_rate_hz=1000.0, duration_s=90.0, quantization_rad=2 * np.pi / 4096,
+                             seed=5074, start_s=30.0, overrides={**bench, **known},
+                             effects=[dict(effect="com_offset", axis="pitch", value=0.08)]))
+    theta0 = {"J1": 0.10445822290638598, "B1": 0.005866570877466441, "J2": 0.021886771234148332,
+              "B2": 0.0793180594706843}  # the equation error's estimate, where diagnose starts the fit
+    noise = {"alpha": angle_noise_rad(r.alpha_rad), "beta": angle_noise_rad(r.beta_rad)}
+    fits = [R.refine(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, 1e-3, {**defaults(), **known}, "quadratic", theta0,
+                     noise, gravity_offset_rad=d) for d in (0.0800015, 0.0800025, 0.0800035)]
+    assert all(f.converged for f in fits)
+    c = [f.cost for f in fits]
+    assert abs(c[0] - 2.0 * c[1] + c[2]) < 5.0, c  # was -29 (176.45, 200.19, 194.95 above 180 000)
