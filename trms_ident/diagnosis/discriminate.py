@@ -45,13 +45,12 @@ def tell_offsets_apart(log: Log, u1: np.ndarray, u2: np.ndarray, p: dict, law: s
         r = refine(u1, u2, log.alpha_rad, log.beta_rad, dt, p, law, theta0, noise, free=(key,),
                    effects={key: delta0[key]})
         fits[key] = (float(r.freed[key]["estimate"]), r)
+    offsets = {k: v[0] for k, v in fits.items()}
     unconverged = [k for k, (_, r) in fits.items() if not r.converged]
     if unconverged:
-        return Verdict(None, 0.0, {k: v[0] for k, v in fits.items()},
-                       f"the output-error fit with {unconverged[0]} did not converge")
+        return Verdict(None, 0.0, offsets, f"the output-error fit with {unconverged[0]} did not converge")
     (k_win, (d_win, r_win)), (k_lose, (_, r_lose)) = sorted(fits.items(), key=lambda kv: kv[1][1].cost)
     gap = r_lose.cost - r_win.cost
-    offsets = {k: v[0] for k, v in fits.items()}
     ratio = max(r_win.rms_rad[a] / noise[a] for a in ("alpha", "beta") if noise[a] > 0)
     if ratio > ADEQUATE_RMS_OVER_NOISE:
         return Verdict(None, gap, offsets, f"the output-error fit does not reach the noise level ({ratio:.3g}x)")

@@ -45,7 +45,7 @@ EFFECT_SLOTS = {"com_offset:pitch": GRAVITY_OFFSET_SLOT, "coulomb_friction:pitch
 YAW_INERTIA_SLOT = EFFECT_SLOTS["yaw_inertia_pitch:yaw"]
 SENSOR_OFFSET_SLOT = EFFECT_SLOTS["sensor_offset:pitch"]
 #: the model vector's length without exogenous torques (their parameters follow from here on)
-N_SLOTS = 29
+N_SLOTS = max(EFFECT_SLOTS.values()) + 1
 #: Coulomb friction's sign is smoothed as tanh(omega / FRICTION_SMOOTH_RAD_S) [rad/s] (RK4 needs a smooth right
 #: side; the diagnosis' prediction model uses the same)
 FRICTION_SMOOTH_RAD_S = 1e-3

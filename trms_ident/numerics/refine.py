@@ -203,11 +203,12 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe):
     b10 = b11 = 0.0
     if dj != 0.0:
         c2a = ca * ca - sa * sa  # d(sin cos)/d alpha
+        dsc2 = 2.0 * dj * sa * ca  # -d(yaw inertia)/d alpha
         a10 -= dj * c2a * x[3] * x[3] / j1
-        a13 -= 2.0 * dj * sa * ca * x[3] / j1
-        b10 = (2.0 * dj * c2a * x[1] * x[3] + 2.0 * dj * sa * ca * f3) / j2e  # and through J(alpha)'s own slope
-        b11 = 2.0 * dj * sa * ca * x[3] / j2e
-        b13 += 2.0 * dj * sa * ca * x[1] / j2e
+        a13 -= dsc2 * x[3] / j1
+        b10 = (2.0 * dj * c2a * x[1] * x[3] + dsc2 * f3) / j2e  # and through J(alpha)'s own slope
+        b11 = dsc2 * x[3] / j2e
+        b13 += dsc2 * x[1] / j2e
     # direct terms: J/B, then the start states through the thrusts and M_R
     p1, p2 = p[13] / p[12], p[15] / p[14]
     df1_t1 = g1 * thrust_slope(x[4], p[4], p[5], signed) * (1.0 - p[9] * x[3] * ca) / j1
