@@ -44,7 +44,7 @@ def test_a_matrix_with_a_column_mapping_and_a_rate(tmp_path, run):
     p = tmp_path / "matrix.mat"
     scipy.io.savemat(p, {"data": np.column_stack([run.u1_v, run.u2_v, run.alpha_rad, run.beta_rad])})
     res = runner.invoke(app, ["estimate", str(p), "-o", str(tmp_path / "o"), "--no-report"])
-    assert res.exit_code == 4 and "no variable for alpha" in res.output and "--signal alpha=VARIABLE" in res.output
+    assert res.exit_code == 4 and "no variable for alpha" in res.output and "--signal alpha=PATH" in res.output
     signals = ["--signal", "u1=data[0]", "--signal", "u2=data[1]", "--signal", "alpha=data[2]",
                "--signal", "beta=data[3]"]
     res = runner.invoke(app, ["estimate", str(p), *signals, "-o", str(tmp_path / "o"), "--no-report"])

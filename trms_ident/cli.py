@@ -566,18 +566,37 @@ def inspect(
             say("      numeric: " + ", ".join(t["numeric_fields"]))
     for c in doc.get("columns", []):
         say(f"  column {c}")
-    for name, shape in doc.get("variables", {}).items():
-        say(f"  variable {name}: {shape}")
+    for s in doc.get("signals", []):
+        say("  " + mat_signal_line(s))
+    for u in doc.get("undecoded", []):
+        say(f"  {u['path']}: a MATLAB object of class {u['class']} that could not be decoded ({u['why']})")
+    for m, paths in doc.get("ambiguous", {}).items():
+        say(f"  several signals could be {m}: {', '.join(paths)} (map one: --signal {m}=PATH)")
     for m in doc.get("missing", []):
-        say(f"  no variable found for {m}" + (" (pass --rate HZ)" if m == "t" else f" (map it: --signal {m}=VARIABLE)"))
+        say(f"  no variable found for {m}" + (" (pass --rate HZ)" if m == "t" else f" (map it: --signal {m}=PATH)"))
     if doc.get("suggested_signals"):
         say("suggested mapping: " + " ".join(f"--signal {v}" for v in doc["suggested_signals"].values()))
     elif "topics" in doc:
         say("no obvious mapping for alpha, beta, u1, u2: pass --signal NAME=TOPIC:FIELD for each")
-    elif "variables" in doc:
-        say("no variable matches a known name: pass --signal NAME=VARIABLE for alpha, beta, u1 and u2")
+    elif "signals" in doc:
+        say("no variable matches a known name: pass --signal NAME=PATH for alpha, beta, u1 and u2 "
+            "(PATH as listed above; one column of a matrix as PATH:COLUMN)")
     for w in doc.get("warnings", []):
         say(f"warning: {w}")
+
+
+def mat_signal_line(s: dict) -> str:
+    """One signal of a .mat as ``inspect`` lists it: path, class, size, time base."""
+    n, k = s["samples"], s["columns"]
+    size = f"{n} samples" if k == 1 else f"{n} x {k} (one signal a column: PATH:0 to PATH:{k - 1})"
+    line = f"{s['path']}: {s['class']}, {size}"
+    if s.get("name"):
+        line += f", named {s['name']!r}"
+    if "time" in s:
+        step = (f"every {s['median_step_s']:.6g} s" if s["uniform"] else
+                f"variable step (median {s['median_step_s']:.6g} s)") if s.get("median_step_s") else ""
+        line += f"; time {s['t0_s']:.6g} to {s['t1_s']:.6g} s {step} ({s['time']})"
+    return line
 
 
 @app.command()

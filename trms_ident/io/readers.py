@@ -25,7 +25,7 @@ def read_log(path: str | Path, angle_unit: str = "auto", signals: list[str] | No
         return read_mcap_log(path, angle_unit=angle_unit, signals=signals, time_source=time_source,
                              voltage_time=voltage_time)
     if suffix == ".mat":
-        from .mat_log import read_mat_log  # scipy.io / h5py only when needed
+        from .mat_log import read_mat_log  # mat-io only when needed
 
         return read_mat_log(path, angle_unit=angle_unit, time_unit=time_unit, signals=signals, rate_hz=rate_hz)
     from ..errors import SettingsError
