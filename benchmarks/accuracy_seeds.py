@@ -11,7 +11,7 @@ baseline's mean |error| (benchmarks/baselines.output_error with initial_state="e
 50 Hz, the initial state estimated too, started from 0.5x the truth), and the tool's mean 95 % half-width.
 Criterion: tool mean |error| <= baseline mean |error| + tool mean half-width, in every cell and parameter;
 the tool's 95 % intervals cover the truth in >= 90 % of (run, parameter) pairs.  Writes the section
-"Accuracy over noise seeds" of benchmarks/RESULTS.md and prints the table (the README quotes it).
+"Accuracy over noise seeds" of benchmarks/RESULTS.md and prints the table (docs/benchmarks.md describes it).
 """
 from __future__ import annotations
 

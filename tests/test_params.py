@@ -6,13 +6,13 @@ import pytest
 from trms_ident.errors import ParameterFileError
 from trms_ident.params import PARAMETERS, implausible, load_parameter_file, marked, merge
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+PARAMETERS_PAGE = Path(__file__).resolve().parents[1] / "docs" / "parameters.md"
 
 
-def test_every_parameter_is_documented_in_the_readme():
-    text = README.read_text(encoding="utf-8")
-    missing = [p.name for p in PARAMETERS if f"| `{p.name}` |" not in text]
-    assert not missing, f"parameters missing from the README table: {missing}"
+def test_every_parameter_is_documented_with_its_value_and_unit():
+    text = PARAMETERS_PAGE.read_text(encoding="utf-8")
+    missing = [p.name for p in PARAMETERS if f"| `{p.name}` | {p.value:g} | {p.unit} |" not in text]
+    assert not missing, f"parameters missing or stale in docs/parameters.md: {missing}"
 
 
 def test_toml_override_flat_and_table(tmp_path):

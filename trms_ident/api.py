@@ -132,7 +132,7 @@ class Estimate:
 def estimate(log, *, params: dict | str | Path | None = None, truth: dict | None = None, **options) -> Estimate:
     """Estimate J1, B1, J2, B2 of a TRMS log with DREM (eqs. 3-8) and the output-error refinement.
 
-    ``log``: a CSV or MCAP path, a pandas DataFrame (t [s], u1, u2 [V], alpha, beta [rad]) or a Log.
+    ``log``: a CSV, MCAP or MATLAB .mat path, a pandas DataFrame (t [s], u1, u2 [V], alpha, beta [rad]) or a Log.
     ``params``: known values (dict, or a TOML file) replacing Table 1's.  ``truth``: J/B ground truth for the
     error columns (simulated logs).  Other options: the Settings fields (``refine``, ``headline``, ``free``,
     ``thrust_law``, ``filter_a_rad_s``, ...) and the reader's (``angle_unit``, ``time_unit``, ``signals``,
