@@ -107,6 +107,7 @@ class Refined:
     prediction: np.ndarray  # (n, 2) simulated alpha, beta [rad] at the estimate (per-window restarts)
     freed: dict  # known values estimated with J/B (--free): name -> estimate, ci95, the value given
     fit: object = None  # _Fit, for score tests on further unknowns (suspect_known_values)
+    pending_decrease: float = 0.0  # the decrease in cost one more full Gauss-Newton step predicts at the estimate
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
@@ -642,7 +643,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
            window_s: float = WINDOW_S, gravity_offset_rad: float = 0.0, t_s: np.ndarray | None = None,
            free: tuple[str, ...] = (), switch_delay_s: np.ndarray | None = None,
            effects: dict | None = None, max_iterations: int = MAX_ITERATIONS,
-           torques: dict | None = None) -> Refined:
+           torques: dict | None = None, start_states0: dict | None = None) -> Refined:
     """Gauss-Newton on the noise-weighted angle errors, from theta0 (DREM's estimate).
 
     ``t_s``: the sample stamps [s] when they are not uniform (default: uniform steps of ``dt`` [s]); the
@@ -656,7 +657,10 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     ``torques``: effect key -> (n, 2) its torque per unit parameter on pitch and yaw [N m / unit], computed by
     the caller from the measured states (an effect not compiled into the kernel: model/effects.py); the
     torque is held over each sample interval at the mean of its two ends, its parameter taken from
-    ``effects`` (or 0) and estimated when its key is in ``free``."""
+    ``effects`` (or 0) and estimated when its key is in ``free``.  ``start_states0``: where the motor and lag
+    start states (START_NAMES) and the first window's rates (alpha_dot_0_rad_s, beta_dot_0_rad_s) begin, e.g. a
+    previous fit's ``start_states`` (default: the motors' steady state for the first voltages, rates from the
+    angles' first 50 ms)."""
     n = alpha.size
     t = np.arange(n) * dt if t_s is None else np.asarray(t_s, dtype=float)
     h = np.diff(t)
@@ -673,7 +677,12 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     effects = dict(effects or {})
     exogenous = tuple(torques or {})
     given = [float(params[k] if k in _P else effects.get(k, 0.0)) for k in free]  # the freed values' starts
-    theta = np.concatenate([[theta0[k] for k in NAMES], steady_motor_states(u1[0], u2[0], params), given])
+    motor0 = steady_motor_states(u1[0], u2[0], params)
+    if start_states0:
+        motor0 = np.array([start_states0.get(k, m) for k, m in zip(START_NAMES, motor0)], dtype=float)
+        starts[0, 1] = start_states0.get("alpha_dot_0_rad_s", starts[0, 1])
+        starts[0, 3] = start_states0.get("beta_dot_0_rad_s", starts[0, 3])
+    theta = np.concatenate([[theta0[k] for k in NAMES], motor0, given])
     # what "negligible" means per unknown: J/B and freed values relative to themselves, start states to the
     # motors' range
     motor_range = np.abs(steady_motor_states(float(np.max(np.abs(u1))), float(np.max(np.abs(u2))), params))
@@ -708,14 +717,16 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
         trial = np.empty((n, 2))
         slope = -2.0 * (float(step @ b[:, :ng].sum(axis=0)) + float(np.sum(step_starts * b[:, ng:])))
         while lam >= 1e-4:  # backtracking keeps every iteration downhill
-            th_new = theta + lam * step
+            th_new, st_new = theta + lam * step, starts + lam * step_starts
             trial_cost = math.nan
-            if np.all(th_new[:4] > 0):
-                res = prob.evaluate(th_new, starts + lam * step_starts, trial, cost_only=True)
+            # a trial far out (a step of an ill-conditioned fit) may overflow: it is a failed trial, not a warning
+            if np.all(th_new[:4] > 0) and np.all(np.isfinite(th_new)) and np.all(np.isfinite(st_new)):
+                with np.errstate(all="ignore"):
+                    res = prob.evaluate(th_new, st_new, trial, cost_only=True)
                 if res[0] <= cost:
-                    accepted = th_new, starts + lam * step_starts, res
+                    accepted = th_new, st_new, res
                     break
-                trial_cost = res[0]
+                trial_cost = res[0] if math.isfinite(res[0]) else math.nan
             lam = _backtrack(lam, cost, slope, trial_cost)
         if accepted is None:  # no downhill step: at the minimum to working precision
             converged = bool(np.all(np.abs(step[:4]) <= np.maximum(1e-6 * theta[:4], 0.1 * se[:4])))
@@ -727,6 +738,8 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
             (cost, a, b, scores), out = res, trial
     s_mat, s_rhs, per_window = _schur(a, b, ng)
     cov = _covariance(s_mat, per_window, scores, win, block)
+    pending = float(_scaled_inverse(s_mat) @ s_rhs @ s_rhs) + sum(float(b[w, ng:] @ k[:, ng])
+                                                                  for w, k in enumerate(per_window))
     nb = scores.shape[0]
     se = np.sqrt(np.maximum(np.diag(cov), 0.0))
     tq = float(stdtrit(max(nb - 1, 1), 0.975))
@@ -753,7 +766,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
                    {k: (float(theta[i] - half[i]), float(theta[i] + half[i])) for i, k in enumerate(NAMES)},
                    converged, it, rms, float(cost), win * step_s, nw, substeps(step_s), nb,
                    {k: float(integration[i]) for i, k in enumerate(NAMES)}, start_states, start_se, out, freed,
-                   _Fit(prob, theta, starts, a, b))
+                   _Fit(prob, theta, starts, a, b), pending)
 
 
 def _backtrack(lam: float, cost: float, slope: float, trial_cost: float) -> float:
