@@ -66,9 +66,10 @@ class Estimate:
     doc: dict  # the result.json contract (report/summary.py)
 
     @property
-    def adequate(self) -> bool:
-        """Does the model fit the log to its noise level?  (``model_check``; read before any number)"""
-        return bool(self.doc["model_check"]["adequate"])
+    def adequate(self) -> bool | None:
+        """Does the model fit the log to its noise level?  (``model_check``; read before any number.)  None: not
+        decided, the output-error fit did not converge and could still reach the noise level."""
+        return self.doc["model_check"]["adequate"]
 
     @property
     def model_check(self) -> dict:
@@ -124,7 +125,7 @@ class Estimate:
         return compare_plot(self.log, self.result.simulated, self.model_check)
 
     def __repr__(self) -> str:
-        head = "model fits" if self.adequate else "MODEL DOES NOT FIT"
+        head = {True: "model fits", False: "MODEL DOES NOT FIT", None: "fit not decided"}[self.adequate]
         est = ", ".join(f"{k}={v:.6g}" if v is not None else f"{k}=n.i." for k, v in self.estimates.items())
         return f"<Estimate {self.log.source}: {head}; {est}>"
 

@@ -173,7 +173,8 @@ def write_summary(out_dir: Path, rows: list[dict]) -> list[Path]:
         why = r.get("not_credible") or {}
         cells = "".join(f"<td{cond}>{'' if est.get(k) is None else f'{est[k]:.6g}'}"
                         + (f" ({html.escape(why[k])})" if k in why else "") + "</td>" for k in names)
-        fits = {None: "", True: '<td class="ok">yes</td>', False: '<td class="failed">NO: model does not fit</td>'}
+        fits = {None: "<td>not decided</td>" if r["status"] == "ok" else "", True: '<td class="ok">yes</td>',
+                False: '<td class="failed">NO: model does not fit</td>'}
         items.append(f'<tr><td>{link}</td><td class="{r["status"]}">{r["status"]}</td>'
                      f'{fits[r["adequate"]] or "<td></td>"}{cells}'
                      f'<td>{html.escape(r["error"] or "")}</td></tr>')

@@ -26,7 +26,8 @@ if not {"OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"} & set(os.e
 import typer  # noqa: E402
 
 from . import __version__
-from .errors import EXIT_ALL_FAILED, EXIT_INADEQUATE, EXIT_INTERNAL, EXIT_SOME_FAILED, SettingsError, TrmsError
+from .errors import (EXIT_ALL_FAILED, EXIT_INADEQUATE, EXIT_INTERNAL, EXIT_SOME_FAILED, EXIT_UNDECIDED, SettingsError,
+                     TrmsError)
 from .settings import GAIN_CONVENTIONS, HEADLINES, Settings
 from .params import (ESTIMATED, THRUST_LAWS, UNITS, bench_names, load_parameter_file, marked,
                      parameter_file_inputs_unit)
@@ -143,7 +144,8 @@ FreeOpt = Annotated[str, typer.Option("--free", help="Known values to estimate w
                                       "Mg,kc (started from the table or --params; results in "
                                       "refined.known_values_estimated).")]
 StrictOpt = Annotated[bool, typer.Option("--strict", help="Exit with code 10 when the model does not fit the log "
-                                          "(model_check.adequate false; batch: any log).")]
+                                          "(model_check.adequate false), 11 when that is not decided (adequate "
+                                          "null: the fit did not converge); batch: any log.")]
 NoReportOpt = Annotated[bool, typer.Option("--no-report", help="Skip the HTML report.")]
 SignalOpt = Annotated[Optional[list[str]], typer.Option("--signal", help="MCAP: where a signal comes from, "
                                                         "NAME=TOPIC:FIELD, e.g. alpha=/arm/joint_states:position[pitch]; "
@@ -211,6 +213,11 @@ def progress_bar(label: str):
         yield lambda stage, done: bar.update(task, completed=done, description=stage)
 
 
+#: the first words of estimate's verdict line, by model_check.adequate
+VERDICT_HEAD = {True: "MODEL FITS: ", False: "MODEL DOES NOT FIT: ", None: "FIT NOT DECIDED: "}
+CONDITIONAL = {False: " (conditional on a model that does not fit)",
+               None: " (no adequacy verdict: the fit did not converge)"}
+
 @app.command()
 @handled
 def estimate(
@@ -267,7 +274,7 @@ def estimate(
         sys.stderr.write("\r\033[K")
     s = res.summary
     check = s["model_check"]
-    say(("MODEL FITS: " if check["adequate"] else "MODEL DOES NOT FIT: ") + check["sentence"])
+    say(VERDICT_HEAD[check["adequate"]] + check["sentence"])
     for warning in filter(None, [res.log.meta.get("warnings")]):
         say(f"warning: {warning}")
     for note in res.log.meta.get("assumed", {}).values():
@@ -294,7 +301,7 @@ def estimate(
             continue
         line = f"  {k} = {est:<11.6g} {UNITS[k]:<10}"
         line += f" 95 % {interval_text(lo, hi, est)}" if lo is not None else " (no interval: log too short)"
-        line += "" if check["adequate"] or lo is None else " (conditional on a model that does not fit)"
+        line += "" if check["adequate"] or lo is None else CONDITIONAL[check["adequate"]]
         if k in s["not_credible"]:
             line += (f" ({s['not_credible'][k]}: check the log's units and the known values; for a bench with "
                      f"its own: --params FILE or a bundled one, {', '.join(bench_names())})")
@@ -307,8 +314,8 @@ def estimate(
     say("wrote " + ", ".join(str(p) for p in res.written))
     if json_path:
         emit_json(s, json_path)
-    if strict and not check["adequate"]:
-        raise typer.Exit(EXIT_INADEQUATE)
+    if strict and check["adequate"] is not True:
+        raise typer.Exit(EXIT_INADEQUATE if check["adequate"] is False else EXIT_UNDECIDED)
 
 
 @app.command()
@@ -378,16 +385,19 @@ def batch(
         if r["status"] != "ok":
             say(f"failed: {r['error']}")
     bad_fit = [r for r in rows if r["adequate"] is False]
+    undecided = [r for r in rows if r["status"] == "ok" and r["adequate"] is None]
     for r in bad_fit:
         say(f"model does not fit: {r['path']}")
+    for r in undecided:
+        say(f"not decided whether the model fits (the fit did not converge): {r['path']}")
     say(f"{ok} ok ({skipped} up to date, skipped), {len(rows) - ok} failed, the model does not fit {len(bad_fit)}; "
         "wrote " + ", ".join(map(str, written)))
     if json_path:
         emit_json(json.loads((out / "summary.json").read_text()), json_path)
     if ok < len(rows):
         raise typer.Exit(EXIT_ALL_FAILED if ok == 0 else EXIT_SOME_FAILED)
-    if strict and bad_fit:
-        raise typer.Exit(EXIT_INADEQUATE)
+    if strict and (bad_fit or undecided):
+        raise typer.Exit(EXIT_INADEQUATE if bad_fit else EXIT_UNDECIDED)
 
 
 @app.command()
@@ -633,8 +643,10 @@ def export(
         header.append(f"estimated with --free: {', '.join(freed)}")
     path = output or result.with_name("model.toml")
     write_text(path, to_toml(known, estimates, header))
-    if not check["adequate"]:
+    if check["adequate"] is False:
         say("warning: the model did NOT fit that log; these values are those of a model that does not fit")
+    elif check["adequate"] is None:
+        say("warning: whether the model fits that log was not decided (its fit did not converge)")
     say(f"wrote {path}" + (f" (without {', '.join(missing)}: not identifiable)" if missing else ""))
 
 

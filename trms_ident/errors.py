@@ -12,6 +12,8 @@ EXIT_OUTPUT = 7
 EXIT_SOME_FAILED = 8  # batch: at least one log failed, at least one succeeded
 EXIT_ALL_FAILED = 9  # batch: every log failed
 EXIT_INADEQUATE = 10  # --strict: the model does not fit the log (model_check.adequate is false)
+EXIT_UNDECIDED = 11  # --strict: whether the model fits is not decided (model_check.adequate is null: the fit did
+# not converge and could still reach the noise level)
 
 
 class TrmsError(Exception):

@@ -76,7 +76,7 @@ def interval_from_sums(energy: float, cross: float, block_energy: np.ndarray, bl
     q = cross / energy
     k = block_energy.size
     if k < MIN_BLOCKS:
-        return Interval(q, math.nan, math.nan, k, q > 0,
+        return Interval(q, math.nan, math.nan, k, False,  # a number without an interval is no estimate
                         f"no interval: the log holds {k} independent blocks, {MIN_BLOCKS} are needed")
     score = block_cross - q * block_energy
     score -= score.mean()

@@ -84,8 +84,8 @@ def compare_plot(log: Log, simulated: np.ndarray | None, check: dict):
         a.grid(alpha=0.3)
         a.legend(fontsize=8, loc="upper right")
     ax[1].set_xlabel("t [s]")
-    fig.suptitle("Measured and simulated angles (" + ("the model fits" if check["adequate"] else
-                                                      "the model does NOT fit") + ")")
+    fig.suptitle("Measured and simulated angles (" + {True: "the model fits", False: "the model does NOT fit",
+                                                      None: "fit not decided"}[check["adequate"]] + ")")
     return fig
 
 

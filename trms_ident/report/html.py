@@ -49,8 +49,8 @@ def _cross(c: dict) -> str:
 
 def _verdict(doc: dict) -> str:
     c = doc["model_check"]
-    colour, title = ("#e8f5e9", "The model fits this log") if c["adequate"] else ("#fdecea", "The model does NOT fit "
-                                                                                  "this log")
+    colour, title = {True: ("#e8f5e9", "The model fits this log"), False: ("#fdecea", "The model does NOT fit this log"),
+                     None: ("#fff8e1", "Not decided whether the model fits this log")}[c["adequate"]]
     rows = "".join(_row([axis, f"{v['fit_percent']:.2f} %", f"{v['noise_floor_fit_percent']:.2f} %" +
                          ("" if v.get("noise_floor_measured", True) else " (floor not measurable)"),
                          f"{v['rms_over_noise']:.3g} (<= {v['rms_over_noise_threshold']:g})",

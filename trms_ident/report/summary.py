@@ -55,10 +55,12 @@ def summarize(result: Result, log: Log, truth: dict | None = None, truth_source:
         "model_check": check,
         "estimates": {k: result.estimates[k] for k in ESTIMATED},
         "ci95": {k: _pair(result.intervals[k]) for k in ESTIMATED},
-        "ci95_meaning": ("95 % intervals from the noise in this log; the model fits it to the noise level"
-                         if check["adequate"] else
-                         "95 % intervals CONDITIONAL on a model that does not fit this log (model_check): they "
-                         "measure the noise, not the model's error, and the true values may lie far outside"),
+        "ci95_meaning": {True: "95 % intervals from the noise in this log; the model fits it to the noise level",
+                         False: "95 % intervals CONDITIONAL on a model that does not fit this log (model_check): "
+                                "they measure the noise, not the model's error, and the true values may lie far "
+                                "outside",
+                         None: "95 % intervals with no adequacy verdict: the output-error fit did not converge, so "
+                               "whether the model fits this log is not decided (model_check)"}[check["adequate"]],
         "identifiable": {k: result.intervals[k].identifiable for k in ESTIMATED},
         "identifiability": {k: result.intervals[k].reason for k in ESTIMATED},
         "not_credible": not_credible(result.estimates),
