@@ -28,6 +28,8 @@ SEED = 20261123  # no test uses it
 REFS = ("square", "sine", "multisine", "steps", "chirp")
 KNOWN_JITTER = ("a1", "b1", "a2", "b2", "Mg", "Kg", "k1", "k2", "kc")
 NAMES = ("J1", "B1", "J2", "B2")
+VERDICT = {True: "yes", False: "NO", None: "not decided"}
+VERDICT_WRONG = {True: "YES (miss)", False: "no", None: "not decided"}
 
 
 def good(i: int) -> dict:
@@ -112,16 +114,17 @@ def main() -> None:
              "|---|---|---|---|---|---|---|---|---|"]
     for r in goods:
         lines.append(f"| {r['i']} | {r['desc']} | " + " | ".join(f"{r['err'][k]:.3g}" for k in NAMES) +
-                     f" | {sum(r['cover'].values())}/4 | {'yes' if r['adequate'] else 'NO'} | "
+                     f" | {sum(r['cover'].values())}/4 | {VERDICT[r['adequate']]} | "
                      f"{'yes' if r['ok'] else 'NO'} |")
     lines += ["", "| # | wrong-model log | judged adequate | known value blamed |", "|---|---|---|---|"]
     for r in wrongs:
-        lines.append(f"| {r['i']} | {r['desc']} | {'YES (miss)' if r['adequate'] else 'no'} | {r['suspect'] or '-'} |")
+        lines.append(f"| {r['i']} | {r['desc']} | {VERDICT_WRONG[r['adequate']]} | {r['suspect'] or '-'} |")
     covered = sum(sum(r["cover"].values()) for r in goods)
     summary = (f"Good-model logs: within J 1 % / B 3 % in {sum(r['ok'] for r in goods)}/{len(goods)}, judged adequate "
-               f"in {sum(r['adequate'] for r in goods)}/{len(goods)}, 95 % intervals cover {covered}/{4 * len(goods)} "
+               f"in {sum(r['adequate'] is True for r in goods)}/{len(goods)}, 95 % intervals cover {covered}/{4 * len(goods)} "
                f"({100 * covered / (4 * len(goods)):.1f} %). Wrong-model logs judged not adequate: "
-               f"{sum(not r['adequate'] for r in wrongs)}/{len(wrongs)}. {time.perf_counter() - t0:.0f} s on 2 "
+               f"{sum(r['adequate'] is False for r in wrongs)}/{len(wrongs)} (not decided: "
+               f"{sum(r['adequate'] is None for r in rows)}). {time.perf_counter() - t0:.0f} s on 2 "
                "processes.")
     text = ("## Blind set\n\n`python benchmarks/blind.py` (seed 20261123, used by no test; see its docstring for "
             "what is drawn).\n\n" + "\n".join(lines) + "\n\n" + summary + "\n")
