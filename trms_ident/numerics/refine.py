@@ -108,6 +108,7 @@ class Refined:
     freed: dict  # known values estimated with J/B (--free): name -> estimate, ci95, the value given
     fit: object = None  # _Fit, for score tests on further unknowns (suspect_known_values)
     pending_decrease: float = 0.0  # the decrease in cost one more full Gauss-Newton step predicts at the estimate
+    cov_jb: np.ndarray | None = None  # (4, 4) batch-means covariance of J1, B1, J2, B2 (NAMES' order)
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
@@ -639,6 +640,61 @@ class _Problem:
         return cost, a[:, perm][:, :, perm], b[:, perm], scores[:, perm]
 
 
+@dataclass
+class _Setup:
+    """One log made ready for Gauss-Newton: the problem, the windows' starts, the unknowns' start and scale."""
+    prob: "_Problem"
+    starts: np.ndarray  # (windows, 4) alpha, alpha', beta, beta' at each window's first sample
+    theta: np.ndarray  # J/B, the motor and lag start states, the freed values
+    scale: np.ndarray  # what "negligible" means per unknown (the stopping rule)
+    win: int
+    block: int
+    n: int
+    windows: int
+    step_s: float
+    y: np.ndarray
+    given: list  # the freed values' starts
+
+
+def _setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s=WINDOW_S, gravity_offset_rad=0.0,
+           t_s=None, free=(), switch_delay_s=None, effects=None, torques=None, start_states0=None) -> _Setup:
+    """refine's arguments (see there) as a ready problem: shared by refine and the joint fit over several logs."""
+    n = alpha.size
+    t = np.arange(n) * dt if t_s is None else np.asarray(t_s, dtype=float)
+    h = np.diff(t)
+    step_s = float(np.median(h))
+    block = max(int(round(BLOCK_S / step_s)), 1)
+    win = max(int(round(window_s / step_s)) // block, 1) * block  # windows hold whole blocks
+    nw = max(n // win, 1)
+    y = np.ascontiguousarray(np.column_stack([alpha, beta]))
+    sig = np.array([max(noise_rad.get("alpha", 0.0), 1e-12), max(noise_rad.get("beta", 0.0), 1e-12)])
+    starts = np.array([[alpha[s], _start_velocity(alpha, t, s), beta[s], _start_velocity(beta, t, s)]
+                       for s in range(0, nw * win, win)])
+    free = tuple(free)
+    m = len(free)
+    effects = dict(effects or {})
+    exogenous = tuple(torques or {})
+    given = [float(params[k] if k in _P else effects.get(k, 0.0)) for k in free]  # the freed values' starts
+    motor0 = steady_motor_states(u1[0], u2[0], params)
+    if start_states0:
+        motor0 = np.array([start_states0.get(k, v) for k, v in zip(START_NAMES, motor0)], dtype=float)
+        starts[0, 1] = start_states0.get("alpha_dot_0_rad_s", starts[0, 1])
+        starts[0, 3] = start_states0.get("beta_dot_0_rad_s", starts[0, 3])
+    theta = np.concatenate([[theta0[k] for k in NAMES], motor0, given])
+    # what "negligible" means per unknown: J/B and freed values relative to themselves, start states to the
+    # motors' range
+    motor_range = np.abs(steady_motor_states(float(np.max(np.abs(u1))), float(np.max(np.abs(u2))), params))
+    scale = np.concatenate([np.abs(theta[:4]), np.maximum(motor_range, 1e-6) * 1e3,
+                            np.maximum(np.abs(theta[NG:]), 1e-9)])
+    prob = _Problem(np.ascontiguousarray(u1, dtype=float), np.ascontiguousarray(u2, dtype=float), y, 1.0 / sig,
+                    model_vector(params, gravity_offset_rad, effects, exogenous), law == "signed", h,
+                    np.zeros((n, 2)) if switch_delay_s is None else np.ascontiguousarray(switch_delay_s, dtype=float),
+                    win, block,
+                    [slot(k, exogenous) for k in free],
+                    torques=_held(torques, n) if exogenous else None)
+    return _Setup(prob, starts, theta, scale, win, block, n, nw, step_s, y, given)
+
+
 def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict, noise_rad: dict,
            window_s: float = WINDOW_S, gravity_offset_rad: float = 0.0, t_s: np.ndarray | None = None,
            free: tuple[str, ...] = (), switch_delay_s: np.ndarray | None = None,
@@ -661,39 +717,11 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     start states (START_NAMES) and the first window's rates (alpha_dot_0_rad_s, beta_dot_0_rad_s) begin, e.g. a
     previous fit's ``start_states`` (default: the motors' steady state for the first voltages, rates from the
     angles' first 50 ms)."""
-    n = alpha.size
-    t = np.arange(n) * dt if t_s is None else np.asarray(t_s, dtype=float)
-    h = np.diff(t)
-    step_s = float(np.median(h))
-    block = max(int(round(BLOCK_S / step_s)), 1)
-    win = max(int(round(window_s / step_s)) // block, 1) * block  # windows hold whole blocks
-    nw = max(n // win, 1)
-    y = np.ascontiguousarray(np.column_stack([alpha, beta]))
-    sig = np.array([max(noise_rad.get("alpha", 0.0), 1e-12), max(noise_rad.get("beta", 0.0), 1e-12)])
-    starts = np.array([[alpha[s], _start_velocity(alpha, t, s), beta[s], _start_velocity(beta, t, s)]
-                       for s in range(0, nw * win, win)])
-    free = tuple(free)
-    m = len(free)
-    effects = dict(effects or {})
-    exogenous = tuple(torques or {})
-    given = [float(params[k] if k in _P else effects.get(k, 0.0)) for k in free]  # the freed values' starts
-    motor0 = steady_motor_states(u1[0], u2[0], params)
-    if start_states0:
-        motor0 = np.array([start_states0.get(k, m) for k, m in zip(START_NAMES, motor0)], dtype=float)
-        starts[0, 1] = start_states0.get("alpha_dot_0_rad_s", starts[0, 1])
-        starts[0, 3] = start_states0.get("beta_dot_0_rad_s", starts[0, 3])
-    theta = np.concatenate([[theta0[k] for k in NAMES], motor0, given])
-    # what "negligible" means per unknown: J/B and freed values relative to themselves, start states to the
-    # motors' range
-    motor_range = np.abs(steady_motor_states(float(np.max(np.abs(u1))), float(np.max(np.abs(u2))), params))
-    scale = np.concatenate([np.abs(theta[:4]), np.maximum(motor_range, 1e-6) * 1e3,
-                            np.maximum(np.abs(theta[NG:]), 1e-9)])
-    prob = _Problem(np.ascontiguousarray(u1, dtype=float), np.ascontiguousarray(u2, dtype=float), y, 1.0 / sig,
-                    model_vector(params, gravity_offset_rad, effects, exogenous), law == "signed", h,
-                    np.zeros((n, 2)) if switch_delay_s is None else np.ascontiguousarray(switch_delay_s, dtype=float),
-                    win, block,
-                    [slot(k, exogenous) for k in free],
-                    torques=_held(torques, n) if exogenous else None)
+    su = _setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s, gravity_offset_rad, t_s, free,
+                switch_delay_s, effects, torques, start_states0)
+    prob, starts, theta, scale, win, block, n, nw, y = (su.prob, su.starts, su.theta, su.scale, su.win, su.block,
+                                                        su.n, su.windows, su.y)
+    step_s, given, m = su.step_s, su.given, len(su.given)
     ng = NG + m
     out = np.empty((n, 2))
     cost, a, b, scores = prob.evaluate(theta, starts, out)
@@ -766,7 +794,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
                    {k: (float(theta[i] - half[i]), float(theta[i] + half[i])) for i, k in enumerate(NAMES)},
                    converged, it, rms, float(cost), win * step_s, nw, substeps(step_s), nb,
                    {k: float(integration[i]) for i, k in enumerate(NAMES)}, start_states, start_se, out, freed,
-                   _Fit(prob, theta, starts, a, b), pending)
+                   _Fit(prob, theta, starts, a, b), pending, cov[:4, :4].copy())
 
 
 def _backtrack(lam: float, cost: float, slope: float, trial_cost: float) -> float:
