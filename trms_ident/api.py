@@ -269,3 +269,105 @@ def log_frame(sim_result):
 
     r = sim_result
     return pd.DataFrame({"t": r.t_s, "u1": r.u1_v, "u2": r.u2_v, "alpha": r.alpha_rad, "beta": r.beta_rad})
+
+
+@dataclass
+class JointEstimate:
+    """One bench from several logs (:func:`estimate_joint`): the pooled J/B, each log's own, and whether they agree."""
+
+    logs: list  # the Logs, in the order given
+    result: object  # joint.JointResult
+    doc: dict  # result.json's contract (report/joint.py)
+
+    @property
+    def estimates(self) -> dict:
+        """Pooled J1, J2 [kg m^2], B1, B2 [N m s/rad]; None where the logs together do not determine one."""
+        return dict(self.doc["joint"]["estimates"])
+
+    @property
+    def ci95(self) -> dict:
+        return {k: tuple(v) for k, v in self.doc["joint"]["ci95"].items()}
+
+    @property
+    def consistent(self) -> bool | None:
+        """Do the logs agree (one bench)?  None: fewer than two determine a common parameter."""
+        return self.doc["joint"]["consistent"]
+
+    @property
+    def outliers(self) -> list[str]:
+        return list(self.doc["joint"]["outliers"])
+
+    def save(self, out_dir: str | Path, html: bool = True) -> list[Path]:
+        """Write result.json and report.html (atomically) into out_dir; returns their paths."""
+        from .io.atomic import write_text
+        from .report.summary import to_json
+
+        out = Path(out_dir)
+        write_text(out / "result.json", to_json(self.doc))
+        written = [out / "result.json"]
+        if html:
+            from .report.joint import render
+
+            write_text(out / "report.html", render(self.doc, self.result, self.logs))
+            written.append(out / "report.html")
+        return written
+
+    def __repr__(self) -> str:
+        est = ", ".join(f"{k}={v:.6g}" if v is not None else f"{k}=n.i." for k, v in self.estimates.items())
+        return f"<JointEstimate of {len(self.logs)} logs: consistent={self.consistent}; {est}>"
+
+
+def estimate_joint(logs, *, params: dict | str | Path | None = None, names: list[str] | None = None,
+                   **options) -> JointEstimate:
+    """One set of J1, B1, J2, B2 fitted by output error over several logs of one bench, each log with its own start
+    states, windows, noise floor and sample rate; each log's own estimate beside it and a test that they agree.
+
+    ``logs``: paths (CSV, MCAP, .mat), DataFrames or Logs, or a manifest's path (a .csv whose header starts with
+    ``path``: see io/manifest.py).  ``params``, ``options``: as :func:`estimate` (the reader's options apply to
+    every path).  Same numbers as ``trms-ident estimate --joint`` with the same options."""
+    from .errors import SettingsError
+    from .io.manifest import Entry
+    from .params import load_parameter_file
+
+    unknown = set(options) - _SETTINGS - set(_READ)
+    if unknown:
+        raise SettingsError(f"unknown option(s) {', '.join(sorted(unknown))}")
+    read = {k: options.pop(k) for k in _READ if k in options}
+    if isinstance(params, (str, Path)):
+        params = load_parameter_file(params)
+    settings = Settings(overrides=dict(params or {}), **options)
+    settings.validate()
+    if isinstance(logs, (str, Path)):  # a manifest
+        from .io.manifest import read_manifest
+
+        entries = read_manifest(logs)
+    else:
+        entries = [Entry(Path(x), read.get("signals"), read.get("rate_hz"), read.get("angle_unit", "auto"),
+                         read.get("time_unit", "auto")) if isinstance(x, (str, Path)) else x for x in logs]
+    return estimate_joint_with(entries, settings, names)
+
+
+def estimate_joint_with(entries: list, settings: Settings, names: list[str] | None = None) -> JointEstimate:
+    """:func:`estimate_joint` with ready settings; ``entries``: io.manifest.Entry items, DataFrames or Logs."""
+    from .errors import TrmsError
+    from .io.manifest import Entry
+    from .io.readers import read_log
+    from .joint import identify_joint
+    from .report.joint import joint_doc
+
+    logs, labels = [], []
+    for i, e in enumerate(entries):
+        if isinstance(e, Entry):
+            try:
+                logs.append(read_log(e.path, angle_unit=e.angle_unit, signals=e.signals, time_unit=e.time_unit,
+                                     rate_hz=e.rate_hz))
+            except TrmsError as exc:
+                if e.where:  # a manifest's line
+                    raise type(exc)(f"{e.where}: {exc}") from None
+                raise
+            labels.append(e.label)
+        else:
+            logs.append(_as_log(e, {}))
+            labels.append(logs[-1].source if logs[-1].source != "<memory>" else f"log {i + 1}")
+    result = identify_joint(logs, settings, names or labels)
+    return JointEstimate(logs, result, joint_doc(result, logs))

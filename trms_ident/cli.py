@@ -221,10 +221,17 @@ CONDITIONAL = {False: " (conditional on a model that does not fit)",
 @app.command()
 @handled
 def estimate(
-    log: Annotated[Path, typer.Argument(help="Log file: CSV (t,u1,u2,alpha,beta), MCAP or MATLAB .mat.",
-                                        show_default=False)],
+    logs: Annotated[Optional[list[Path]], typer.Argument(
+        help="Log file: CSV (t,u1,u2,alpha,beta), MCAP or MATLAB .mat; with --joint, several logs of one bench.",
+        show_default=False)] = None,
     out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Folder for report.html, traces.csv, "
-                                                "result.json [default: ./<log name>_ident].")] = None,
+                                                "result.json [default: ./<log name>_ident; --joint: "
+                                                "./joint_ident].")] = None,
+    joint: Annotated[bool, typer.Option("--joint", help="One set of J/B over all the logs given (one bench), "
+                                        "each log's own estimate beside it and a test that they agree.")] = False,
+    manifest: Annotated[Optional[Path], typer.Option("--manifest", help="A CSV of logs for --joint: columns path "
+                                                     "(required), signal, rate, angle_unit, time_unit, name, "
+                                                     "bench, date; one row per log.", show_default=False)] = None,
     json_path: Annotated[Optional[str], typer.Option("--json", help="Also write the result JSON here; '-' = stdout.")] = None,
     params: ParamsOpt = None,
     a: AOpt = "auto",
@@ -246,11 +253,19 @@ def estimate(
     voltage_time: VoltageTimeOpt = "stamp",
     rate: RateOpt = None,
 ) -> None:
-    """Estimate J1, B1, J2, B2 from a log and write a report."""
+    """Estimate J1, B1, J2, B2 from a log and write a report (--joint: one bench from several logs)."""
     from .commands import estimate_file
 
     settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit, refine,
                               free, time_unit)
+    logs = list(logs or [])
+    if joint or manifest:
+        return _estimate_joint(logs, manifest, settings, out, json_path, no_report, strict, signal, rate,
+                               angle_unit, time_unit)
+    if len(logs) != 1:
+        raise SettingsError(f"estimate takes one log ({len(logs)} given): add --joint to estimate one bench from "
+                            "several logs together, or use `trms-ident batch` for one estimate per log")
+    log = logs[0]
     out_dir = out if out is not None else Path(f"{log.name.split('.')[0]}_ident")
     from . import CACHE_NOTE
     from ._cache import kernels_cached
@@ -593,6 +608,45 @@ def inspect(
             "(PATH as listed above; one column of a matrix as PATH:COLUMN)")
     for w in doc.get("warnings", []):
         say(f"warning: {w}")
+
+
+def _estimate_joint(logs: list[Path], manifest: Path | None, settings: Settings, out: Path | None,
+                    json_path: str | None, no_report: bool, strict: bool, signal, rate, angle_unit: str,
+                    time_unit: str) -> None:
+    """estimate --joint: read, pool, test, write; the verdict first, then the pooled and per-log numbers."""
+    from .api import estimate_joint_with
+    from .io.manifest import Entry, read_manifest
+    from .report.summary import interval_text, to_json
+
+    entries = read_manifest(manifest) if manifest else []
+    entries += [Entry(p, signal, rate, angle_unit, time_unit) for p in logs]
+    if not entries:
+        raise SettingsError("estimate --joint: no logs; give their paths or --manifest FILE")
+    progress = stage_reporter(f"{len(entries)} logs")
+    if progress:
+        progress("each alone, then pooled")
+    est = estimate_joint_with(entries, settings)
+    if progress:
+        sys.stderr.write("\r\033[K")
+    j = est.doc["joint"]
+    say(("LOGS AGREE: " if j["consistent"] else "LOGS DISAGREE: " if j["consistent"] is False else
+         "AGREEMENT NOT TESTED: ") + j["sentence"])
+    for lg in j["logs"]:
+        check = lg["model_check"]
+        say(f"  {lg['name']}: " + ("left out of the pool" if not lg["in_pool"] else
+                                   "pooled model " + {True: "fits", False: "does NOT fit",
+                                                      None: "fit not decided"}[check["adequate"]]) +
+            "; alone " + ", ".join(f"{k} {'n.i.' if v is None else f'{v:.6g}'}" for k, v in lg["estimates"].items()))
+    for k in ESTIMATED:
+        v, (lo, hi) = j["estimates"][k], j["ci95"][k]
+        say(f"  {k} = {v:<11.6g} {UNITS[k]:<10} 95 % {interval_text(lo, hi, v)}" if v is not None else
+            f"  {k}: {j['identifiability'][k]}")
+    written = est.save(out if out is not None else Path("joint_ident"), html=not no_report)
+    say("wrote " + ", ".join(map(str, written)))
+    if json_path:
+        emit_json(est.doc, json_path)
+    if strict and j["adequate"] is not True:
+        raise typer.Exit(EXIT_INADEQUATE if j["adequate"] is False else EXIT_UNDECIDED)
 
 
 def mat_signal_line(s: dict) -> str:
