@@ -1,0 +1,113 @@
+"""One bench, many recordings: the joint estimate, the consistency test, manifests (issue #33)."""
+import json
+
+import numpy as np
+import pytest
+import scipy.io
+from typer.testing import CliRunner
+
+import trms_ident as ti
+from sim import SimSettings, simulate
+from trms_ident.cli import app
+from trms_ident.errors import InputNotFoundError, LogFormatError
+from trms_ident.identify import identify
+from trms_ident.io.csv_log import write_csv_log
+from trms_ident.joint import identify_joint
+from trms_ident.log import validated
+
+runner = CliRunner()
+TRUE = {"J1": 0.08, "B1": 0.007, "J2": 0.025, "B2": 0.12}
+
+
+def _run(ref, rate, seed, start=0.0, over=None, noise=5e-4, duration=50.0):
+    return simulate(SimSettings(ref=ref, sample_rate_hz=rate, duration_s=duration, noise_std_rad=noise, seed=seed,
+                                start_s=start, overrides={**TRUE, **(over or {})}))
+
+
+def _log(r, name):
+    return validated(r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, angle_unit="rad", source=name)
+
+
+@pytest.fixture(scope="module")
+def bench():
+    return [_run("multisine", 200.0, 1), _run("steps", 500.0, 2, start=20.0), _run("sine", 100.0, 3, start=5.0)]
+
+
+def test_the_joint_estimate_of_one_log_is_its_own_estimate(bench):
+    log = _log(bench[0], "one")
+    alone = identify(log)
+    joint = identify_joint([log])
+    for i, k in enumerate(TRUE):  # equal to the stopping rule's tolerance: a tenth of a standard error
+        se = np.sqrt(alone.refined.cov_jb[i, i])
+        assert abs(joint.fit.estimate[k] - alone.refined.estimate[k]) <= 0.1 * se
+        assert joint.fit.ci95[k] == pytest.approx(alone.refined.ci95[k], abs=0.1 * se)
+    assert joint.fit.cost <= alone.refined.cost + 0.1  # refine's MIN_COST_DECREASE
+    assert joint.consistent is None and "cannot be tested" in joint.sentence
+
+
+def test_logs_of_one_bench_agree_and_pool_tighter_than_any_alone(bench):
+    logs = [_log(r, f"run{i}") for i, r in enumerate(bench)]
+    j = identify_joint(logs)
+    assert j.consistent is True and j.outliers == []
+    for k, v in TRUE.items():
+        assert j.estimates[k] == pytest.approx(v, rel=0.005 if k.startswith("J") else 0.02)
+        lo, hi = j.ci95[k]
+        assert lo <= v <= hi
+        best_alone = min(v_.ci95[k][1] - v_.ci95[k][0] for v_ in j.logs if v_.estimates[k] is not None)
+        assert hi - lo <= best_alone * 1.01  # no wider, to the batch means' own precision
+    assert all(v.model_check["adequate"] for v in j.logs)
+
+
+def test_a_log_from_another_bench_is_named_and_left_out(bench):
+    odd = _run("chirp", 250.0, 4, over={"J1": 1.1 * TRUE["J1"]})
+    logs = [_log(r, f"run{i}") for i, r in enumerate(bench)] + [_log(odd, "rotor changed")]
+    j = identify_joint(logs)
+    assert j.outliers == ["rotor changed"] and j.consistent is True
+    assert j.sentence.startswith("Left out of the pool: J1 in rotor changed is 10")
+    assert "% above the others" in j.sentence
+    assert j.estimates["J1"] == pytest.approx(TRUE["J1"], rel=0.005)
+    assert [v.in_pool for v in j.logs] == [True, True, True, False]
+
+
+def test_logs_of_mixed_rates_and_formats_through_the_command_line(bench, tmp_path):
+    a, b, c = bench
+    write_csv_log(tmp_path / "a.csv", a.t_s, a.u1_v, a.u2_v, a.alpha_rad, a.beta_rad)
+    scipy.io.savemat(tmp_path / "b.mat", {"t": b.t_s, "pitch": b.alpha_rad, "yaw": b.beta_rad, "u1": b.u1_v,
+                                          "u2": b.u2_v})
+    scipy.io.savemat(tmp_path / "c.mat", {"data": np.column_stack([c.u1_v, c.u2_v, c.alpha_rad, c.beta_rad])})
+    (tmp_path / "runs.csv").write_text('path,signal,rate,name\nb.mat,,,fast steps\n'
+                                       'c.mat,"u1=data:0,u2=data:1,alpha=data:2,beta=data:3",100,slow sine\n')
+    res = runner.invoke(app, ["estimate", "--joint", str(tmp_path / "a.csv"), "--manifest", str(tmp_path / "runs.csv"),
+                              "-o", str(tmp_path / "out"), "--json", "-"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)["joint"]
+    assert [lg["name"] for lg in doc["logs"]] == ["fast steps", "slow sine", "a.csv"]
+    assert [round(1 / lg["sample_time_s"]) for lg in doc["logs"]] == [500, 100, 200]
+    assert doc["consistent"] is True and res.stderr.startswith("LOGS AGREE: The 3 logs agree")
+    for k, v in TRUE.items():
+        assert doc["estimates"][k] == pytest.approx(v, rel=0.005 if k.startswith("J") else 0.02)
+    page = (tmp_path / "out" / "report.html").read_text()
+    assert "Do the logs agree?" in page and "forest plot" in page and page.count("<h3>") == 3
+    api = ti.estimate_joint(tmp_path / "runs.csv")
+    assert api.consistent is True and api.estimates["J1"] == pytest.approx(TRUE["J1"], rel=0.005)
+
+
+def test_several_logs_without_joint_are_refused():
+    res = runner.invoke(app, ["estimate", "a.csv", "b.csv"])
+    assert res.exit_code == 2 and "estimate takes one log (2 given): add --joint" in res.output
+
+
+def test_a_manifest_error_names_its_line(bench, tmp_path):
+    a = bench[0]
+    write_csv_log(tmp_path / "a.csv", a.t_s, a.u1_v, a.u2_v, a.alpha_rad, a.beta_rad)
+    m = tmp_path / "m.csv"
+    m.write_text("path,name\na.csv,first\nmissing.csv,second\n")
+    with pytest.raises(InputNotFoundError, match=r"m.csv: line 3: no such log .*missing.csv"):
+        ti.estimate_joint(m)
+    m.write_text("path,signal\na.csv,alpha=nope\n")
+    res = runner.invoke(app, ["estimate", "--manifest", str(m), "-o", str(tmp_path / "o")])
+    assert res.exit_code == 4 and len(res.output.strip().splitlines()) == 1, res.output
+    assert "m.csv: line 2:" in res.output and "nope" in res.output
+    m.write_text("file,name\na.csv,x\n")
+    with pytest.raises(LogFormatError, match=r"m.csv: line 1: expected a header starting with 'path'"):
+        ti.estimate_joint(m)
