@@ -190,3 +190,104 @@ they stand (open its report).</i></p></body></html>
 """
     write_text(out_dir / "index.html", page)
     return [out_dir / "summary.json", out_dir / "summary.csv", out_dir / "index.html"]
+
+
+def run_joint(entries: list, by: str, out_dir: Path, settings: Settings, html_report: bool = True,
+              progress: Callable[[int, int], None] | None = None) -> list[dict]:
+    """``batch --joint-by FIELD``: one joint estimate per value of the manifest's column ``by`` (a bench), each
+    written to its own folder; a group whose logs cannot be read or estimated is a failed row, the others go on."""
+    from .api import estimate_joint_with
+
+    if by not in ("bench", "date", "name"):
+        raise SettingsError(f"--joint-by {by!r}: expected a manifest column, bench (or date, name)")
+    groups: dict[str, list] = {}
+    for e in entries:
+        groups.setdefault(getattr(e, by) or "(none)", []).append(e)
+    rows, taken = [], set()
+    for n, (key, members) in enumerate(groups.items()):
+        folder = out_dir / output_name(Path(key.replace("/", "_")), taken)
+        row = {"group": key, "logs": [str(e.path) for e in members], "names": [e.label for e in members],
+               "dates": [e.date for e in members], "status": "failed", "error": None, "output": str(folder)}
+        try:
+            est = estimate_joint_with(members, settings)
+            est.save(folder, html=html_report)
+            j = est.doc["joint"]
+            row.update(status="ok", estimates=j["estimates"], ci95=j["ci95"], consistent=j["consistent"],
+                       outliers=j["outliers"], sentence=j["sentence"], adequate=j["adequate"],
+                       per_log=[{"name": lg["name"], "estimates": lg["estimates"], "ci95": lg["ci95"],
+                                 "in_pool": lg["in_pool"]} for lg in j["logs"]])
+        except TrmsError as exc:
+            row["error"] = str(exc)
+        rows.append(row)
+        if progress:
+            progress(n + 1, len(groups))
+    return rows
+
+
+def write_joint_summary(out_dir: Path, rows: list[dict], html_report: bool = True) -> list[Path]:
+    """joint_summary.json and joint_index.html: per group the pooled J/B, whether its logs agree, which differ;
+    with dates, each log's own J/B over time with its interval (wear, drift) and the ones that differ marked."""
+    from .report.summary import to_json
+
+    doc = {"groups": rows, "ok": sum(r["status"] == "ok" for r in rows),
+           "failed": sum(r["status"] != "ok" for r in rows),
+           "disagree": sum(r["status"] == "ok" and bool(r.get("outliers") or r.get("consistent") is False)
+                           for r in rows)}
+    write_text(out_dir / "joint_summary.json", to_json(doc))
+    written = [out_dir / "joint_summary.json"]
+    if html_report:
+        write_text(out_dir / "joint_index.html", _joint_page(out_dir, rows))
+        written.append(out_dir / "joint_index.html")
+    return written
+
+
+def _joint_page(out_dir: Path, rows: list[dict]) -> str:
+    names = ("J1", "B1", "J2", "B2")
+    items = []
+    for r in rows:
+        link = os.path.relpath(Path(r["output"]) / "report.html", out_dir)
+        if r["status"] != "ok":
+            items.append(f"<h2>{html.escape(r['group'])}</h2><p class='failed'>failed: {html.escape(r['error'])}</p>")
+            continue
+        cells = "".join(f"<td>{'n.i.' if r['estimates'][k] is None else format(r['estimates'][k], '.6g')}</td>"
+                        for k in names)
+        figure = _over_time(r) if any(r["dates"]) else ""
+        items.append(f"<h2><a href='{html.escape(link)}'>{html.escape(r['group'])}</a>: {len(r['logs'])} logs</h2>"
+                     f"<p>{html.escape(r['sentence'])}</p><table><tr><th></th>"
+                     + "".join(f"<th>{k}</th>" for k in names) + f"</tr><tr><td>pooled</td>{cells}</tr></table>"
+                     + figure)
+    return (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>trms-ident benches</title><style>"
+            "body{font-family:system-ui,sans-serif;margin:2em;max-width:1100px}table{border-collapse:collapse}"
+            "td,th{border:1px solid #ccc;padding:3px 8px}.failed{color:#b00}</style></head><body>"
+            "<h1>Benches: one joint estimate each</h1>" + "".join(items) + "</body></html>")
+
+
+def _over_time(r: dict) -> str:
+    """Each log's own J/B against its date, with 95 % intervals; logs left out of the pool in red."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from .report.figures import png_data_uri
+
+    order = sorted(range(len(r["dates"])), key=lambda i: r["dates"][i])
+    fig, axes = plt.subplots(1, 4, figsize=(12, 2.8))
+    left_out = set(r["outliers"])
+    for ax, k in zip(axes, ("J1", "B1", "J2", "B2")):
+        for x, i in enumerate(order):
+            lg = r["per_log"][i]
+            e = lg["estimates"][k]
+            if e is None:
+                continue
+            lo, hi = lg["ci95"][k]
+            err = [[e - lo], [hi - e]] if lo is not None and hi is not None else None
+            ax.errorbar([x], [e], yerr=err, fmt="o", capsize=3, ms=4,
+                        color="tab:red" if lg["name"] in left_out else "black")
+        if r["estimates"][k] is not None:
+            lo, hi = r["ci95"][k]
+            ax.axhspan(lo, hi, color="tab:blue", alpha=0.15)
+        ax.set_xticks(np.arange(len(order)), [r["dates"][i] or "?" for i in order], rotation=45, fontsize=7)
+        ax.set_title(k, fontsize=9)
+        ax.grid(alpha=0.3)
+    fig.suptitle("Each log's own estimate by date (red: differs from the others, left out of the pool)", fontsize=9)
+    fig.tight_layout()
+    return f"<img alt='estimates over time' src='{png_data_uri(fig)}'>"

@@ -336,8 +336,15 @@ def estimate(
 @app.command()
 @handled
 def batch(
-    inputs: Annotated[list[str], typer.Argument(help="Folders (searched recursively), glob patterns or log files.",
-                                                show_default=False)],
+    inputs: Annotated[Optional[list[str]], typer.Argument(
+        help="Folders (searched recursively), glob patterns or log files.", show_default=False)] = None,
+    manifest: Annotated[Optional[Path], typer.Option("--manifest", help="A CSV of logs (columns path, signal, rate, "
+                                                     "angle_unit, time_unit, name, bench, date) for --joint-by.",
+                                                     show_default=False)] = None,
+    joint_by: Annotated[Optional[str], typer.Option("--joint-by", help="With --manifest: one joint estimate per "
+                                                    "value of this column (bench), in its own folder, with "
+                                                    "joint_summary.json and joint_index.html.",
+                                                    show_default=False)] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder for one output folder per log, summary.csv, "
                                       "summary.json and index.html.")] = Path("batch_out"),
     jobs: Annotated[int, typer.Option("--jobs", "-j", help="Worker processes on this machine.")] = 1,
@@ -373,6 +380,11 @@ def batch(
         raise SettingsError(f"--jobs {jobs}: expected 1 or more")
     settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit, refine,
                               free, time_unit)
+    if joint_by or manifest:
+        return _batch_joint(manifest, joint_by, inputs, out, settings, no_report, json_path, strict)
+    inputs = list(inputs or [])
+    if not inputs:
+        raise SettingsError("batch: no inputs; give folders, globs or log files (or --manifest FILE --joint-by bench)")
     paths = batch_mod.discover(inputs, out)
     if not paths:
         raise SettingsError(f"no .csv, .mcap or .mat logs found in {' '.join(inputs)}")
@@ -608,6 +620,49 @@ def inspect(
             "(PATH as listed above; one column of a matrix as PATH:COLUMN)")
     for w in doc.get("warnings", []):
         say(f"warning: {w}")
+
+
+def _batch_joint(manifest: Path | None, joint_by: str | None, inputs, out: Path, settings: Settings,
+                 no_report: bool, json_path: str | None, strict: bool) -> None:
+    """batch --manifest FILE --joint-by COLUMN: one joint estimate per group, a summary over the groups."""
+    from . import batch as batch_mod
+    from .io.manifest import read_manifest
+
+    if not (manifest and joint_by):
+        raise SettingsError("batch: --joint-by and --manifest go together (the grouping column lives in the manifest)")
+    if inputs:
+        raise SettingsError("batch --joint-by: the logs come from the manifest; leave out the inputs "
+                            f"({' '.join(inputs)})")
+    entries = read_manifest(manifest)
+    bar = None
+    if sys.stderr.isatty():
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+        bar = Progress(TextColumn("benches"), BarColumn(), MofNCompleteColumn(), transient=True)
+        task = bar.add_task("groups", total=None)
+        bar.start()
+    try:
+        rows = batch_mod.run_joint(entries, joint_by, out, settings, html_report=not no_report,
+                                   progress=(lambda done, total: bar.update(task, completed=done, total=total))
+                                   if bar else None)
+    finally:
+        if bar:
+            bar.stop()
+    written = batch_mod.write_joint_summary(out, rows, html_report=not no_report)
+    for r in rows:
+        if r["status"] != "ok":
+            say(f"failed: {r['group']}: {r['error']}")
+        else:
+            say(f"{r['group']} ({len(r['logs'])} logs): {r['sentence']}")
+    ok = sum(r["status"] == "ok" for r in rows)
+    say(f"{ok} group(s) estimated, {len(rows) - ok} failed; wrote " + ", ".join(map(str, written)))
+    if json_path:
+        emit_json(json.loads((out / "joint_summary.json").read_text()), json_path)
+    if ok < len(rows):
+        raise typer.Exit(EXIT_ALL_FAILED if ok == 0 else EXIT_SOME_FAILED)
+    fits = [r["adequate"] for r in rows]
+    if strict and (False in fits or None in fits):
+        raise typer.Exit(EXIT_INADEQUATE if False in fits else EXIT_UNDECIDED)
 
 
 def _estimate_joint(logs: list[Path], manifest: Path | None, settings: Settings, out: Path | None,

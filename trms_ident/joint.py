@@ -266,7 +266,9 @@ def _sentence(verdicts: list[LogVerdict], test: dict, outliers: list, fit: Joint
         v = next(x for x in verdicts if x.name == name)
         parts.append(_difference(v, fit))
     return ("Left out of the pool: " + "; ".join(parts) + ": a different bench, a changed rotor, or physics only "
-            f"that log excites. The other {n - len(outliers)} logs agree (p = {test['p']:.3g}) and are pooled.")
+            f"that log excites. The other {n - len(outliers)} logs agree" +
+            (f" to within {100 * PRACTICAL_REL:g} % (Cochran's p = {test['p']:.3g})" if test["p"] is not None and
+             test["p"] < LEVEL else f" (Cochran's p = {test['p']:.3g})") + " and are pooled.")
 
 
 def _difference(v: LogVerdict, fit: JointFit) -> str:
