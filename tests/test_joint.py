@@ -111,3 +111,53 @@ def test_a_manifest_error_names_its_line(bench, tmp_path):
     m.write_text("file,name\na.csv,x\n")
     with pytest.raises(LogFormatError, match=r"m.csv: line 1: expected a header starting with 'path'"):
         ti.estimate_joint(m)
+
+
+def _joined(tmp_path, restart: bool):
+    parts = [_run(ref, 200.0, seed, start=st, duration=30.0) for ref, seed, st in
+             (("multisine", 11, 0.0), ("steps", 12, 15.0), ("sine", 13, 0.0))]
+    if restart:  # each run's clock starts at 0 again
+        t = np.concatenate([p.t_s - p.t_s[0] for p in parts])
+    else:  # one clock, but the angles jump where the runs meet
+        t = np.arange(sum(p.t_s.size for p in parts)) * 0.005
+    cat = lambda f: np.concatenate([getattr(p, f) + (0.0 if restart or f != "beta_rad" else 3.0 * k)
+                                    for k, p in enumerate(parts)])
+    path = tmp_path / "joined.csv"
+    write_csv_log(path, t, cat("u1_v"), cat("u2_v"), cat("alpha_rad"), cat("beta_rad"))
+    return path
+
+
+@pytest.mark.parametrize("restart", [True, False], ids=["time restarts", "angles jump"])
+def test_runs_joined_in_one_file_are_found_and_estimated_jointly(tmp_path, restart):
+    path = _joined(tmp_path, restart)
+    res = runner.invoke(app, ["estimate", str(path), "-o", str(tmp_path / "o"), "--json", "-"])
+    assert res.exit_code == 0, res.output
+    note = res.stderr.splitlines()[0]
+    assert note.startswith(f"note: {path}: holds 3 runs joined end to end (line 6003 (t = ")
+    assert ("time restarts" if restart else "rad in one sample") in note and note.endswith("as runs of one bench")
+    doc = json.loads(res.stdout)["joint"]
+    assert [lg["name"] for lg in doc["logs"]] == ["joined.csv run 1", "joined.csv run 2", "joined.csv run 3"]
+    assert doc["consistent"] is True and doc["estimates"]["J1"] == pytest.approx(TRUE["J1"], rel=0.005)
+
+
+def test_batch_estimates_each_bench_jointly_and_flags_a_change_over_time(tmp_path):
+    rows = ["path,name,bench,date"]
+    for bench, over in (("A", {}), ("B", {"J2": 0.03})):
+        for k, (ref, rate, date) in enumerate((("multisine", 200.0, "2024-01-10"), ("steps", 500.0, "2024-02-11"),
+                                               ("sine", 100.0, "2024-03-12"))):
+            changed = {"J1": 0.088} if bench == "B" and k == 2 else {}
+            r = _run(ref, rate, 20 + k, over={**over, **changed}, duration=40.0)
+            write_csv_log(tmp_path / f"{bench}_{ref}.csv", r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad)
+            rows.append(f"{bench}_{ref}.csv,{bench} {ref},{bench},{date}")
+    (tmp_path / "archive.csv").write_text("\n".join(rows) + "\n")
+    res = runner.invoke(app, ["batch", "--manifest", str(tmp_path / "archive.csv"), "--joint-by", "bench", "-o",
+                              str(tmp_path / "out"), "--json", "-"])
+    assert res.exit_code == 0, res.output
+    groups = {g["group"]: g for g in json.loads(res.stdout)["groups"]}
+    assert groups["A"]["outliers"] == [] and groups["A"]["estimates"]["J1"] == pytest.approx(TRUE["J1"], rel=0.005)
+    assert groups["B"]["outliers"] == ["B sine"] and groups["B"]["estimates"]["J2"] == pytest.approx(0.03, rel=0.005)
+    assert "J1 in B sine is 10" in groups["B"]["sentence"]
+    page = (tmp_path / "out" / "joint_index.html").read_text()
+    assert page.count("estimates over time") == 2 and (tmp_path / "out" / "B" / "report.html").exists()
+    res = runner.invoke(app, ["batch", "--joint-by", "bench", "-o", str(tmp_path / "x")])
+    assert res.exit_code == 2 and "--joint-by and --manifest go together" in res.output

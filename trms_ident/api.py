@@ -349,7 +349,7 @@ def estimate_joint(logs, *, params: dict | str | Path | None = None, names: list
 
 def estimate_joint_with(entries: list, settings: Settings, names: list[str] | None = None) -> JointEstimate:
     """:func:`estimate_joint` with ready settings; ``entries``: io.manifest.Entry items, DataFrames or Logs."""
-    from .errors import TrmsError
+    from .errors import JoinedRunsError, TrmsError
     from .io.manifest import Entry
     from .io.readers import read_log
     from .joint import identify_joint
@@ -361,11 +361,14 @@ def estimate_joint_with(entries: list, settings: Settings, names: list[str] | No
             try:
                 logs.append(read_log(e.path, angle_unit=e.angle_unit, signals=e.signals, time_unit=e.time_unit,
                                      rate_hz=e.rate_hz))
+                labels.append(e.label)
+            except JoinedRunsError as exc:  # runs joined end to end in one file: each a log of the joint estimate
+                logs += exc.runs
+                labels += [f"{e.label} run {k + 1}" for k in range(len(exc.runs))]
             except TrmsError as exc:
                 if e.where:  # a manifest's line
                     raise type(exc)(f"{e.where}: {exc}") from None
                 raise
-            labels.append(e.label)
         else:
             logs.append(_as_log(e, {}))
             labels.append(logs[-1].source if logs[-1].source != "<memory>" else f"log {i + 1}")

@@ -26,8 +26,8 @@ if not {"OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"} & set(os.e
 import typer  # noqa: E402
 
 from . import __version__
-from .errors import (EXIT_ALL_FAILED, EXIT_INADEQUATE, EXIT_INTERNAL, EXIT_SOME_FAILED, EXIT_UNDECIDED, SettingsError,
-                     TrmsError)
+from .errors import (EXIT_ALL_FAILED, EXIT_INADEQUATE, EXIT_INTERNAL, EXIT_SOME_FAILED, EXIT_UNDECIDED,
+                     JoinedRunsError, SettingsError, TrmsError)
 from .settings import GAIN_CONVENTIONS, HEADLINES, Settings
 from .params import (ESTIMATED, THRUST_LAWS, UNITS, bench_names, load_parameter_file, marked,
                      parameter_file_inputs_unit)
@@ -282,11 +282,32 @@ def estimate(
         if progress:
             progress(stage)
 
-    res = estimate_file(log, settings, out_dir, angle_unit=angle_unit, time_unit=time_unit, html=not no_report, truth_file=truth,
-                        signals=signal, time_source=time_source, voltage_time=voltage_time, rate_hz=rate,
-                        on_stage=on_stage)
+    try:
+        res = _estimate_one(log, settings, out_dir, angle_unit, time_unit, no_report, truth, signal, time_source,
+                            voltage_time, rate, on_stage)
+    except JoinedRunsError as exc:  # several runs in one file: estimated as runs of one bench, jointly
+        if progress:
+            sys.stderr.write("\r\033[K")
+        say(f"note: {exc}".replace("; expected one run: estimate them as runs of one bench with --joint, or split "
+                                  "the file", ": estimated jointly, as runs of one bench"))
+        return _estimate_joint([log], None, settings, out, json_path, no_report, strict, signal, rate, angle_unit,
+                               time_unit)
     if progress:
         sys.stderr.write("\r\033[K")
+    _say_estimate(res, log, json_path, strict)
+
+
+def _estimate_one(log, settings, out_dir, angle_unit, time_unit, no_report, truth, signal, time_source, voltage_time,
+                  rate, on_stage):
+    from .commands import estimate_file
+
+    return estimate_file(log, settings, out_dir, angle_unit=angle_unit, time_unit=time_unit, html=not no_report, truth_file=truth,
+                        signals=signal, time_source=time_source, voltage_time=voltage_time, rate_hz=rate,
+                        on_stage=on_stage)
+
+
+def _say_estimate(res, log: Path, json_path: str | None, strict: bool) -> None:
+    """estimate's lines on stderr (the verdict first), the JSON, and --strict's exit code."""
     s = res.summary
     check = s["model_check"]
     say(VERDICT_HEAD[check["adequate"]] + check["sentence"])

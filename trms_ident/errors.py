@@ -32,6 +32,15 @@ class LogFormatError(TrmsError, ValueError):
     exit_code = EXIT_BAD_LOG
 
 
+class JoinedRunsError(LogFormatError):
+    """The file holds several runs joined end to end (time restarts, or the angles jump farther in one sample
+    than the bench can move): ``runs`` holds each run as a validated Log, for a joint estimate."""
+
+    def __init__(self, message: str, runs: list | None = None):
+        super().__init__(message)
+        self.runs = runs or []
+
+
 class ParameterFileError(TrmsError, ValueError):
     exit_code = EXIT_BAD_PARAMETERS
 

@@ -16,7 +16,7 @@ from typing import Callable
 
 import numpy as np
 
-from .errors import LogFormatError
+from .errors import JoinedRunsError, LogFormatError
 
 COLUMNS = ("t", "u1", "u2", "alpha", "beta")
 COLUMN_UNITS = {"t": "s", "u1": "V", "u2": "V", "alpha": "rad", "beta": "rad"}
@@ -99,6 +99,30 @@ STEP_CHUNK = 1 << 17
 MAX_DISTINCT_STEPS = 4096
 
 
+#: a join of two runs: time going back by more than this many median steps (a restart; less is a stamp error)
+RESTART_STEPS = 10.0
+#: ... or an angle moving farther in one sample than this and than JUMP_RATE_RAD_S x the step (no bench turns
+#: 25 rad/s, and a run's angles are continuous)
+JUMP_RAD = 0.5
+JUMP_RATE_RAD_S = 25.0
+
+
+def _joins(t: np.ndarray, alpha: np.ndarray, beta: np.ndarray, step: float) -> list[tuple[int, str]]:
+    """Where runs were joined end to end: (sample index, why), a chunk at a time (no array the size of the log);
+    ``t`` and the median ``step`` in seconds."""
+    jump = max(JUMP_RAD, JUMP_RATE_RAD_S * step)
+    out = {}
+    for i in range(0, t.size - 1, STEP_CHUNK):
+        sl = slice(i, i + STEP_CHUNK + 1)
+        for k in np.flatnonzero(np.diff(t[sl]) < -RESTART_STEPS * step):
+            out.setdefault(i + int(k) + 1, "time restarts")
+        for name, x in (("alpha", alpha), ("beta", beta)):
+            d = np.diff(x[sl])
+            for k in np.flatnonzero(np.abs(d) > jump):
+                out.setdefault(i + int(k) + 1, f"{name} jumps {d[k]:+.3g} rad in one sample")
+    return sorted(out.items())
+
+
 def _step_statistics(t: np.ndarray, mean: float) -> tuple[float, float, int | None, float, float]:
     """(min, max, the first sample whose step is not positive or None, RMS about ``mean``, median) of the steps
     np.diff(t), a chunk at a time: no array the size of the log (29 MB an hour at 1 kHz), and exact.  The median
@@ -179,6 +203,18 @@ def validated(t, u1, u2, alpha, beta, *, source: str = "<memory>", sha256: str |
         u_switch_s = None if u_switch_s is None else np.asarray(u_switch_s, dtype=float) * factor
         lo, hi, mean, spread, step = (v * factor for v in (lo, hi, mean, spread, step))
         where = locate or (lambda i: _default_locate(i, t))
+    joins = _joins(t, arrays["alpha"], arrays["beta"], step)
+    if joins:
+        edges = [0, *[i for i, _ in joins], n]
+        runs = [validated(arrays["t"][a:b], arrays["u1"][a:b], arrays["u2"][a:b], arrays["alpha"][a:b],
+                          arrays["beta"][a:b], source=f"{source} run {k + 1}",
+                          locate=(lambda i, a=a: where(i + a)), meta=dict(meta, assumed=assumed),
+                          angle_unit=angle_unit, time_unit="s",
+                          u_switch_s=None if u_switch_s is None else np.asarray(u_switch_s)[a:b])
+                for k, (a, b) in enumerate(zip(edges[:-1], edges[1:]))]
+        said = "; ".join(f"{where(i)}: {why}" for i, why in joins)
+        raise JoinedRunsError(f"{source}: holds {len(runs)} runs joined end to end ({said}); expected one run: "
+                              "estimate them as runs of one bench with --joint, or split the file", runs)
     if back is not None:
         i = back
         what = "repeats the previous time" if t[i] == t[i - 1] else "goes back in time"
