@@ -2,6 +2,7 @@
 
     python benchmarks/real_ce150.py FOLDER [FOLDER...]       # every .mat holding u1, u2, psi, phi
     python benchmarks/real_ce150.py FOLDER --diagnose        # and diagnose each with the CE150's values
+    python benchmarks/real_ce150.py FOLDER --joint           # only the joint estimate over the recordings
 
 The recordings: the public repository JurCag/NN_for_FF_Compensation, folder MeasuredDatasets, files
 Data100_*.mat (100 Hz, no time vector, angles in degrees, inputs in machine units; three of them record no u1
@@ -42,8 +43,12 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("folders", nargs="+", type=Path)
     ap.add_argument("--diagnose", action="store_true", help="also diagnose each recording with the CE150's values")
+    ap.add_argument("--joint", action="store_true", help="only the joint estimate over all recordings with u1 "
+                                                         "(section 'Real CE150 recordings, jointly')")
     args = ap.parse_args()
     files = sorted({p.resolve() for f in args.folders for p in f.glob("*.mat")}, key=lambda p: p.name)
+    if args.joint:
+        return joint(files)
     rows, skipped = [], []
     t0 = time.perf_counter()
     for path in files:
@@ -93,6 +98,37 @@ def main() -> None:
     from results import update_section
 
     update_section(Path(__file__).with_name("RESULTS.md"), "Real CE150 recordings", text)
+
+
+def joint(files: list[Path]) -> None:
+    """One bench from every recording that holds u1: the pooled estimate beside the published values, each
+    recording's own, and whether they agree."""
+    t0 = time.perf_counter()
+    usable = [p for p in files if {"u1", "u2", "psi", "phi"} <= {w[0] for w in scipy.io.whosmat(p)}]
+    j = ti.estimate_joint(usable, params="humusoft_ce150", **READ)
+    doc = j.doc["joint"]
+    lines = ["## Real CE150 recordings, jointly", "",
+             f"`python benchmarks/real_ce150.py FOLDER --joint`: the {len(usable)} Data100_*.mat recordings that hold "
+             "u1 (the same public repository), estimated as runs of one bench with `estimate --joint --params "
+             "humusoft_ce150` (n.i.: not identifiable). Published (the bench's own identification, another model): "
+             f"J1 {PUBLISHED['J1']}, B1 {PUBLISHED['B1']}, J2 {PUBLISHED['J2']}, B2 {PUBLISHED['B2']}.", "",
+             "| recording | in the pool | J1 | B1 | J2 | B2 | pooled model on it |", "|---|---|---|---|---|---|---|"]
+    verdict = {True: "fits", False: "does not fit", None: "not decided"}
+    for lg in doc["logs"]:
+        lines.append(f"| {lg['name']} | {'yes' if lg['in_pool'] else 'no'} | "
+                     + " | ".join(_fmt(lg["estimates"][k]) for k in ("J1", "B1", "J2", "B2"))
+                     + f" | {verdict[lg['model_check']['adequate']] if lg['model_check'] else '-'} |")
+    pooled = ", ".join(f"{k} {_fmt(doc['estimates'][k])}" + (f" [{doc['ci95'][k][0]:.3g}, {doc['ci95'][k][1]:.3g}]"
+                                                              if doc["estimates"][k] is not None else
+                                                              f" ({doc['identifiability'][k]})")
+                       for k in ("J1", "B1", "J2", "B2"))
+    lines += ["", f"Pooled: {pooled}. Consistency: {doc['sentence']} Pooled model fits every pooled recording: "
+                  f"{verdict[doc['adequate']]}. {time.perf_counter() - t0:.0f} s."]
+    text = "\n".join(lines) + "\n"
+    print(text)
+    from results import update_section
+
+    update_section(Path(__file__).with_name("RESULTS.md"), "Real CE150 recordings, jointly", text)
 
 
 if __name__ == "__main__":

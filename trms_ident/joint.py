@@ -126,6 +126,11 @@ def identify_joint(logs: list[Log], settings: Settings | None = None, names: lis
     checks = [v.model_check["adequate"] for v in verdicts if v.model_check]
     adequate = False if False in checks else (None if None in checks else True)
     sentence = _sentence(verdicts, test, outliers, fit)
+    misfits = [v.name for v in verdicts if v.result.model_check["adequate"] is False]
+    if misfits:
+        sentence += (f" The model does not fit {len(misfits)} of the {len(verdicts)} logs on their own, so their "
+                     "estimates, and any disagreement between them, are those of a model that misses something "
+                     "(run `trms-ident diagnose` on them): read the pool with care.")
     return JointResult(estimates, ci95, why, fit, verdicts, test["consistent"], outliers, sentence, test, params,
                        settings, adequate)
 
