@@ -18,7 +18,7 @@ they agree or two remain; two logs that disagree cannot say which of them is the
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.special import chdtrc, stdtrit
@@ -27,7 +27,7 @@ from .errors import IdentificationError
 from .identify import MOTORS_AT_REST, Result, _noise, identify, timing
 from .log import Log
 from .numerics.adequacy import model_check
-from .numerics.joint import JointFit, Run, noise_inflation, refine_joint
+from .numerics.joint import JointFit, Run, efficient_weights, noise_inflation, refine_joint
 from .numerics.stats import IDENTIFIABLE_REL_HALF_WIDTH
 from .params import ESTIMATED, merge
 from .settings import Settings
@@ -155,6 +155,22 @@ def _alone(log: Log, name: str, settings: Settings) -> LogVerdict:
 
 def _pooled(logs: list[Log], verdicts: list[LogVerdict], pool: list[int], params: dict, settings: Settings
             ) -> JointFit:
+    """The pooled fit over the logs in ``pool``, started where the logs' own fits agree best, weighted by each
+    log's noise inflation; then each log's weight chosen for the most precise pool (efficient_weights) and the
+    fit repeated from there."""
+    fit, runs = _pooled_once(logs, verdicts, pool, params, settings)
+    if len(pool) < 2:
+        return fit
+    best = np.array([min((verdicts[i].cov[j, j] for i in pool if np.isfinite(verdicts[i].cov[j, j])
+                          and verdicts[i].cov[j, j] > 0), default=np.nan) for j in range(4)])
+    w = efficient_weights(fit.runs, best)
+    runs = [replace(r, weight=float(wi), start_states0=fr["start_states"]) for r, wi, fr in zip(runs, w, fit.runs)]
+    refit = refine_joint(runs, params, settings.thrust_law, fit.estimate)
+    return refit if refit.converged or not fit.converged else fit
+
+
+def _pooled_once(logs: list[Log], verdicts: list[LogVerdict], pool: list[int], params: dict, settings: Settings
+                 ) -> tuple[JointFit, list[Run]]:
     """The pooled fit over the logs in ``pool``, started where the logs' own fits agree best."""
     start = {}
     for j, k in enumerate(ESTIMATED):  # the precision-weighted mean of the logs that determine it, else the table
@@ -170,7 +186,7 @@ def _pooled(logs: list[Log], verdicts: list[LogVerdict], pool: list[int], params
         runs.append(Run(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, log.sample_time_s, _noise(log, len(log)),
                         tm["t_s"], tm["switch_delay_s"], starts0,
                         1.0 / max(noise_inflation(r if res.headline == "refined" else None), 1e-6)))
-    return refine_joint(runs, params, settings.thrust_law, start)
+    return refine_joint(runs, params, settings.thrust_law, start), runs
 
 
 def _test(verdicts: list[LogVerdict], pool: list[int], fit: JointFit, leave_out: dict | None = None) -> dict:

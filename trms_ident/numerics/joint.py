@@ -6,8 +6,8 @@ noise-weighted angle errors, with the unknowns eliminated level by level: per lo
 refine does), then that log's start states, leaving one 4 x 4 system in J/B summed over the logs
 (the normal equations of the pooled cost, eq. (1) simulated exactly as numerics/refine.py does).
 
-Each log's cost counts with weight 1 / its noise inflation (noise_inflation: how much more its J/B vary than its
-white-noise weights say), so that a log counts by the information it really carries. Intervals: a sandwich over
+Each log's cost counts with a weight (Run.weight: the caller's; joint.py starts from 1 / noise_inflation and then
+takes efficient_weights), so that a log counts by the information it really carries. Intervals: a sandwich over
 independent logs, S^-1 (sum over logs of the batch-means meat of each log's J/B scores, its own nuisance unknowns
 projected out) S^-1, with S the pooled normal matrix; Student's t on the total number of blocks.
 """
@@ -48,7 +48,7 @@ class JointFit:
     iterations: int
     cost: float  # the pooled noise-weighted squared angle error (each log's own, unweighted by its share)
     blocks: int  # independent blocks over all logs
-    runs: list  # per log: {"prediction", "rms_rad", "cost", "start_states", "blocks"}
+    runs: list  # per log: {"prediction", "rms_rad", "cost", "start_states", "blocks", "weight", "s_jb", "meat_jb"}
 
 
 def refine_joint(runs: list[Run], params: dict, law: str, theta0: dict, window_s: float = WINDOW_S,
@@ -106,13 +106,15 @@ def refine_joint(runs: list[Run], params: dict, law: str, theta0: dict, window_s
     system = [_eliminate(a, b) for _, a, b, _ in state]
     s_mat = sum(e.s_gg for e in system)
     cov = _sandwich(s_mat, system, state, setups)
+    meats = [_meat(e, st, su) for e, st, su in zip(system, state, setups)]
     blocks = sum(sc.shape[0] for _, _, _, sc in state)
     half = float(stdtrit(max(blocks - 1, 1), 0.975)) * np.sqrt(np.maximum(np.diag(cov), 0.0))
     per_run = [{"prediction": out, "rms_rad": _rms(su.y, out), "cost": float(c / w), "weight": w,
-                "blocks": int(sc.shape[0]),
+                "blocks": int(sc.shape[0]), "s_jb": e.s_gg / w, "meat_jb": meat / w ** 2,
                 "start_states": {**dict(zip(START_NAMES, map(float, m))), "alpha_dot_0_rad_s": float(st[0, 1]),
                                  "beta_dot_0_rad_s": float(st[0, 3])}}
-               for su, out, m, st, (c, _, _, sc), w in zip(setups, outs, motors, starts, state, weights)]
+               for su, out, m, st, (c, _, _, sc), w, e, meat in zip(setups, outs, motors, starts, state, weights,
+                                                                       system, meats)]
     return JointFit(dict(zip(NAMES, map(float, jb))),
                     {k: (float(jb[i] - half[i]), float(jb[i] + half[i])) for i, k in enumerate(NAMES)},
                     cov, converged, it, float(sum(r["cost"] for r in per_run)), blocks, per_run)
@@ -167,16 +169,46 @@ def _eliminate(a: np.ndarray, b: np.ndarray) -> _Eliminated:
     return _Eliminated(s_mat[:4, :4] - a_gm @ k_m[:, :4], s_rhs[:4] - a_gm @ k_m[:, 4], k_m, per_window, b, gain)
 
 
+def _meat(e: _Eliminated, state: tuple, su) -> np.ndarray:
+    """One log's batch-means variance of its J/B scores, its own unknowns projected out."""
+    scores = state[3]
+    nb = scores.shape[0]
+    w_of_block = np.minimum(np.arange(nb) * su.block // su.win, len(e.per_window) - 1)
+    proj = np.stack([k[:, :NG] for k in e.per_window])[w_of_block]
+    sc = scores[:, :NG] - np.einsum("bij,bi->bj", proj, scores[:, NG:NG + 4])  # windows' starts out
+    sc = sc[:, :4] - sc[:, 4:] @ e.k_m[:, :4]  # the log's start states out
+    sc = sc - sc.mean(axis=0)
+    return nb / max(nb - 1, 1) * sc.T @ sc
+
+
 def _sandwich(s_mat, system, state, setups) -> np.ndarray:
     """S^-1 (sum of each log's batch-means meat of its J/B scores, its own unknowns projected out) S^-1."""
-    meat = np.zeros((4, 4))
-    for e, (_, _, _, scores), su in zip(system, state, setups):
-        nb = scores.shape[0]
-        w_of_block = np.minimum(np.arange(nb) * su.block // su.win, len(e.per_window) - 1)
-        proj = np.stack([k[:, :NG] for k in e.per_window])[w_of_block]
-        sc = scores[:, :NG] - np.einsum("bij,bi->bj", proj, scores[:, NG:NG + 4])  # windows' starts out
-        sc = sc[:, :4] - sc[:, 4:] @ e.k_m[:, :4]  # the log's start states out
-        sc = sc - sc.mean(axis=0)
-        meat += nb / max(nb - 1, 1) * sc.T @ sc
+    meat = sum(_meat(e, st, su) for e, st, su in zip(system, state, setups))
     inv = _scaled_inverse(s_mat)
     return inv @ meat @ inv
+
+
+def efficient_weights(runs: list[dict], reference_var: np.ndarray) -> np.ndarray:
+    """Each log's weight in the pooled cost that makes the pooled J/B most precise: the sandwich covariance
+    (sum w S)^-1 (sum w^2 M)^-1 (sum w S)^-1 from each log's information S and score variance M (``runs``: a
+    JointFit's, unweighted), minimising the sum over J/B of its variance over ``reference_var`` (the best single
+    log's, so that each parameter's relative precision counts alike).  Weights are scaled to a mean of 1."""
+    from scipy.optimize import minimize
+
+    s_list = [r["s_jb"] for r in runs]
+    m_list = [r["meat_jb"] for r in runs]
+    ref = np.where(np.isfinite(reference_var) & (reference_var > 0), reference_var, np.inf)
+
+    def objective(log_w):
+        w = np.exp(log_w)
+        inv = _scaled_inverse(sum(wi * s for wi, s in zip(w, s_list)))
+        cov = inv @ sum(wi * wi * m for wi, m in zip(w, m_list)) @ inv
+        return float(np.sum(np.diag(cov)[np.isfinite(ref)] / ref[np.isfinite(ref)]))
+
+    if len(runs) < 2 or not np.isfinite(ref).any():
+        return np.ones(len(runs))
+    start = np.log([max(r["weight"], 1e-9) for r in runs])
+    best = minimize(objective, start, method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-6,
+                                                                    "maxiter": 400 * len(runs)})
+    w = np.exp(best.x if best.fun <= objective(start) else start)
+    return w / w.mean()
