@@ -130,11 +130,9 @@ def main() -> None:
             "verdict, and the headline estimate's errors (n.i.: not identifiable from the log, no number shown). "
             "Every fourth log is short (3-10 s). See the script's docstring for what is drawn.\n\n"
             + "\n".join(lines) + "\n\n" + summary + "\n")
-    print(text)
-    if not args.no_write:
-        from results import update_section
+    from results import publish
 
-        update_section(Path(__file__).with_name("RESULTS.md"), "Convergence", text)
+    publish("Convergence", text, write=not args.no_write)
 
 
 if __name__ == "__main__":

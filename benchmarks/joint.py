@@ -113,11 +113,9 @@ def main() -> None:
     text = ("## Joint estimate (benchmarks/joint.py, blind, seed 20261127)\n\nOne bench, 3-5 logs of it (see the "
             "script's docstring), pooled by `estimate --joint`; then one more log from a bench 10 % off in J1 or B2.\n\n"
             + "\n".join(lines) + "\n\n" + summary + "\n")
-    print(text)
-    if not args.no_write:
-        from results import update_section
+    from results import publish
 
-        update_section(Path(__file__).with_name("RESULTS.md"), "Joint estimate", text)
+    publish("Joint estimate", text, write=not args.no_write)
 
 
 if __name__ == "__main__":

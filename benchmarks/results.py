@@ -25,3 +25,10 @@ def update_section(path: Path, name: str, text: str) -> None:
         return text.rstrip() + "\n\n" if keep else ""
 
     path.write_text(pattern.sub(put, old).rstrip() + "\n", encoding="utf-8")
+
+
+def publish(section: str, text: str, write: bool = True) -> None:
+    """Print a benchmark's section and, unless ``write`` is false (--no-write), put it into RESULTS.md."""
+    print(text)
+    if write:
+        update_section(Path(__file__).with_name("RESULTS.md"), section, text)
