@@ -733,8 +733,10 @@ def mat_signal_line(s: dict) -> str:
     if s.get("name"):
         line += f", named {s['name']!r}"
     if "time" in s:
-        step = (f"every {s['median_step_s']:.6g} s" if s["uniform"] else
-                f"variable step (median {s['median_step_s']:.6g} s)") if s.get("median_step_s") else ""
+        step = {"uniform": f"every {s['median_step_s']:.6g} s",
+                "jittered": f"every {s['median_step_s']:.6g} s, jittered",
+                "variable": f"variable step (median {s['median_step_s']:.6g} s)"}[s["steps"]] \
+            if s.get("median_step_s") else ""
         line += f"; time {s['t0_s']:.6g} to {s['t1_s']:.6g} s {step} ({s['time']})"
     return line
 

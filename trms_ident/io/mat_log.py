@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import LogFormatError, SettingsError
-from ..log import Log, validated
+from ..log import JITTER_TOLERANCE, Log, validated
 from .csv_log import Sha256Thread, check_readable
 from .mat_tree import MatReadFailure, Series, Struct, Undecoded, load
 
@@ -286,9 +286,11 @@ def describe_mat(path: str | Path) -> dict:
         if isinstance(e.node, Series) and e.node.time_s is not None:
             t = e.node.time_s
             steps = np.diff(t)
-            row.update(time=e.node.time_note, t0_s=float(t[0]), t1_s=float(t[-1]),
-                       median_step_s=float(np.median(steps)) if steps.size else None,
-                       uniform=bool(steps.size and np.ptp(steps) <= 1e-6 * abs(float(np.median(steps)))))
+            mid = float(np.median(steps)) if steps.size else None
+            spread = float(max(steps.max() - mid, mid - steps.min())) / mid if mid else 0.0
+            row.update(time=e.node.time_note, t0_s=float(t[0]), t1_s=float(t[-1]), median_step_s=mid,
+                       uniform=bool(steps.size and spread <= 1e-6),
+                       steps="uniform" if spread <= 1e-6 else "jittered" if spread <= JITTER_TOLERANCE else "variable")
         if isinstance(e.node, Series) and e.node.name and e.node.name != e.name:
             row["name"] = e.node.name
         listed.append(row)
