@@ -161,3 +161,11 @@ def test_batch_estimates_each_bench_jointly_and_flags_a_change_over_time(tmp_pat
     assert page.count("estimates over time") == 2 and (tmp_path / "out" / "B" / "report.html").exists()
     res = runner.invoke(app, ["batch", "--joint-by", "bench", "-o", str(tmp_path / "x")])
     assert res.exit_code == 2 and "--joint-by and --manifest go together" in res.output
+
+
+def test_a_yaw_wrapped_by_its_logger_is_not_a_join(bench):
+    r = bench[0]
+    wrapped = (r.beta_rad + np.pi) % (2 * np.pi) - np.pi  # into [-pi, pi)
+    assert np.any(np.abs(np.diff(wrapped)) > 6.0)  # the wrap happens in this run
+    log = validated(r.t_s, r.u1_v, r.u2_v, r.alpha_rad, wrapped, angle_unit="rad", source="wrapped")
+    assert len(log) == r.t_s.size

@@ -105,6 +105,8 @@ RESTART_STEPS = 10.0
 #: 25 rad/s, and a run's angles are continuous)
 JUMP_RAD = 0.5
 JUMP_RATE_RAD_S = 25.0
+#: a jump this close to whole turns is an angle wrapped by its logger (into +-pi), not a join
+WRAP_TOLERANCE_RAD = 0.3
 
 
 def _joins(t: np.ndarray, alpha: np.ndarray, beta: np.ndarray, step: float) -> list[tuple[int, str]]:
@@ -118,7 +120,9 @@ def _joins(t: np.ndarray, alpha: np.ndarray, beta: np.ndarray, step: float) -> l
             out.setdefault(i + int(k) + 1, "time restarts")
         for name, x in (("alpha", alpha), ("beta", beta)):
             d = np.diff(x[sl])
-            for k in np.flatnonzero(np.abs(d) > jump):
+            turns = np.round(d / (2 * math.pi))
+            wrap = (turns != 0) & (np.abs(d - 2 * math.pi * turns) < WRAP_TOLERANCE_RAD)  # a logger's wrap
+            for k in np.flatnonzero((np.abs(d) > jump) & ~wrap):
                 out.setdefault(i + int(k) + 1, f"{name} jumps {d[k]:+.3g} rad in one sample")
     return sorted(out.items())
 
