@@ -705,8 +705,8 @@ def _estimate_joint(logs: list[Path], manifest: Path | None, settings: Settings,
     if progress:
         sys.stderr.write("\r\033[K")
     j = est.doc["joint"]
-    say(("LOGS AGREE: " if j["consistent"] else "LOGS DISAGREE: " if j["consistent"] is False else
-         "AGREEMENT NOT TESTED: ") + j["sentence"])
+    say(("LOGS DISAGREE: " if j["consistent"] is False else "AGREEMENT NOT TESTED: " if j["consistent"] is None
+         else "LOG(S) LEFT OUT: " if j["outliers"] else "LOGS AGREE: ") + j["sentence"])
     for lg in j["logs"]:
         check = lg["model_check"]
         say(f"  {lg['name']}: " + ("left out of the pool" if not lg["in_pool"] else

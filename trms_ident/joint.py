@@ -118,14 +118,19 @@ def identify_joint(logs: list[Log], settings: Settings | None = None, names: lis
     for j, k in enumerate(ESTIMATED):
         est, (lo, hi) = fit.estimate[k], fit.ci95[k]
         rel = (hi - lo) / 2 / est if est > 0 else math.inf
-        ok = est > 0 and rel <= IDENTIFIABLE_REL_HALF_WIDTH
+        ok = est > 0 and rel <= IDENTIFIABLE_REL_HALF_WIDTH and fit.converged
         estimates[k], ci95[k] = (est if ok else None), (lo, hi)
         why[k] = (f"95 % interval ±{100 * rel:.2g} %" if ok else
+                  f"no pooled estimate: the pooled fit did not converge in {fit.iterations} Gauss-Newton iterations"
+                  if not fit.converged else
                   f"not identifiable from these logs together: 95 % interval ±{100 * rel:.3g} %" if est > 0 else
                   f"estimate {est:.3g} is not positive: these logs do not determine it")
     checks = [v.model_check["adequate"] for v in verdicts if v.model_check]
     adequate = False if False in checks else (None if None in checks else True)
     sentence = _sentence(verdicts, test, outliers, fit)
+    if not fit.converged:
+        sentence += (f" The pooled fit did not converge ({fit.iterations} Gauss-Newton iterations): no pooled number "
+                     "is an estimate.")
     misfits = [v.name for v in verdicts if v.result.model_check["adequate"] is False]
     if misfits:
         sentence += (f" The model does not fit {len(misfits)} of the {len(verdicts)} logs on their own, so their "
