@@ -195,8 +195,10 @@ def test_real_ce150_recordings_get_an_honest_verdict(tmp_path, name):
 @pytest.mark.parametrize("name, axis", [("Data100_ea_a0", "pitch"), ("Data100_ea_e675_aN130toP130", "yaw")])
 def test_real_ce150_recordings_with_the_ce150s_published_values(tmp_path, name, axis):
     # the bench's own published identification (the bundled bench humusoft_ce150, mapped onto eq. (1)) in place
-    # of Table 1's known values: the axis each sweep moves is simulated far better (measured 26 % -> 99.4 %
-    # pitch on the elevation ramp, -1873 % -> 95.8 % yaw on the azimuth sweep), and on the ramp, which fixes
+    # of Table 1's known values: the axis each sweep moves is simulated far better (measured 64 % -> 99.8 %
+    # pitch on the elevation ramp: Table 1's gave 26 % before the fit tried the motors from rest and multiple
+    # shooting, which found that wrong model's better optimum; -1873 % -> 95.8 % yaw on the azimuth sweep), and on
+    # the ramp, which fixes
     # the elevation's balance, B1 agrees with the published B_psi = 0.00184 (measured 0.00179) and J1 with
     # I = 0.00437 within the weak excitation of a quasi-static sweep (measured 0.00566)
     path = CE150 / f"{name}.mat"
@@ -209,7 +211,7 @@ def test_real_ce150_recordings_with_the_ce150s_published_values(tmp_path, name, 
         assert res.exit_code == 0, res.output
         doc = json.loads(res.stdout)
         fit[bool(params)] = doc["model_check"]["axes"][axis]["fit_percent"]
-    assert fit[True] > 90.0 and fit[True] > fit[False] + 50.0
+    assert fit[True] > 90.0 and fit[True] > fit[False] + 30.0
     assert doc["model_check"]["adequate"] is False  # its noise floor is unmeasurable (smoothed angles): said so
     assert doc["table_defaults_changed"] == sorted(["a1", "b1", "a2", "b2", "Mg", "Kg", "k1", "k2", "T11", "T21",
                                                     "kc", "T0", "Tp"])
