@@ -122,16 +122,13 @@ def _bare_hdf5(path: Path) -> Struct:
 
 def _node(x):
     """One decoded value as a tree node (None: nothing numeric in it)."""
+    import pandas as pd
+
     _, MatlabOpaque = _matio()
     if isinstance(x, MatlabOpaque):
         return _object(x.classname, x.properties)
-    try:
-        import pandas as pd
-
-        if isinstance(x, pd.DataFrame):
-            return _frame(x)
-    except ImportError:  # pragma: no cover - pandas is a dependency
-        pass
+    if isinstance(x, pd.DataFrame):  # mat-io's table and timetable
+        return _frame(x)
     if isinstance(x, dict):
         return Struct({str(k): _node(v) for k, v in x.items()})
     if not isinstance(x, np.ndarray):
