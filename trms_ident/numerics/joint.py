@@ -79,7 +79,7 @@ def refine_joint(runs: list[Run], params: dict, law: str, theta0: dict, window_s
             converged = True
             break
         cost = sum(c for c, _, _, _ in state)
-        slope = -2.0 * (float(step @ s_rhs) + sum(e.local_gain for e in system))
+        slope = -2.0 * pending  # the cost's derivative along the full step
         lam, accepted = 1.0, None
         while lam >= 1e-4:  # backtracking keeps every iteration downhill (as refine's)
             jb_new = jb + lam * step
@@ -105,8 +105,9 @@ def refine_joint(runs: list[Run], params: dict, law: str, theta0: dict, window_s
         starts = [st for _, st in trial]
     system = [_eliminate(a, b) for _, a, b, _ in state]
     s_mat = sum(e.s_gg for e in system)
-    cov = _sandwich(s_mat, system, state, setups)
     meats = [_meat(e, st, su) for e, st, su in zip(system, state, setups)]
+    inv = _scaled_inverse(s_mat)
+    cov = inv @ sum(meats) @ inv  # the sandwich
     blocks = sum(sc.shape[0] for _, _, _, sc in state)
     half = float(stdtrit(max(blocks - 1, 1), 0.975)) * np.sqrt(np.maximum(np.diag(cov), 0.0))
     per_run = [{"prediction": out, "rms_rad": _rms(su.y, out), "cost": float(c / w), "weight": w,
