@@ -256,7 +256,7 @@ def _joint_page(out_dir: Path, rows: list[dict]) -> str:
                      f"<p>{html.escape(r['sentence'])}</p><table><tr><th></th>"
                      + "".join(f"<th>{k}</th>" for k in names) + f"</tr><tr><td>pooled</td>{cells}</tr></table>"
                      + figure)
-    return (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>trms-ident benches</title><style>"
+    return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>trms-ident benches</title><style>"
             "body{font-family:system-ui,sans-serif;margin:2em;max-width:1100px}table{border-collapse:collapse}"
             "td,th{border:1px solid #ccc;padding:3px 8px}.failed{color:#b00}</style></head><body>"
             "<h1>Benches: one joint estimate each</h1>" + "".join(items) + "</body></html>")

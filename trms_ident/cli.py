@@ -213,6 +213,15 @@ def progress_bar(label: str):
         yield lambda stage, done: bar.update(task, completed=done, description=stage)
 
 
+def exit_if_strict(strict: bool, verdicts) -> None:
+    """--strict: exit 10 when any verdict is "does not fit" (False), else 11 when any is not decided (None)."""
+    verdicts = list(verdicts)
+    if strict and False in verdicts:
+        raise typer.Exit(EXIT_INADEQUATE)
+    if strict and None in verdicts:
+        raise typer.Exit(EXIT_UNDECIDED)
+
+
 #: the first words of estimate's verdict line, by model_check.adequate
 VERDICT_HEAD = {True: "MODEL FITS: ", False: "MODEL DOES NOT FIT: ", None: "FIT NOT DECIDED: "}
 CONDITIONAL = {False: " (conditional on a model that does not fit)",
@@ -254,8 +263,6 @@ def estimate(
     rate: RateOpt = None,
 ) -> None:
     """Estimate J1, B1, J2, B2 from a log and write a report (--joint: one bench from several logs)."""
-    from .commands import estimate_file
-
     settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit, refine,
                               free, time_unit)
     logs = list(logs or [])
@@ -288,8 +295,7 @@ def estimate(
     except JoinedRunsError as exc:  # several runs in one file: estimated as runs of one bench, jointly
         if progress:
             sys.stderr.write("\r\033[K")
-        say(f"note: {exc}".replace("; expected one run: estimate them as runs of one bench with --joint, or split "
-                                  "the file", ": estimated jointly, as runs of one bench"))
+        say(f"note: {exc.found}: estimated jointly, as runs of one bench")
         return _estimate_joint([log], None, settings, out, json_path, no_report, strict, signal, rate, angle_unit,
                                time_unit)
     if progress:
@@ -350,8 +356,7 @@ def _say_estimate(res, log: Path, json_path: str | None, strict: bool) -> None:
     say("wrote " + ", ".join(str(p) for p in res.written))
     if json_path:
         emit_json(s, json_path)
-    if strict and check["adequate"] is not True:
-        raise typer.Exit(EXIT_INADEQUATE if check["adequate"] is False else EXIT_UNDECIDED)
+    exit_if_strict(strict, [check["adequate"]])
 
 
 @app.command()
@@ -444,8 +449,7 @@ def batch(
         emit_json(json.loads((out / "summary.json").read_text()), json_path)
     if ok < len(rows):
         raise typer.Exit(EXIT_ALL_FAILED if ok == 0 else EXIT_SOME_FAILED)
-    if strict and (bad_fit or undecided):
-        raise typer.Exit(EXIT_INADEQUATE if bad_fit else EXIT_UNDECIDED)
+    exit_if_strict(strict, [r["adequate"] for r in bad_fit + undecided])
 
 
 @app.command()
@@ -681,9 +685,7 @@ def _batch_joint(manifest: Path | None, joint_by: str | None, inputs, out: Path,
         emit_json(json.loads((out / "joint_summary.json").read_text()), json_path)
     if ok < len(rows):
         raise typer.Exit(EXIT_ALL_FAILED if ok == 0 else EXIT_SOME_FAILED)
-    fits = [r["adequate"] for r in rows]
-    if strict and (False in fits or None in fits):
-        raise typer.Exit(EXIT_INADEQUATE if False in fits else EXIT_UNDECIDED)
+    exit_if_strict(strict, [r["adequate"] for r in rows])
 
 
 def _estimate_joint(logs: list[Path], manifest: Path | None, settings: Settings, out: Path | None,
@@ -692,7 +694,8 @@ def _estimate_joint(logs: list[Path], manifest: Path | None, settings: Settings,
     """estimate --joint: read, pool, test, write; the verdict first, then the pooled and per-log numbers."""
     from .api import estimate_joint_with
     from .io.manifest import Entry, read_manifest
-    from .report.summary import interval_text, to_json
+    from .report.joint import VERDICT
+    from .report.summary import interval_text
 
     entries = read_manifest(manifest) if manifest else []
     entries += [Entry(p, signal, rate, angle_unit, time_unit) for p in logs]
@@ -710,8 +713,7 @@ def _estimate_joint(logs: list[Path], manifest: Path | None, settings: Settings,
     for lg in j["logs"]:
         check = lg["model_check"]
         say(f"  {lg['name']}: " + ("left out of the pool" if not lg["in_pool"] else
-                                   "pooled model " + {True: "fits", False: "does NOT fit",
-                                                      None: "fit not decided"}[check["adequate"]]) +
+                                   "pooled model " + VERDICT[check["adequate"]]) +
             "; alone " + ", ".join(f"{k} {'n.i.' if v is None else f'{v:.6g}'}" for k, v in lg["estimates"].items()))
     for k in ESTIMATED:
         v, (lo, hi) = j["estimates"][k], j["ci95"][k]
@@ -721,8 +723,7 @@ def _estimate_joint(logs: list[Path], manifest: Path | None, settings: Settings,
     say("wrote " + ", ".join(map(str, written)))
     if json_path:
         emit_json(est.doc, json_path)
-    if strict and j["adequate"] is not True:
-        raise typer.Exit(EXIT_INADEQUATE if j["adequate"] is False else EXIT_UNDECIDED)
+    exit_if_strict(strict, [j["adequate"]])
 
 
 def mat_signal_line(s: dict) -> str:

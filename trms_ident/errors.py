@@ -34,11 +34,13 @@ class LogFormatError(TrmsError, ValueError):
 
 class JoinedRunsError(LogFormatError):
     """The file holds several runs joined end to end (time restarts, or the angles jump farther in one sample
-    than the bench can move): ``runs`` holds each run as a validated Log, for a joint estimate."""
+    than the bench can move): ``runs`` holds each run as a validated Log, for a joint estimate; ``found`` says
+    what was found ("log.csv: holds 3 runs joined end to end (line ...: time restarts; ...)")."""
 
-    def __init__(self, message: str, runs: list | None = None):
-        super().__init__(message)
-        self.runs = runs or []
+    def __init__(self, found: str, runs: list):
+        super().__init__(f"{found}; expected one run: estimate them as runs of one bench with --joint, or split "
+                         "the file")
+        self.found, self.runs = found, runs
 
 
 class ParameterFileError(TrmsError, ValueError):

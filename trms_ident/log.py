@@ -217,8 +217,7 @@ def validated(t, u1, u2, alpha, beta, *, source: str = "<memory>", sha256: str |
                           u_switch_s=None if u_switch_s is None else np.asarray(u_switch_s)[a:b])
                 for k, (a, b) in enumerate(zip(edges[:-1], edges[1:]))]
         said = "; ".join(f"{where(i)}: {why}" for i, why in joins)
-        raise JoinedRunsError(f"{source}: holds {len(runs)} runs joined end to end ({said}); expected one run: "
-                              "estimate them as runs of one bench with --joint, or split the file", runs)
+        raise JoinedRunsError(f"{source}: holds {len(runs)} runs joined end to end ({said})", runs)
     if back is not None:
         i = back
         what = "repeats the previous time" if t[i] == t[i - 1] else "goes back in time"

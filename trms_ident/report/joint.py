@@ -14,7 +14,7 @@ if TYPE_CHECKING:
     from ..joint import JointResult
     from ..log import Log
 
-VERDICT = {True: "fits", False: "does NOT fit", None: "not decided"}
+VERDICT = {True: "fits", False: "does NOT fit", None: "fit not decided"}
 
 
 def joint_doc(result: JointResult, logs: list[Log]) -> dict:
