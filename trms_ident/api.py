@@ -138,9 +138,17 @@ def estimate(log, *, params: dict | str | Path | None = None, truth: dict | None
     error columns (simulated logs).  Other options: the Settings fields (``refine``, ``headline``, ``free``,
     ``thrust_law``, ``filter_a_rad_s``, ...) and the reader's (``angle_unit``, ``time_unit``, ``signals``,
     ``time_source``, ``voltage_time``).  Same numbers as ``trms-ident estimate`` with the same options."""
+    settings, read = _settings_and_read(params, options)
+    return estimate_with(log, settings, truth=truth, **read)
+
+
+def _settings_and_read(params: dict | str | Path | None, options: dict) -> tuple[Settings, dict]:
+    """The library's keyword options split into validated Settings (known values from ``params``, a dict or a
+    TOML file whose declared input unit is kept) and the reader's options; an unknown option is refused."""
     from .errors import SettingsError
     from .params import load_parameter_file, parameter_file_inputs_unit
 
+    options = dict(options)
     unknown = set(options) - _SETTINGS - set(_READ)
     if unknown:
         raise SettingsError(f"unknown option(s) {', '.join(sorted(unknown))}; expected settings "
@@ -154,7 +162,7 @@ def estimate(log, *, params: dict | str | Path | None = None, truth: dict | None
     settings = Settings(overrides=dict(params or {}), **{k: (tuple(v) if k == "free" else v)
                                                           for k, v in options.items()})
     settings.validate()
-    return estimate_with(log, settings, truth=truth, **read)
+    return settings, read
 
 
 #: CSV logs up to this size are likely to be refined under refine="auto" (about 50 bytes a row and
@@ -325,18 +333,9 @@ def estimate_joint(logs, *, params: dict | str | Path | None = None, names: list
     ``logs``: paths (CSV, MCAP, .mat), DataFrames or Logs, or a manifest's path (a .csv whose header starts with
     ``path``: see io/manifest.py).  ``params``, ``options``: as :func:`estimate` (the reader's options apply to
     every path).  Same numbers as ``trms-ident estimate --joint`` with the same options."""
-    from .errors import SettingsError
     from .io.manifest import Entry
-    from .params import load_parameter_file
 
-    unknown = set(options) - _SETTINGS - set(_READ)
-    if unknown:
-        raise SettingsError(f"unknown option(s) {', '.join(sorted(unknown))}")
-    read = {k: options.pop(k) for k in _READ if k in options}
-    if isinstance(params, (str, Path)):
-        params = load_parameter_file(params)
-    settings = Settings(overrides=dict(params or {}), **options)
-    settings.validate()
+    settings, read = _settings_and_read(params, options)
     if isinstance(logs, (str, Path)):  # a manifest
         from .io.manifest import read_manifest
 
