@@ -33,6 +33,8 @@ VERDICT_WRONG = {True: "YES (miss)", False: "no", None: "not decided"}
 
 
 def good(i: int) -> dict:
+    from results import percent_errors
+
     from sim import SimSettings, simulate
     from trms_ident.identify import Settings, identify
     from trms_ident.log import validated
@@ -57,8 +59,7 @@ def good(i: int) -> dict:
     # which --angle-unit auto would refuse as "looks like degrees"
     log = validated(r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, u_switch_s=sw, angle_unit="rad")
     res = identify(log, Settings(overrides=known))
-    err = {k: (100 * abs(res.estimates[k] / true[k] - 1) if res.estimates[k] is not None else math.inf)
-           for k in NAMES}
+    err = percent_errors(res.estimates, true)
     cover = {k: bool(res.intervals[k].low <= true[k] <= res.intervals[k].high) for k in NAMES}
     ok = all(err[k] <= (1.0 if k.startswith("J") else 3.0) for k in NAMES)
     desc = (f"{case['ref']} {case['sample_rate_hz']:g} Hz {noise} {'mid-run' if case['start_s'] else 'rest'}"

@@ -62,6 +62,8 @@ def case(i: int) -> dict:
 
 
 def run(i: int) -> dict:
+    from results import percent_errors
+
     from sim import SimSettings, simulate
     from trms_ident.identify import MOTORS_AT_REST, Settings, _noise, _refine_first, identify
     from trms_ident.log import validated
@@ -81,8 +83,7 @@ def run(i: int) -> dict:
                      for s0 in (None, MOTORS_AT_REST)), key=lambda f: f.cost)
     fit = res.refined
     cost = fit.cost if fit is not None else math.inf
-    err = {k: (100 * abs(res.estimates[k] / c["true"][k] - 1) if res.estimates[k] is not None else math.inf)
-           for k in NAMES}
+    err = percent_errors(res.estimates, c["true"])
     s = c["sim"]
     desc = (f"{s['ref']} {s['sample_rate_hz']:g} Hz {c['noise']} {s['duration_s']:.0f} s "
             f"{'mid-run %.0f s' % s['start_s'] if s['start_s'] else 'rest'}{' jitter' if s['jitter'] else ''}")

@@ -60,6 +60,8 @@ def _logs(i: int):
 
 
 def run(i: int) -> dict:
+    from results import percent_errors
+
     from trms_ident.joint import identify_joint
     from trms_ident.settings import Settings
 
@@ -68,13 +70,13 @@ def run(i: int) -> dict:
     t0 = time.perf_counter()
     j = identify_joint(logs, settings)
     seconds = time.perf_counter() - t0
-    err = {k: (100 * abs(j.estimates[k] / true[k] - 1) if j.estimates[k] is not None else math.inf) for k in NAMES}
+    err = percent_errors(j.estimates, true)
     cover = {k: bool(j.ci95[k][0] <= true[k] <= j.ci95[k][1]) for k in NAMES}
     half = {k: (j.ci95[k][1] - j.ci95[k][0]) / 2 for k in NAMES}
     best = {k: min(((v.ci95[k][1] - v.ci95[k][0]) / 2 for v in j.logs if v.estimates[k] is not None),
                    default=math.inf) for k in NAMES}
     j2 = identify_joint(logs + [odd], settings)
-    err2 = {k: (100 * abs(j2.estimates[k] / true[k] - 1) if j2.estimates[k] is not None else math.inf) for k in NAMES}
+    err2 = percent_errors(j2.estimates, true)
     return {"i": i, "logs": len(logs), "err": err, "cover": cover,
             "ok": all(err[k] <= (0.5 if k.startswith("J") else 2.0) for k in NAMES),
             "no_wider": all(half[k] <= SLACK * best[k] for k in NAMES),

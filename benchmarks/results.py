@@ -27,6 +27,13 @@ def update_section(path: Path, name: str, text: str) -> None:
     path.write_text(pattern.sub(put, old).rstrip() + "\n", encoding="utf-8")
 
 
+def percent_errors(estimates: dict, truth: dict) -> dict:
+    """|estimate / truth - 1| in %, per parameter of ``truth``; inf where the tool gave no number."""
+    import math
+
+    return {k: (100 * abs(estimates[k] / v - 1) if estimates[k] is not None else math.inf) for k, v in truth.items()}
+
+
 def publish(section: str, text: str, write: bool = True) -> None:
     """Print a benchmark's section and, unless ``write`` is false (--no-write), put it into RESULTS.md."""
     print(text)
