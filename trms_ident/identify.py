@@ -14,7 +14,8 @@ from .log import Log
 from .numerics.design import FilterDesign, angle_noise_rad, design_filters
 from .numerics.fused import drem_summaries
 from .numerics.adequacy import RMS_OVER_NOISE, model_check
-from .numerics.refine import WINDOW_S, Refined, refine, substeps, suspect_known_values
+from . import known_values
+from .numerics.refine import WINDOW_S, Refined, refine, substeps
 from .numerics.stats import IDENTIFIABLE_REL_HALF_WIDTH, MIN_BLOCKS, Interval, block_length, interval_from_sums
 from .params import ESTIMATED, merge
 from .settings import AXES, GAIN_CONVENTIONS, HEADLINES, MAX_TRACE_POINTS, REFINE_AUTO_MAX_STEPS, Settings
@@ -242,11 +243,8 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
     if not check["adequate"] and not r.converged and _could_still_fit(r, n):
         _undecided(check, r)
         return check, r.prediction
-    if not check["adequate"] and r.fit is not None:
-        def refit(name: str) -> Refined:
-            return _refine_first(log, n, params, settings, r.estimate, noise, tuple(settings.free) + (name,))
-
-        _blame(check, r, n * substeps(dt), noise, refit, params)
+    if not check["adequate"]:
+        _blame(check, log, settings, params)
     if check["caution"]:  # said last, after what the data blame
         check["sentence"] += check["caution"]
     return check, r.prediction
@@ -273,47 +271,35 @@ def _undecided(check: dict, r: Refined) -> None:
         "longer recording, or one with more excitation; the intervals are those of DREM where shown.")
 
 
-#: the suspect test runs one pass per known value: on logs up to this many integration steps
+#: the known-value search (known_values.py) runs about three dozen passes over the log: on at most this many
+#: integration steps of its beginning
 SUSPECT_MAX_STEPS = REFINE_AUTO_MAX_STEPS // 4
-#: the known values that the score test ranks first are refitted (set free, one at a time, this many at most);
-#: one that makes the model fit is named, with the others whose score is within SUSPECT_ALIKE of its own
-SUSPECT_REFITS = 2
-SUSPECT_ALIKE = 0.9
 
 
-def _blame(check: dict, r: Refined, steps: int, noise: dict, refit, params: dict) -> None:
-    """Which known value do the data blame for the misfit?  A score test ranks them (numerics/refine.
-    suspect_known_values: the share of the excess error one step with that value free would remove); the
-    first ranked are then refitted for real, and a value is named only if freeing it makes the model fit."""
-    if steps > SUSPECT_MAX_STEPS:
-        check["suspect_known_values"] = None
-        check["sentence"] += " (Which known value is suspect was not tested: the log is too long.)"
-        return
+def _blame(check: dict, log: Log, settings: Settings, params: dict) -> None:
+    """Which known value do the data blame for the misfit?  The known-value search (known_values.py: each value
+    of the table a one-parameter hypothesis, refitted by multiple shooting then in the standard windows) on the
+    log's first SUSPECT_MAX_STEPS integration steps; a value is named only if freeing it alone makes the model
+    fit.  ``check["known_values"]`` keeps the search for diagnose, which reads this same result."""
+    n = min(len(log), max(SUSPECT_MAX_STEPS // substeps(log.sample_time_s), 10))
+    noise = _noise(log, n)
+    free = tuple(settings.free)
+
+    def fit(free_now: tuple, theta0: dict, values: dict, **options) -> Refined:
+        return _refine_first(log, n, values, settings, theta0, noise, free_now, **options)
+
     try:
-        shares = suspect_known_values(r)
-    except (np.linalg.LinAlgError, FloatingPointError, ValueError):
+        found = known_values.search(fit, params, noise, n, free=free)
+    except (np.linalg.LinAlgError, FloatingPointError, ValueError, ZeroDivisionError):
         return
-    check["suspect_known_values"] = shares
-    for name, share in list(shares.items())[:SUSPECT_REFITS]:
-        try:
-            f = refit(name)
-        except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
-            continue
-        ratio = max(_over_noise(f, noise).values())
-        if f.converged and ratio <= ADEQUATE_RMS_OVER_NOISE:
-            value = f.freed[name]["estimate"]
-            alike = [k for k, v in shares.items() if k != name and v >= SUSPECT_ALIKE * share]
-            check["suspect"] = {"name": name, "refitted_value": value, "rms_over_noise_after": ratio,
-                                "look_alikes": alike}
-            check["sentence"] += (f" The data blame a known value: with {name} estimated too (it comes out "
-                                  f"{value:.4g} instead of {params[name]:.4g}) the model fits "
-                                  f"to the noise level" +
-                                  (f"; {', '.join(alike)} would explain the data as well (the log cannot tell them "
-                                   "apart)" if alike else "") + f". Check it, or estimate it with --free {name}.")
-            return
-    check["sentence"] += (" No single known value explains the misfit (freeing the most likely, "
-                          f"{', '.join(list(shares)[:SUSPECT_REFITS])}, does not make the model fit): the model "
-                          "leaves out physics, or several known values are off.")
+    check["known_values"] = found.to_json()
+    check["suspect_known_values"] = found.scores
+    if found.best is not None:
+        b = found.best
+        check["suspect"] = {"name": b.name, "refitted_value": b.value, "rms_over_noise_after": max(b.over_noise.values()),
+                            "look_alikes": list(found.look_alikes)}
+    scope = "" if n == len(log) else f" (searched on the first {n * log.sample_time_s:.6g} s)"
+    check["sentence"] += known_values.sentence(found).rstrip(".") + scope + "."
 
 
 def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[Refined | None, str, bool]:
