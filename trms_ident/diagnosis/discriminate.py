@@ -18,13 +18,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..log import Log
+from ..numerics.adequacy import RMS_OVER_NOISE as ADEQUATE_RMS_OVER_NOISE  # the winner must fit (estimate's test)
 from ..numerics.design import angle_noise_rad
 from ..numerics.refine import refine
 
 PAIR = ("com_offset:pitch", "sensor_offset:pitch")
 MIN_COST_GAP = 10.0
-#: the winner's angle errors must be within this factor of the noise level (identify's adequacy test)
-ADEQUATE_RMS_OVER_NOISE = 1.2
 
 
 @dataclass(frozen=True)
@@ -42,8 +41,11 @@ def tell_offsets_apart(log: Log, u1: np.ndarray, u2: np.ndarray, p: dict, law: s
     dt = log.sample_time_s
     fits = {}
     for key in PAIR:  # each offset free from the equation error's value, in the sign convention of EFFECT_SLOTS
-        r = refine(u1, u2, log.alpha_rad, log.beta_rad, dt, p, law, theta0, noise, free=(key,),
-                   effects={key: delta0[key]})
+        try:
+            r = refine(u1, u2, log.alpha_rad, log.beta_rad, dt, p, law, theta0, noise, free=(key,),
+                       effects={key: delta0[key]})
+        except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
+            return Verdict(None, 0.0, {}, f"the output-error fit with {key} failed (it overflowed on this log)")
         fits[key] = (float(r.freed[key]["estimate"]), r)
     offsets = {k: v[0] for k, v in fits.items()}
     unconverged = [k for k, (_, r) in fits.items() if not r.converged]

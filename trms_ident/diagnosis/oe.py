@@ -50,6 +50,7 @@ from scipy.special import stdtr
 from ..log import Log
 from ..model import effects as room
 from ..model.plant import EFFECT_SLOTS, thrust_law
+from ..numerics import safe
 from ..numerics.design import angle_noise_rad
 from ..numerics.refine import BLOCK_S, substeps
 from ..numerics.refine import refine as oe_refine
@@ -440,7 +441,8 @@ class Fitter:
         around = vs[j - 1:j + 2] if 0 < j < len(vs) - 1 else []
         if around:
             x, y = np.array(around), np.array([cost(v) for v in around])
-            curv, slope, _ = np.polyfit(np.log(x), y, 2)
+            coef = safe.polyfit(np.log(x), y, 2)
+            curv, slope = (coef[0], coef[1]) if coef is not None else (0.0, 0.0)
             if curv > 0:
                 at(float(np.exp(np.clip(-slope / (2 * curv), np.log(x[0]), np.log(x[2])))))
         best = min((v for v in tried if tried[v] is not None), key=cost)
@@ -507,7 +509,9 @@ def profile_se(x: np.ndarray, block_costs: np.ndarray, at: float) -> float:
     would give (cost ~ k (v - v*)^2 + c): a model that misses something leaves errors correlated over
     seconds, whose slopes vary far more from block to block; the curvature alone had claimed a CE150 pitch
     dead zone to +/- 3e-6 of 0.475."""
-    coef = np.polyfit(np.asarray(x, dtype=float), np.asarray(block_costs, dtype=float), 2)  # (3, blocks)
+    coef = safe.polyfit(np.asarray(x, dtype=float), np.asarray(block_costs, dtype=float), 2)  # (3, blocks)
+    if coef is None:
+        return math.inf
     k = float(np.sum(coef[0]))
     if not k > 0:
         return math.inf

@@ -81,6 +81,8 @@ def _block_moments(x: np.ndarray, g: np.ndarray, starts: np.ndarray):
 def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Least squares from the normal equations, scaled for conditioning (columns differ by 1e4)."""
     d = np.sqrt(np.maximum(np.diag(a), 1e-300))
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):  # a model that overflowed: no solution, it scores
+        return np.full(b.shape, np.nan)                           # as a misfit (LAPACK never sees a NaN)
     sol, *_ = np.linalg.lstsq(a / np.outer(d, d), b / d, rcond=1e-12)
     return sol / d
 

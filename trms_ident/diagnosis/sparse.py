@@ -29,6 +29,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..numerics import safe
 from .model import Regression, deflate, state_signals
 from .select import FAMILY_ALPHA, compare, score
 
@@ -139,7 +140,10 @@ def fit_correction(axis: str, reg: Regression, base_score, ids: np.ndarray, sig:
     theta = base_score.theta[axis]
     r = reg.g[axis] - x @ theta
     # Frisch-Waugh-Lovell: the library's part not explained by J, B and the accepted effects
-    proj, *_ = np.linalg.lstsq(x, cols, rcond=None)
+    try:
+        proj = safe.lstsq(x, cols)
+    except np.linalg.LinAlgError:  # a regression that overflowed: no correction to describe
+        return None
     lib = cols - x @ proj
     norms = np.linalg.norm(lib, axis=0)
     usable = norms > 1e-12 * max(float(norms.max()), 1e-300)

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import stdtrit
 
+from . import safe
 from .refine import (JB_STEP_OVER_SE, MAX_ITERATIONS, MIN_COST_DECREASE, NAMES, NG, START_NAMES, STEP_OVER_SE,
                      TOLERANCE, WINDOW_S, _backtrack, _rms, _scaled_inverse, _schur, _setup)
 
@@ -165,7 +166,7 @@ class _Eliminated:
 def _eliminate(a: np.ndarray, b: np.ndarray) -> _Eliminated:
     s_mat, s_rhs, per_window = _schur(a, b, NG)  # the windows' starts out, as refine does
     a_gm, a_mm = s_mat[:4, 4:], s_mat[4:, 4:]
-    k_m = np.linalg.lstsq(a_mm, np.column_stack([s_mat[4:, :4], s_rhs[4:]]), rcond=1e-13)[0]
+    k_m = safe.lstsq(a_mm, np.column_stack([s_mat[4:, :4], s_rhs[4:]]), rcond=1e-13)
     gain = float(s_rhs[4:] @ k_m[:, 4]) + sum(float(b[w, NG:] @ k[:, NG]) for w, k in enumerate(per_window))
     return _Eliminated(s_mat[:4, :4] - a_gm @ k_m[:, :4], s_rhs[:4] - a_gm @ k_m[:, 4], k_m, per_window, b, gain)
 

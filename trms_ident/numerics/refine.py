@@ -44,6 +44,7 @@ import numpy as np
 from numba import njit
 from scipy.special import stdtrit
 
+from . import safe
 from ..model.plant import (FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, N_SLOTS, PARAM_ORDER,
                            SENSOR_OFFSET_SLOT, YAW_INERTIA_SLOT, centrifugal_pitch, coriolis_yaw, coulomb_sign,
                            friction, lag_rate, model_vector, motor_rate, pitch_torque, reaction_moment, reversed_gain,
@@ -503,7 +504,8 @@ def _start_velocity(x: np.ndarray, t: np.ndarray, s: int) -> float:
     m = min(max(5, int(round(0.05 / dt))), x.size - s)
     if m < 3:
         return 0.0
-    return float(np.polyfit(t[s:s + m] - t[s], x[s:s + m], 2)[1])
+    coef = safe.polyfit(t[s:s + m] - t[s], x[s:s + m], 2)
+    return float(coef[1]) if coef is not None else math.nan
 
 
 def substeps(dt: float) -> int:
@@ -518,7 +520,7 @@ def _schur(a, b, ng=NG):
     s_mat, s_rhs, per_window = np.zeros((ng, ng)), np.zeros(ng), []
     for w in range(a.shape[0]):
         lg = a[w, ng:, :ng]
-        k_mat = np.linalg.lstsq(a[w, ng:, ng:], np.column_stack([lg, b[w, ng:]]), rcond=1e-13)[0]
+        k_mat = safe.lstsq(a[w, ng:, ng:], np.column_stack([lg, b[w, ng:]]), rcond=1e-13)
         s_mat += a[w, :ng, :ng] - lg.T @ k_mat[:, :ng]
         s_rhs += b[w, :ng] - lg.T @ k_mat[:, ng]
         per_window.append(k_mat)
@@ -540,7 +542,7 @@ def _covariance(s_mat, per_window, scores, win, block):
 
 def _scaled_inverse(s_mat):
     d = np.sqrt(np.maximum(np.diag(s_mat), 1e-300))
-    return np.linalg.pinv(s_mat / np.outer(d, d), rcond=1e-13) / np.outer(d, d)
+    return safe.pinv(s_mat / np.outer(d, d), rcond=1e-13) / np.outer(d, d)
 
 
 #: model-vector slots whose sensitivities the kernel integrates exactly (_direct): every known value but the
