@@ -503,10 +503,15 @@ def diagnose(
     if not d.findings:
         say(f"  no effect in the library is found ({d.settings['candidates']} candidates tested; prediction fit {fits})")
     else:
-        say(f"  {len(d.findings)} effect(s) found (prediction fit before: {fits})")
+        say(f"  {len(d.findings)} finding(s) (prediction fit before: {fits})")
         for i, f in enumerate(d.findings, 1):
-            say(f"  {i}. {f.effect} on {f.axis}: {f.parameter['name']} = "
-                f"{with_unit(f.parameter['value'], f.parameter['unit'])}")
+            if f.effect == "known_value":
+                say(f"  {i}. known value {f.parameter['name']} ({f.axis}) = "
+                    f"{with_unit(f.parameter['value'], f.parameter['unit'])}, given "
+                    f"{with_unit(f.parameter['table'], f.parameter['unit'])}")
+            else:
+                say(f"  {i}. {f.effect} on {f.axis}: {f.parameter['name']} = "
+                    f"{with_unit(f.parameter['value'], f.parameter['unit'])}")
             say(f"     {f.explanation[0].upper() + f.explanation[1:]}.")
             say(f"     fit {fit_change(f.fit_before, f.fit_after)}; {f.evidence}")
         say("  estimates  " + "  ".join(f"{k} {marked(k, d.nominal[k])} -> {marked(k, d.augmented[k])}"

@@ -11,6 +11,7 @@ from ..errors import LogFormatError
 from ..log import Log
 from ..model import effects
 from ..model.effects import UNOBSERVABLE, Candidate
+from ..numerics import safe
 from ..numerics.adequacy import AXIS_OF, RMS_OVER_NOISE
 from ..numerics.design import design_filters
 from ..numerics.stats import block_length
@@ -116,7 +117,8 @@ def _refine(grid, gains, best_i, log_space: bool = True) -> float:
         x = np.array(grid[best_i - 1:best_i + 2], dtype=float)
         x = np.log(x) if log_space else x
         y = np.array(gains[best_i - 1:best_i + 2], dtype=float)
-        curv, slope, _ = np.polyfit(x, y, 2)
+        coef = safe.polyfit(x, y, 2)  # gains of a model that overflowed are not finite: keep the grid point
+        curv, slope = (coef[0], coef[1]) if coef is not None else (0.0, 0.0)
         if curv < 0:
             v = float(np.clip(-slope / (2 * curv), x.min(), x.max()))  # grids may descend
             return float(np.exp(v)) if log_space else v
@@ -128,8 +130,11 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
     """Find what the seed model leaves out of this log, fit it, and give the verdict (VERDICTS).
 
     ``progress(stage, fraction done)``: called as the work advances (the CLI draws a bar with it)."""
+    from .weigh import weigh
+
     with np.errstate(all="ignore"):  # a model far off the log overflows its predictions: they score as misfits
-        return _diagnose(log, overrides, law, a_rad_s, progress or (lambda stage, done: None))
+        d = _diagnose(log, overrides, law, a_rad_s, progress or (lambda stage, done: None))
+    return weigh(d, log, merge(overrides or {}, source="parameter overrides"), law)
 
 
 #: the held-out tests need this many blocks (each five filter memories long)

@@ -44,8 +44,18 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                                       "a B may be arbitrarily small): why; such a value is a least-squares number of "
                                       "a model far from the bench, not a measurement",
             "estimates.augmented": "the same with the findings' terms added and refitted together; where those are "
-                                   "not physical, the J, B of the output-error fit that decided the last finding "
+                                   "not physical, the J, B of the output-error fit that decided the last finding; "
+                                   "for a known-value finding, those of its output-error refit "
                                    "(settings.estimates_augmented_from)",
+            "findings (effect known_value)": "a known value of eq. (1) that, set free alone and refitted by output "
+                                             "error with J, B and the start states, brings both angles to their "
+                                             "noise floors: parameter.name as in --params, value refitted, table the "
+                                             "value diagnose was given, ci95 its 95 % interval; it wins over effects "
+                                             "that need more parameters (diagnosis/weigh.py), and one-parameter "
+                                             "explanations that also reach the floor are its alternatives",
+            "seed_model_check.known_values": "the known-value search estimate's adequacy check ran on this log "
+                                             "(trms_ident/known_values.py): score-test ranking, the refits and "
+                                             "the value named",
             "output_error_tested": "every candidate the equation-error test passed and the output-error fit can "
                                    "carry (that test decides; torque_floor false: judged without the torque-share "
                                    "floor), and, when the equation-error test passes no candidate, its best "
@@ -91,8 +101,10 @@ def finding_figure(step: dict):
     import matplotlib.pyplot as plt
 
     axes = step["axes"]
-    fig = plt.figure(figsize=(12, 2.7 * (2 * len(axes) + 1)))
-    grid = fig.add_gridspec(2 * len(axes) + 1, 3)
+    sh = step["shape"]  # None for a known value: it changes a coefficient of eq. (1), not a term's form
+    rows = 2 * len(axes) + (sh is not None)
+    fig = plt.figure(figsize=(12, 2.7 * rows))
+    grid = fig.add_gridspec(rows, 3)
     t = step["t"]
     for row, (axis, a) in enumerate(axes.items()):
         ov = fig.add_subplot(grid[2 * row, :])
@@ -122,17 +134,17 @@ def finding_figure(step: dict):
         for p in (pe, rt):
             p.legend(fontsize=7, loc="upper right")
         rr.legend(fontsize=7, markerscale=6, loc="upper right")
-    sh = step["shape"]
-    ax = fig.add_subplot(grid[2 * len(axes), :])
-    ax.plot(sh.x, sh.seed, color="0.45", lw=1.0, ls=":", label="seed model (Table 1)")
-    ax.plot(sh.x, sh.fitted, color="tab:red", lw=1.4, label="with the fitted term")
-    ax.set_xlabel(sh.x_label)
-    ax.set_ylabel(sh.y_label)
-    ax.set_title(sh.title, fontsize=10)
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
+    if sh is not None:
+        ax = fig.add_subplot(grid[2 * len(axes), :])
+        ax.plot(sh.x, sh.seed, color="0.45", lw=1.0, ls=":", label="seed model (Table 1)")
+        ax.plot(sh.x, sh.fitted, color="tab:red", lw=1.4, label="with the fitted term")
+        ax.set_xlabel(sh.x_label)
+        ax.set_ylabel(sh.y_label)
+        ax.set_title(sh.title, fontsize=10)
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
     fig.suptitle(f"{step['key'].replace(':', ' on ')}: prediction, prediction and equation error in time and "
-                 "regime (before and with this finding), and the term's shape")
+                 "regime (before and with this finding)" + (", and the term's shape" if sh is not None else ""))
     fig.tight_layout()
     return fig
 
@@ -224,8 +236,9 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
                   + (f"<td>{marked(k, corrected[k])}</td>" if k in corrected else ("<td></td>" if corrected else ""))
                   + "</tr>" for k in ("J1", "B1", "J2", "B2"))
     est_head = "<th>with the correction</th>" if corrected else ""
-    aug_from = (" (output-error fit: the equation error's were not physical)"
-                if doc["settings"].get("estimates_augmented_from") == "output_error" else "")
+    aug_from = {"output_error": " (output-error fit: the equation error's were not physical)",
+                "known_value": " (output-error refit with the known value free)"}.get(
+        doc["settings"].get("estimates_augmented_from"), "")
     imgs = "".join(f"<h2>{html.escape(title)}</h2><img alt='{html.escape(title)}' src='{uri}'>" for title, uri in figs)
     colour = {"consistent": "#e8f5e9", "explained": "#e8f5e9", "partly_explained": "#fff4e0"}.get(doc["verdict"],
                                                                                                    "#fdecea")

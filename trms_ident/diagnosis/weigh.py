@@ -1,0 +1,164 @@
+"""The rule that weighs a known value off its table against the effect library: the simplest explanation that
+reaches the noise floor wins, and two that reach it with as few parameters are look-alikes, never one picked
+silently.
+
+The hypotheses come from two searches over the same log:
+
+- the known values (trms_ident/known_values.py): each value of eq. (1)'s table set free alone and refitted by
+  output error.  identify's adequacy check runs that search (estimate's sentence names its result); diagnose
+  reads the same result from its seed check, so the two commands name the same value on every log;
+- the effect library (run.py): effects added one at a time, judged by held-out tests, output-error fits and
+  the noise floor.
+
+The rule, in order (each explanation counted by the parameters it adds to eq. (1); J/B and start states are
+refitted with every one):
+
+1. a known value that, set free alone, brings both simulated angles to RMS_OVER_NOISE of their noise floors
+   explains the log with one parameter.  It is the finding; the known values that reach the floor as well are
+   its look-alikes (the log cannot tell them apart);
+2. the effect search's findings then stand only as look-alikes, and only when a single effect explains the log
+   too (verdict "explained" with one finding): one parameter each, both at the noise floor.  Otherwise they
+   need more parameters, or leave more than the noise, for what the one value explains: they are refused, each
+   with that reason;
+3. with no known value reaching the floor, the effect search's verdict stands, and its sentence says which
+   known values were tried alone and how far each left the angles from their floors.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+from scipy.stats import norm
+
+from .. import known_values
+from ..log import Log
+from ..numerics.adequacy import RMS_OVER_NOISE
+from ..numerics.stats import block_length
+from .model import AXIS_ANGLE, Model, regression
+
+#: the verdict sentence of a known value that explains the log
+EXPLAINED_BY_VALUE = ("the model fits the log to its noise level once one known value takes the bench's own value "
+                      "instead of the one it was given: a known value, not new physics")
+
+
+def weigh(d, log: Log, p: dict, law: str):
+    """The diagnosis after the rule (module docstring); ``d`` the effect search's (run.Diagnosis), ``p`` the
+    values it was given.  Unchanged when the seed check ran no known-value search (the model fits, or the fit
+    was not decided)."""
+    from . import run
+
+    kv = d.seed_check.get("known_values")
+    if not kv:
+        return d
+    named = kv.get("named")
+    if named is None:
+        if d.verdict in ("partly_explained", "unexplained"):
+            tried = ", ".join(f"{f['name']} {max(f['over_noise'].values()):.3g}x" for f in kv["fits"])
+            d.verdict_sentence += (" No known value explains the log alone (each refitted by output error, the most "
+                                   f"likely leave the angles above their noise floors: {tried or 'none could be fitted'}).")
+        return d
+    fit = next(f for f in kv["fits"] if f["name"] == named)
+    name, value, table = fit["name"], fit["value"], fit["table"]
+    pp = {**p, name: value}
+    est = dict(fit["estimates"])
+    start = {k: fit["start_states"][k] for k in ("tau1_0", "tau2_0", "zeta_0") if k in fit["start_states"]}
+    start = start if len(start) == 3 and all(math.isfinite(v) for v in start.values()) else None
+    with np.errstate(all="ignore"):
+        fits_after, preds = run._fits(log, pp, law, Model(), {}, est, start=start)
+        a = d.settings["a_rad_s"]
+        block = block_length(len(log), log.sample_time_s, 1.0 / a)
+        reg = regression(log, pp, law, a, Model(), {("start_states",): start})
+        sc = run.score(reg, run.block_ids(len(log), block), ("pitch", "yaw"))
+    axis = known_values.AXIS[name]
+    effect_alike = (d.verdict == "explained" and len(d.findings) == 1)
+    alternatives = list(kv.get("look_alikes", []))
+    if effect_alike:
+        alternatives.append(f"{d.findings[0].effect}:{d.findings[0].axis}")
+    lo, hi = fit["ci95"]
+    se = (hi - lo) / (2 * 1.959963984540054) if hi > lo else math.inf
+    t = (value - table) / se if se > 0 else math.inf
+    ratio = fit["over_noise"]
+    base = d.seed_check.get("axes", {})
+    before = ", ".join(f"{ang} {v['rms_over_noise']:.3g}x" for ang, v in base.items() if "rms_over_noise" in v)
+    evidence = (f"set free alone and refitted by output error with J1, B1, J2, B2 and the start states "
+                f"(multiple shooting in {known_values.SHOOTING_WINDOW_S:g} s windows, then the standard windows), "
+                f"it brings the angles to {ratio['alpha']:.3g}x and {ratio['beta']:.3g}x their noise floors "
+                f"(seed model: {before}); 95 % interval {lo:.6g} to {hi:.6g} {fit['unit']}; score-test share "
+                f"{fit['score']:.2g} of the misfit")
+    if alternatives:
+        evidence += "; cannot be told apart with this log from " + ", ".join(alternatives)
+    finding = run.Finding(
+        "known_value", axis, {"name": name, "value": value, "table": table, "unit": fit["unit"],
+                              "ci95": [lo, hi]},
+        d.fit_before.get(axis, math.nan), fits_after.get(axis, math.nan), evidence,
+        f"the bench's {name} is {value:.4g}, not the {table:.4g} it was given", _drop(base, ratio),
+        float(t), float(2 * norm.sf(abs(t))) if math.isfinite(t) else 0.0, alternatives,
+        {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est})
+    refused = list(d.refused)
+    if not effect_alike:
+        why = (f"a known value explains the log alone with one parameter ({name} = {value:.4g} instead of "
+               f"{table:.4g} brings both angles to their noise floors); this effect is not needed")
+        refused += [{"effect": f.effect, "axis": f.axis, "parameter": f.parameter["value"], "reason": why}
+                    for f in d.findings]
+    overlay = {ax: (ov[0], ov[1], ov[2], preds[ax]) for ax, ov in d.overlay.items()}
+    residual = {ax: (r[0], r[1], reg.g[ax] - reg.x[ax] @ sc.theta[ax]) for ax, r in d.residual.items()}
+    step = _step(log, name, axis, d, overlay, residual, fits_after)
+    sentence = EXPLAINED_BY_VALUE + f": the bench's {name} is {value:.4g}, not {table:.4g}"
+    if alternatives:
+        sentence += (f"; {', '.join(alternatives)} would explain it as well with one parameter: this log cannot "
+                     "tell them apart")
+    sentence += (f" (both angles within {RMS_OVER_NOISE:g}x their noise floors). Check {name} on the bench, or "
+                 f"estimate it with `trms-ident estimate --free {name}`.")
+    if effect_alike and _closer(d.settings.get("output_error_check"), ratio):
+        # the single effect leaves the angles nearer their floors: it stays first, the known value its look-alike
+        effect = d.findings[0]
+        effect.alternatives = list(dict.fromkeys(effect.alternatives + [f"known_value:{name}"]))
+        effect.evidence += (f"; cannot be told apart with this log from {name} = {value:.4g} instead of {table:.4g} "
+                            "(a known value, refitted alone, also reaches the noise floor)")
+        d.verdict_sentence += (f" A known value would explain the log as well: with {name} = {value:.4g} instead of "
+                               f"{table:.4g} the model fits to the noise level too; this log cannot tell them apart.")
+        d.findings.append(finding)
+        d.steps.append(step)
+        return d
+    settings = {**d.settings, "output_error_check": {"rms_over_noise": dict(ratio), "threshold": RMS_OVER_NOISE},
+                "start_states_after": start, "estimates_augmented_from": "known_value",
+                "rule": "simplest explanation reaching the noise floor (diagnosis/weigh.py)"}
+    findings = [finding] + ([d.findings[0]] if effect_alike else [])
+    return replace(d, mismatch=True, findings=findings, augmented=est, fit_after=fits_after, overlay=overlay,
+                   residual=residual, verdict="explained", verdict_sentence=sentence, refused=refused,
+                   corrections=[], steps=[step] + (d.steps[:1] if effect_alike else []), settings=settings)
+
+
+def _closer(effect_check: dict | None, ratio: dict) -> bool:
+    """Does the effect's output-error check leave the angles nearer their floors (sum of squared ratios) than
+    the known value's refit?"""
+    if not effect_check:
+        return False
+    e = effect_check["rms_over_noise"]
+    return sum(v * v for v in e.values()) < sum(v * v for v in ratio.values())
+
+
+def _drop(base: dict, ratio: dict) -> float:
+    """The share of the worst angle's squared error (over its noise floor) the refit removes."""
+    before = max((base.get(ang, {}).get("rms_over_noise", math.nan) for ang in ("alpha", "beta")), default=math.nan)
+    return 1.0 - max(ratio.values()) ** 2 / before ** 2 if before > 0 else math.nan
+
+
+def _step(log: Log, name: str, axis: str, d, overlay: dict, residual: dict, fits_after: dict) -> dict:
+    """The known value's figures (report/diagnosis.finding_figure): on both angles the measured angle, the
+    predictions before and after, the equation error before and after over time and against the angle; no
+    term shape (a known value changes a coefficient of eq. (1), not a term's form)."""
+    from .shapes import thin
+
+    th = thin(len(log))
+    axes = {}
+    for ax in ("pitch", "yaw"):
+        x = getattr(log, AXIS_ANGLE[ax])
+        axes[ax] = {"measured": x[th], "before": overlay[ax][2][th], "after": overlay[ax][3][th],
+                    "fit_before": d.fit_before[ax], "fit_after": fits_after[ax],
+                    "residual_before": residual[ax][1][th], "residual_after": residual[ax][2][th],
+                    "regime_label": f"{AXIS_ANGLE[ax].split('_')[0]} [rad]", "regime": x[th],
+                    "segments": d.segments[ax]}
+    return {"key": f"{name} (known value, {axis})", "t": log.t_s[th], "axes": axes, "shape": None}
+
