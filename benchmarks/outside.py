@@ -1,4 +1,4 @@
-"""Physics outside diagnose's library (issue #12, done-when): never called explained or consistent, blind.
+"""Physics outside diagnose's library (issues #12, #32): Rotondo's plant never explained; a known value off named.
 
     python benchmarks/outside.py        # 16 logs on 2 processes, a few minutes; writes the "Outside the library"
                                         # section of RESULTS.md
@@ -10,9 +10,11 @@ Logs whose physics no named effect describes, from seeds no test uses (from 7000
   twice, the reaction moment kc half, the gravity moment Mg 0.75x, the tail rotor's thrust b2 1.3x, the main
   rotor's thrust a1 0.8x, the reaction's lead T0 0.5x; each on two logs (multisine 200 Hz 12-bit from rest,
   steps 250 Hz 1 mrad 30 s into the run).
-A log whose seed-model check says the model fits shows nothing to explain ("consistent" is then right) and is
-counted apart.  On every other log the verdict must be partly_explained or unexplained; a named finding there
-is a lead (it may absorb part of the mismatch), never a reason to call the log explained.
+Rotondo's plant: the verdict must be partly_explained or unexplained (consistent only where the seed-model check
+says the model fits: nothing to explain); a named finding there is a lead, never a reason to call it explained.
+One known value off (issue #32): that value must be named, first or as a flagged look-alike of the first finding,
+refitted within 30 % of the deviation (|value - true| <= 0.3 |true - table|), verdict explained; no cable, offset
+or asymmetry invented in its place.
 """
 from __future__ import annotations
 
@@ -69,9 +71,32 @@ def run_case(c: dict) -> dict:
         d = diagnose(_log(c))
     except (LogFormatError, IdentificationError) as exc:
         return dict(case=c, error=str(exc))
+    first = d.findings[0] if d.findings else None
+    names = []
+    if first is not None:
+        names = [first.parameter["name"] if first.effect == "known_value" else f"{first.effect}:{first.axis}"]
+        names += [a.split(":", 1)[1] if a.startswith("known_value:") else a for a in first.alternatives]
+    value = next((f.parameter["value"] for f in d.findings if f.effect == "known_value" and
+                  f.parameter["name"] == c.get("known")), None)
     return dict(case=c, verdict=d.verdict, seed_fits=bool(d.seed_check.get("adequate")),
-                findings=[f"{f.effect}:{f.axis}={f.parameter['value']:.3g}" for f in d.findings],
+                findings=[(f"{f.parameter['name']}={f.parameter['value']:.4g} (known value)" if f.effect == "known_value"
+                           else f"{f.effect}:{f.axis}={f.parameter['value']:.3g}") for f in d.findings],
+                names=names, value=value, estimate_named=(d.seed_check.get("suspect") or {}).get("name"),
                 corrections=[c_.axis for c_ in d.corrections], seconds=time.perf_counter() - t0)
+
+
+def right(r: dict) -> bool:
+    """Rotondo's plant: never explained (consistent only where the seed model fits).  One known value off: that
+    value named first or as a flagged look-alike of the first finding, within 30 % of the deviation, explained."""
+    c = r["case"]
+    if c["plant"] == "rotondo":
+        return r["verdict"] in ("partly_explained", "unexplained") or (r["seed_fits"] and r["verdict"] == "consistent")
+    from trms_ident.params import defaults
+
+    table = defaults()[c["known"]]
+    true = table * c["factor"]
+    return (r["verdict"] == "explained" and c["known"] in r["names"] and r["value"] is not None
+            and abs(r["value"] - true) <= 0.3 * abs(true - table))
 
 
 def _name(c: dict) -> str:
@@ -87,30 +112,32 @@ def main() -> None:
     with ProcessPoolExecutor(max_workers=2) as pool:
         results = list(pool.map(run_case, cases()))
     elapsed = time.perf_counter() - t0
-    rows, wrong, visible, invisible = [], [], 0, 0
+    rows, wrong = [], []
     for r in results:
         if "error" in r:
-            rows.append(f"| {_name(r['case'])} | - | refused: {r['error'][:120]} | - | - | - |")
+            rows.append(f"| {_name(r['case'])} | - | refused: {r['error'][:120]} | - | - | - | - |")
+            wrong.append(_name(r["case"]))
             continue
-        ok = r["verdict"] in ("partly_explained", "unexplained") or (r["seed_fits"] and r["verdict"] == "consistent")
-        visible += not r["seed_fits"]
-        invisible += r["seed_fits"]
+        ok = right(r)
         if not ok:
             wrong.append(_name(r["case"]))
         rows.append(f"| {_name(r['case'])} | {'fits' if r['seed_fits'] else 'does not fit'} | {r['verdict']} | "
-                    f"{'; '.join(r['findings']) or '-'} | {', '.join(r['corrections']) or '-'} | "
-                    f"{'yes' if ok else 'NO'} |")
+                    f"{'; '.join(r['findings']) or '-'} | {r['estimate_named'] or '-'} | "
+                    f"{', '.join(r['corrections']) or '-'} | {'yes' if ok else 'NO'} |")
+    rot = [r for r in results if r["case"]["plant"] == "rotondo"]
+    known = [r for r in results if r["case"]["plant"] == "seed"]
     text = ("## Outside the library (benchmarks/outside.py, blind, seeds from 7000)\n\n"
-            "Physics no named effect describes: the published Rotondo et al. (2013) plant, and the seed model with one "
-            "known value off the one diagnose is given. Right: `partly_explained` or `unexplained` (or `consistent` "
-            "where the seed model already fits).\n\n"
-            "| log | seed model | verdict | findings (leads) | corrections (axes) | right |\n"
-            "|---|---|---|---|---|---|\n"
+            "The published Rotondo et al. (2013) plant (right: `partly_explained` or `unexplained`, `consistent` "
+            "only where the seed model already fits), and the seed model with one known value off the one diagnose "
+            "is given (right: that value named first or as a flagged look-alike, refitted within 30 % of the "
+            "deviation, `explained`). 'estimate names' is the known value estimate's adequacy check blames on the "
+            "same log.\n\n"
+            "| log | seed model | verdict | findings | estimate names | corrections (axes) | right |\n"
+            "|---|---|---|---|---|---|---|\n"
             + "\n".join(rows)
-            + f"\n\nLogs the seed model does not fit: {visible}; called explained or consistent among them: "
-            f"{len(wrong)}{' (' + '; '.join(wrong) + ')' if wrong else ''}. Logs the seed model fits (nothing to "
-            f"explain): {invisible}. Refused: {sum('error' in r for r in results)}. Total {elapsed:.0f} s on 2 "
-            "processes.\n")
+            + f"\n\nRotondo's plant right: {sum(right(r) for r in rot if 'error' not in r)}/{len(rot)}. Known value "
+            f"named right: {sum(right(r) for r in known if 'error' not in r)}/{len(known)}"
+            f"{' (wrong: ' + '; '.join(wrong) + ')' if wrong else ''}. Total {elapsed:.0f} s on 2 processes.\n")
     from results import update_section
 
     update_section(Path(__file__).with_name("RESULTS.md"), "Outside the library", text)
