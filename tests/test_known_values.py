@@ -160,3 +160,52 @@ def test_lapack_never_sees_a_number_that_is_not_finite(capfd):
     assert safe.polyfit([1.0, 2.0, 3.0], [1.0, np.nan, 2.0], 2) is None
     assert np.allclose(safe.polyfit([0.0, 1.0, 2.0], [1.0, 2.0, 5.0], 2), [1.0, 0.0, 1.0])
     assert capfd.readouterr().err == ""
+
+
+def _smoothed(r, width=9):
+    """The angles as a logger that smooths them would keep them (a centred moving average)."""
+    k = np.ones(width) / width
+    pad = width // 2
+
+    def sm(x):
+        return np.convolve(np.pad(x, pad, mode="edge"), k, mode="valid")
+
+    return sm(r.alpha_rad), sm(r.beta_rad)
+
+
+def test_a_smoothed_recording_is_judged_against_a_black_box_not_its_unmeasurable_floor():
+    """Item 5 of issue #32: an angle smoothed before it was logged has no measurable noise floor (its third
+    differences sit below any encoder's rounding).  A wrong known value is still called a misfit there (a
+    flexible black-box model simulates the held-out angle far better); an angle the model simulates as well
+    as the black box is 'not decided', never 'does not fit' on a floor the log cannot measure."""
+    from trms_ident.log import validated
+
+    def check(overrides):
+        r = simulate(SimSettings(ref="multisine", sample_rate_hz=100.0, duration_s=60.0, seed=8, overrides=overrides))
+        a, b = _smoothed(r)
+        return identify(validated(r.t_s, r.u1_v, r.u2_v, a, b, source="<smoothed>"), Settings()).model_check
+
+    wrong = check({"kc": -0.1})
+    yaw = wrong["axes"]["yaw"]
+    assert not yaw["noise_floor_measured"] and yaw["floor_used"] == "black_box" and yaw["black_box_ratio"] > 1.2
+    assert wrong["adequate"] is False and "flexible black-box model" in wrong["sentence"]
+    pitch = check({})["axes"]["pitch"]  # the true model: the smoothing's lag leaves 2e-5 rad, the black box 0.017
+    assert not pitch["noise_floor_measured"] and pitch["rms_over_noise"] > 1.2  # the floor alone would say misfit
+    assert pitch["floor_used"] == "black_box" and pitch["black_box_ratio"] < 1.2 and pitch["adequate"] is None
+
+
+def test_the_black_box_simulates_a_system_inside_its_class_to_round_off():
+    """A held-out free run of a system the black box can represent exactly (a discrete second-order lag of
+    the voltages at its own rate) leaves an error at the ridge's bias (1e-6 of the signal), a fit of 100 %."""
+    from trms_ident.numerics.blackbox import achievable_error_rad
+
+    rng = np.random.default_rng(4)
+    n = 4000
+    u = np.repeat(rng.uniform(-1, 1, (n // 20, 2)), 20, axis=0)
+    y = np.zeros((n, 2))
+    for k in range(2, n):
+        y[k] = 1.6 * y[k - 1] - 0.64 * y[k - 2] + 0.02 * u[k - 1]
+    out = achievable_error_rad(y, u, 1.0 / 25.0, 40.0)
+    for ang in ("alpha", "beta"):
+        assert out[ang]["fit_percent"] > 99.99
+        assert out[ang]["rms_rad"] < 1e-5 * np.std(y[:, 0])

@@ -238,12 +238,12 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
                  "is not this fit")
     y = np.column_stack([log.alpha_rad[:n], log.beta_rad[:n]])
     u = np.column_stack([log.u1_v[:n], log.u2_v[:n]])
-    check = model_check(y, r.prediction, u, noise, dt, scope)
+    check = model_check(y, r.prediction, u, noise, dt, scope, window_s=r.window_s)
     check["converged"] = bool(r.converged)
     if not check["adequate"] and not r.converged and _could_still_fit(r, n):
         _undecided(check, r)
         return check, r.prediction
-    if not check["adequate"]:
+    if check["adequate"] is False:
         _blame(check, log, settings, params)
     if check["caution"]:  # said last, after what the data blame
         check["sentence"] += check["caution"]

@@ -23,6 +23,8 @@ import math
 import numpy as np
 from scipy.special import chdtri  # scipy.stats would add 0.7 s to every start-up
 
+from .blackbox import MIN_FIT_PERCENT
+
 #: angle error RMS within this factor of the noise floor: clean logs measured 0.93-1.01 (36 benchmark cells)
 RMS_OVER_NOISE = 1.2
 #: residual tests run on the residual decimated to about this rate [Hz]
@@ -31,11 +33,12 @@ LAGS = 25
 LEVEL = 0.99
 #: below this RMS [rad] the fit is exact to the integrator; residual tests are not meaningful
 NUMERICAL_FLOOR_RAD = 1e-7
-#: a measured noise floor below this [rad] is finer than any encoder leaves (a 20-bit encoder's rounding
-#: q/sqrt(12) is 1.7e-6 rad, the TRMS's 4096-line one 4.4e-4 rad): the angles were smoothed or interpolated
-#: before they were logged (the real CE150 recordings measure 8e-11 to 1.2e-6 rad), or the log is simulated
-#: without noise.  The floor is then a lower bound the log cannot measure, and the verdict says so.
-SMOOTHED_FLOOR_RAD = 1e-6
+#: a measured noise floor below this [rad] is finer than any encoder up to 20 bits leaves (a 20-bit encoder's
+#: rounding q/sqrt(12) is 1.7e-6 rad, the TRMS's 4096-line one 4.4e-4 rad): the angles were smoothed or
+#: interpolated before they were logged (the real CE150 recordings measure 8e-11 to 1.2e-6 rad), or the log is
+#: simulated without noise.  The floor is then a lower bound the log cannot measure, and the verdict does not
+#: rest on it (model_check: a black-box model's held-out error is the floor instead).
+SMOOTHED_FLOOR_RAD = 1.5e-6
 ANGLES = ("alpha", "beta")
 AXIS_OF = {"alpha": "pitch", "beta": "yaw"}
 
@@ -97,15 +100,23 @@ def decimation(dt_s: float) -> int:
     return max(1, int(round(1.0 / (DECIMATED_RATE_HZ * dt_s))))
 
 
-def model_check(y: np.ndarray, pred: np.ndarray, u: np.ndarray, noise_rad: dict, dt_s: float, scope: str) -> dict:
+def model_check(y: np.ndarray, pred: np.ndarray, u: np.ndarray, noise_rad: dict, dt_s: float, scope: str,
+                window_s: float = 40.0) -> dict:
     """The adequacy verdict.  ``y``, ``pred``: (n, 2) measured and simulated alpha, beta [rad]; ``u``: (n, 2)
     u1, u2 [V]; ``noise_rad``: the measurement-noise floor per angle; ``scope``: how the simulation was made.
     ``caution`` (or None) is the sentence's closing words about a floor the log cannot measure, kept apart so
-    that the caller adds it after its own (identify: which known value the data blame)."""
+    that the caller adds it after its own (identify: which known value the data blame).
+
+    When an angle's noise floor cannot be measured (below SMOOTHED_FLOOR_RAD: smoothed or noise-free angles)
+    and the model misses it, the verdict does not rest on that floor alone: a flexible black-box model's
+    held-out simulation error (numerics/blackbox.py, in windows of ``window_s`` [s] like eq. (1)'s) is the
+    floor the log can measure.  Above RMS_OVER_NOISE of it the model does not fit (measured: a flexible model
+    does better); within it the fit is not decided (``adequate`` None): the model simulates the angles as
+    well as the black box, and what lies below that the log cannot show.  ``floor_used`` per axis says which."""
     step = decimation(dt_s)
     thr_white = float(chdtri(LAGS, 1.0 - LEVEL))  # chi2 quantile
     thr_cross = float(chdtri(LAGS + 1, 1.0 - LEVEL))
-    axes, problems = {}, []
+    axes, problems, undecided, bb_all = {}, [], [], None
     for j, ang in enumerate(ANGLES):
         e = y[:, j] - pred[:, j]
         rms = float(np.sqrt(np.mean(e * e)))
@@ -134,30 +145,69 @@ def model_check(y: np.ndarray, pred: np.ndarray, u: np.ndarray, noise_rad: dict,
                                   "uncorrelated": ok_cross},
             "adequate": ok_rms,
             "noise_floor_measured": floor >= SMOOTHED_FLOOR_RAD,
+            "floor_used": "noise",
         }
+        if not ok_rms and floor < SMOOTHED_FLOOR_RAD and not exact:
+            bb_all = _black_box(y, u, dt_s, window_s, bb_all)
+            bb = bb_all[ang]
+            axes[AXIS_OF[ang]]["black_box"] = bb
+            over = rms / bb["rms_rad"] if bb["rms_rad"] else math.inf
+            if bb["rms_rad"] is not None and over > RMS_OVER_NOISE:  # a flexible model does measurably better
+                axes[AXIS_OF[ang]].update(floor_used="black_box", black_box_ratio=over)
+            elif bb["rms_rad"] is None or bb["fit_percent"] < MIN_FIT_PERCENT:
+                axes[AXIS_OF[ang]].update(floor_used="none", adequate=None)
+                undecided.append(f"the {AXIS_OF[ang]} angle's noise floor cannot be measured (its angles carry less "
+                                 f"noise than any encoder leaves, below {SMOOTHED_FLOOR_RAD:g} rad) and a flexible "
+                                 f"black-box model does not simulate it well enough to stand in for it (held-out fit "
+                                 f"{bb['fit_percent']:.3g} %)")
+                continue
+            else:
+                axes[AXIS_OF[ang]].update(floor_used="black_box", black_box_ratio=over, adequate=None)
+                undecided.append(f"the {AXIS_OF[ang]} angle is simulated as well as a flexible black-box model "
+                                 f"simulates it on held-out data ({rms:.3g} rad against {bb['rms_rad']:.3g} rad), "
+                                 "and its noise floor cannot be measured (its angles carry less noise than any "
+                                 "encoder leaves): a finer misfit cannot be told on this log")
+                continue
+            problems.append(f"the {AXIS_OF[ang]} angle's error is {over:.3g}x what a flexible black-box model leaves "
+                            f"on held-out data ({rms:.3g} rad against {bb['rms_rad']:.3g} rad; the angles carry no "
+                            "measurable noise, so that is the floor this log can measure)")
+            continue
         if not ok_rms:
             worst = max(cross, key=cross.get)
             problems.append(f"the {AXIS_OF[ang]} angle's error is {ratio:.3g}x its noise level "
                             f"({rms:.3g} rad against {floor:.3g} rad)" +
                             (f", correlated with {worst}" if not ok_cross else "") +
                             (", not white" if not ok_white else ""))
-    adequate = not problems
-    unmeasured = [AXIS_OF[ang] for ang in ANGLES if not axes[AXIS_OF[ang]]["noise_floor_measured"]]
+    adequate = False if problems else (None if undecided else True)
+    unmeasured = [AXIS_OF[ang] for ang in ANGLES if not axes[AXIS_OF[ang]]["noise_floor_measured"]
+                  and axes[AXIS_OF[ang]]["floor_used"] == "noise"]
     fits = ", ".join(f"{a} {v['fit_percent']:.2f} % (noise floor allows {v['noise_floor_fit_percent']:.2f} %)"
                      for a, v in axes.items())
     if adequate:
         sentence = (f"The model fits this log to its noise level: simulation fit {fits}. The intervals are "
                     "trustworthy as far as the model's known values are right.")
+    elif adequate is None:
+        sentence = ("Not decided: " + "; ".join(undecided) + f" (simulation fit {fits}). The estimates carry no "
+                    "adequacy verdict; with the encoder's resolution known, give the log its real noise.")
     else:
         sentence = ("The model does NOT fit this log: " + "; ".join(problems) + f" (simulation fit {fits}). "
                     "The estimates are those of a model that does not fit, and their intervals are conditional "
                     "on it; run `trms-ident diagnose` on the log to find what the model leaves out, and check the "
                     "known values (--params).")
     caution = None
-    if unmeasured and not adequate:
+    if unmeasured and adequate is False:
         carry = "angles carry" if len(unmeasured) > 1 else "angle carries"
         caution = (f" Caution: the {' and '.join(unmeasured)} {carry} less noise than any encoder leaves "
                    f"(below {SMOOTHED_FLOOR_RAD:g} rad): the recording smoothed or interpolated the angles, or the "
                    "log is simulated without noise, so the noise floor is a lower bound this log cannot measure "
                    "and the error ratios overstate the misfit; the simulation fit is the measure to read.")
     return {"adequate": adequate, "axes": axes, "simulation": scope, "sentence": sentence, "caution": caution}
+
+
+def _black_box(y: np.ndarray, u: np.ndarray, dt_s: float, window_s: float, known: dict | None) -> dict:
+    """The black box's held-out errors (blackbox.achievable_error_rad), computed once for both angles."""
+    if known is not None:
+        return known
+    from .blackbox import achievable_error_rad
+
+    return achievable_error_rad(y, u, dt_s, window_s)
