@@ -17,9 +17,10 @@ refitted with every one):
    explains the log with one parameter.  It is the finding; the known values that reach the floor as well are
    its look-alikes (the log cannot tell them apart);
 2. the effect search's findings then stand only as look-alikes, and only when a single effect explains the log
-   too (verdict "explained" with one finding): one parameter each, both at the noise floor.  Otherwise they
-   need more parameters, or leave more than the noise, for what the one value explains: they are refused, each
-   with that reason;
+   too (verdict "explained" with one finding): one parameter each, both at the noise floor, the one that leaves
+   the angles nearer their floors first (an effect that is the known value under another name, SAME, first:
+   the motor_lag candidate's time constant is T11 or T21 itself).  Otherwise they need more parameters, or
+   leave more than the noise, for what the one value explains: they are refused, each with that reason;
 3. with no known value reaching the floor, the effect search's verdict stands, and its sentence says which
    known values were tried alone and how far each left the angles from their floors.
 """
@@ -37,6 +38,9 @@ from ..numerics.adequacy import RMS_OVER_NOISE
 from ..numerics.stats import block_length
 from .model import AXIS_ANGLE, Model, regression
 
+#: library effects that are a known value of eq. (1) under another name: the motor time constant the motor_lag
+#: candidate fits is T11 (T21) itself
+SAME = {"motor_lag:pitch": "T11", "motor_lag:yaw": "T21"}
 #: the verdict sentence of a known value that explains the log
 EXPLAINED_BY_VALUE = ("the model fits the log to its noise level once one known value takes the bench's own value "
                       "instead of the one it was given: a known value, not new physics")
@@ -110,13 +114,19 @@ def weigh(d, log: Log, p: dict, law: str):
                      "tell them apart")
     sentence += (f" (both angles within {RMS_OVER_NOISE:g}x their noise floors). Check {name} on the bench, or "
                  f"estimate it with `trms-ident estimate --free {name}`.")
-    if effect_alike and _closer(d.settings.get("output_error_check"), ratio):
-        # the single effect leaves the angles nearer their floors: it stays first, the known value its look-alike
+    same = effect_alike and SAME.get(f"{d.findings[0].effect}:{d.findings[0].axis}") == name
+    if effect_alike and (same or _closer(d.settings.get("output_error_check"), ratio)):
+        # the single effect leaves the angles nearer their floors, or is the library's name for this very known
+        # value: it stays first, the known value its look-alike
         effect = d.findings[0]
         effect.alternatives = list(dict.fromkeys(effect.alternatives + [f"known_value:{name}"]))
-        effect.evidence += (f"; cannot be told apart with this log from {name} = {value:.4g} instead of {table:.4g} "
+        effect.evidence += (f"; the same physics as the known value {name} = {value:.4g} instead of {table:.4g} (its "
+                            "refit alone reaches the noise floor too)" if same else
+                            f"; cannot be told apart with this log from {name} = {value:.4g} instead of {table:.4g} "
                             "(a known value, refitted alone, also reaches the noise floor)")
-        d.verdict_sentence += (f" A known value would explain the log as well: with {name} = {value:.4g} instead of "
+        d.verdict_sentence += (f" That is the known value {name}: refitted alone it comes out {value:.4g} instead of "
+                               f"{table:.4g}." if same else
+                               f" A known value would explain the log as well: with {name} = {value:.4g} instead of "
                                f"{table:.4g} the model fits to the noise level too; this log cannot tell them apart.")
         d.findings.append(finding)
         d.steps.append(step)
