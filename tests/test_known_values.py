@@ -84,34 +84,38 @@ def test_a_value_whose_shooting_fit_stays_above_the_floor_is_not_refitted_in_ful
 def test_the_known_value_wins_over_effects_that_need_more_parameters(monkeypatch):
     """The rule: with a known value at the noise floor, the effect search's findings are refused (each with
     the reason) unless one effect alone explains the log as well, and then it is a flagged look-alike."""
-    log = as_log(_sim({"kc": -0.1}))
-    d = diagnose(log)
-    assert [f.effect for f in d.findings] == ["known_value"]
-    assert all("a known value explains the log alone" in r["reason"] for r in d.refused
-               if r["reason"].startswith("a known value"))
-
-    # a single effect that explains the log too: both one parameter at the floor, so look-alikes, never dropped
     from trms_ident.diagnosis import run
 
+    log = as_log(_sim({"kc": -0.1}))
     original = run._diagnose
+    stub = lambda effect, axis: run.Finding(effect, axis, {"name": "x", "value": 0.01, "unit": "N m/rad"}, 50.0,  # noqa
+                                            99.0, "stub", "stub", 0.5, 5.0, 1e-6)
 
-    def one_effect_explains(*args, **kwargs):
-        out = original(*args, **kwargs)
-        f = run.Finding("cable_stiffness", "yaw", {"name": "k_cable", "value": 0.01, "unit": "N m/rad"}, 50.0, 99.0,
-                        "stub", "a cable", 0.5, 5.0, 1e-6)
-        out.findings, out.verdict = [f], "explained"
-        out.steps = [out.steps[0]] if out.steps else [None]
-        out.settings = {**out.settings, "output_error_check": {"rms_over_noise": {"alpha": 1.1, "beta": 1.15},
-                                                               "threshold": 1.2}}
-        return out
+    def search_says(findings, verdict, ratios):
+        def fake(*args, **kwargs):
+            out = original(*args, **kwargs)
+            out.findings, out.verdict = list(findings), verdict
+            out.steps = [out.steps[0] if out.steps else None for _ in findings]
+            out.settings = {**out.settings, "output_error_check": {"rms_over_noise": ratios, "threshold": 1.2}}
+            return out
+        return fake
 
-    monkeypatch.setattr(run, "_diagnose", one_effect_explains)
+    # two invented effects that leave the yaw above its floor: the one known value wins, both are refused
+    monkeypatch.setattr(run, "_diagnose", search_says([stub("cable_stiffness", "yaw"), stub("com_offset", "pitch")],
+                                                      "partly_explained", {"alpha": 1.1, "beta": 3.0}))
+    d = diagnose(log)
+    assert [f.effect for f in d.findings] == ["known_value"] and d.verdict == "explained"
+    why = [r for r in d.refused if r["reason"].startswith("a known value explains the log alone")]
+    assert sorted(r["effect"] for r in why) == ["cable_stiffness", "com_offset"]
+
+    # a single effect that explains the log too: both one parameter at the floor, so look-alikes, never dropped
+    monkeypatch.setattr(run, "_diagnose", search_says([stub("cable_stiffness", "yaw")], "explained",
+                                                      {"alpha": 1.1, "beta": 1.15}))
     d2 = diagnose(log)
-    keys = [f.effect for f in d2.findings]
-    assert set(keys) == {"known_value", "cable_stiffness"}
-    first = d2.findings[0]
-    assert ("cable_stiffness:yaw" in first.alternatives) or ("known_value:kc" in first.alternatives)
-    assert "cannot" in d2.verdict_sentence and "tell them apart" in d2.verdict_sentence
+    assert [f.effect for f in d2.findings] == ["known_value", "cable_stiffness"]  # the value leaves less
+    assert "cable_stiffness:yaw" in d2.findings[0].alternatives
+    assert "cannot tell them apart" in d2.verdict_sentence
+    assert not [r for r in d2.refused if r["reason"].startswith("a known value explains")]
 
 
 def test_the_rule_orders_look_alikes_by_how_near_the_floor_each_leaves_the_angles():
