@@ -17,6 +17,7 @@ import numpy as np
 from numba import njit
 from scipy.optimize import least_squares
 
+from sim.effects import N_EFFECT_SLOTS
 from sim.plant import PARAM_ORDER, open_loop
 from trms_ident.identify import Settings, identify
 from trms_ident.numerics.regressors import filtered_regression, plant_signals
@@ -65,15 +66,15 @@ def output_error(log, truth: dict, decimate_to_hz: float = 50.0, initial_state: 
     p = defaults()
     dt = log.sample_time_s
     step = max(1, int(round(1.0 / (decimate_to_hz * dt))))
-    fx = np.zeros(13)
-    fx[10] = fx[11] = np.inf
+    fx = np.zeros(N_EFFECT_SLOTS)  # every slot the kernel reads (13 here had left the thrust-asymmetry and
+    fx[10] = fx[11] = np.inf       # yaw-inertia slots reading past the array's end)
     meas = np.column_stack([log.alpha_rad, log.beta_rad])[::step]
     free_x0 = initial_state == "estimate"
 
     def residual(theta):
         pp = dict(p, J1=theta[0], B1=theta[1], J2=theta[2], B2=theta[3])
         vec = np.array([pp[k] for k in PARAM_ORDER])
-        x0 = np.zeros(7)
+        x0 = np.zeros(9)
         x0[0], x0[2] = log.alpha_rad[0], log.beta_rad[0]
         if free_x0:
             x0[1], x0[3], x0[4], x0[5], x0[6] = theta[4:9]

@@ -31,6 +31,9 @@ EFFECTS: dict[str, Effect] = {
         Effect("motor_lag", ("pitch", "yaw"), "T", "s", "true motor time constant T11 or T21"),
         Effect("thrust_asymmetry", ("pitch", "yaw"), "s", "1",
                "a reversed rotor (tau < 0) gives (1 + s) times the table's thrust law"),
+        Effect("motor_second_lag", ("pitch", "yaw"), "T2", "s",
+               "a second-order motor: the motor's drive follows the voltage through a further lag 1/(T2 s + 1) "
+               "(the cascade of two first-order lags; the CE150's motors are second order)"),
         Effect("yaw_inertia_pitch", ("yaw",), "dJ", "kg m^2",
                "yaw inertia J2 - dJ sin^2(alpha): the beam's inertia about the vertical falls as it tilts "
                "(with its centrifugal and Coriolis terms)"),
@@ -48,7 +51,8 @@ I_SAT = (10, 11)
 I_DELAY = 12
 I_ASYM = (13, 14)
 I_YAW_INERTIA = 15
-N_EFFECT_SLOTS = 16
+I_LAG2 = (16, 17)
+N_EFFECT_SLOTS = 18
 AXIS_INDEX = {"pitch": 0, "yaw": 1}
 
 
@@ -75,7 +79,10 @@ def pack(effects: list[dict]) -> list[float]:
             "dead_zone": I_DEADZONE,
             "input_saturation": I_SAT,
             "thrust_asymmetry": I_ASYM,
+            "motor_second_lag": I_LAG2,
         }.get(name)
+        if name == "motor_second_lag" and not value > 0:
+            raise ValueError("motor_second_lag must be > 0 s")
         if slot is not None:
             vec[slot[AXIS_INDEX[axis]]] = value
         elif name == "cable_stiffness":

@@ -2,8 +2,9 @@
 
 Written independently of the estimator (``trms_ident``): tests that feed simulated
 logs to the estimator are a real cross-check.  State vector:
-``[alpha, alpha', beta, beta', tau1, tau2, zeta]`` with zeta the lag state of the
-main-rotor reaction moment M_R = kc (T0 s + 1)/(Tp s + 1) tau1.
+``[alpha, alpha', beta, beta', tau1, tau2, zeta, v1, v2]`` with zeta the lag state of the
+main-rotor reaction moment M_R = kc (T0 s + 1)/(Tp s + 1) tau1, and v1, v2 the drive a second-order motor
+follows (the voltage through 1/(T2 s + 1), effect motor_second_lag; the voltage itself when it is off).
 
 The controller samples the (noisy, quantized) angles at t_k, holds the voltage
 over [t_k, t_k+1) and the plant is integrated with classical RK4 sub-steps.
@@ -60,8 +61,19 @@ def _deriv(x, u1, u2, p, law, fx, dx):
              - dj * sc * dbe * dbe) / J1
     dx[2] = dbe
     dx[3] = (M2 - B2 * dbe - MR + extra2 + 2.0 * dj * sc * dal * dbe) / (J2 - dj * math.sin(al) ** 2)
-    dx[4] = (k1 * u1 - T10 * tau1) / T11
-    dx[5] = (k2 * u2 - T20 * tau2) / T21
+    # a second-order motor: the drive follows the voltage through a further first-order lag (the cascade of two
+    # linear lags is the same in either order, so the thrust sees the doubly lagged state)
+    drive1, drive2 = u1, u2
+    dx[7] = 0.0
+    dx[8] = 0.0
+    if fx[16] > 0.0:
+        drive1 = x[7]
+        dx[7] = (u1 - x[7]) / fx[16]
+    if fx[17] > 0.0:
+        drive2 = x[8]
+        dx[8] = (u2 - x[8]) / fx[17]
+    dx[4] = (k1 * drive1 - T10 * tau1) / T11
+    dx[5] = (k2 * drive2 - T20 * tau2) / T21
     dx[6] = (tau1 - zeta) / Tp
 
 
@@ -108,6 +120,8 @@ def closed_loop(dts, aref, bref, p, law, gains, u_lim, fx, noise_a, noise_b, q, 
     measurement filtered with time constant Tf [s]).  u_lim [V] is the controller's
     output limit; the logged u is the commanded (applied) voltage.
     """
+    if x0.size != 9 or fx.size < 18:
+        raise ValueError("closed_loop needs 9 start states and an effect vector of sim.effects.N_EFFECT_SLOTS")
     n = aref.size
     x = x0.copy()
     u1_log = np.empty(n)
@@ -184,7 +198,10 @@ def closed_loop(dts, aref, bref, p, law, gains, u_lim, fx, noise_a, noise_b, q, 
 
 @njit(cache=True)
 def open_loop(dt, u1, u2, p, law, fx, h_max, x0):
-    """Plant driven by logged, held voltages (no controller); returns true (alpha, beta) per sample."""
+    """Plant driven by logged, held voltages (no controller); returns true (alpha, beta) per sample.  ``x0``: the
+    9 states (module docstring); ``fx``: the effect vector (sim.effects.pack's N_EFFECT_SLOTS)."""
+    if x0.size != 9 or fx.size < 18:
+        raise ValueError("open_loop needs 9 start states and an effect vector of sim.effects.N_EFFECT_SLOTS")
     n = u1.size
     x = x0.copy()
     out = np.empty((n, 2))

@@ -94,7 +94,7 @@ def simulate(settings: SimSettings) -> SimResult:
     pid = {**DEFAULT_PID, **settings.pid}
     gains = np.array([pid[k] for k in ("Kp1", "Ki1", "Kd1", "Kp2", "Ki2", "Kd2", "Tf")], dtype=float)
     p = np.array([params[k] for k in PARAM_ORDER], dtype=float)
-    x0 = np.zeros(7)
+    x0 = np.zeros(9)  # at rest: motors, reaction lag and second-order drives at 0
     x0[0] = -effect_vec[fx.I_COM]  # at rest in the gravity equilibrium
     x0[2] = settings.initial_yaw_rad
     u1, u2, a_log, b_log, state = closed_loop(

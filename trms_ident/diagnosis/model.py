@@ -80,7 +80,8 @@ def modified_inputs(log: Log, mods: dict) -> tuple[np.ndarray, np.ndarray, dict]
         if effect == "input_delay":
             u = {ax: _delay(x, v / dt) for ax, x in u.items()}
         elif effects.declared_modification(key):  # its voltage transform, from the model room (model/effects.py)
-            u[axis] = effects.by_key(key).modify(u[axis], v)
+            c = effects.by_key(key)
+            u[axis] = c.modify(u[axis], v, dt) if c.needs_dt else c.modify(u[axis], v)
         elif effect == "motor_lag":
             changes["T11" if axis == "pitch" else "T21"] = v
     return u["pitch"], u["yaw"], changes

@@ -96,6 +96,19 @@ def term_shape(c: Candidate, value: float, p: dict, law: str, velocity: np.ndarr
         return Shape("pitch angle alpha [rad]", a, "yaw inertia [kg m^2]", p["J2"] - value * np.sin(a) ** 2,
                      np.full_like(a, p["J2"]), f"yaw inertia J2 - dJ sin^2(alpha), dJ = {value:.3g} kg m^2 "
                      "(J2 of the table as the level)")
+    if e == "motor_second_lag":  # the motor's step response, first order (the table) and with the further lag
+        t11, t10 = (p["T11"], p["T10"]) if ax == "pitch" else (p["T21"], p["T20"])
+        tm = t11 / t10
+        t = np.linspace(0.0, 5.0 * (tm + value), 300)
+        first = 1.0 - np.exp(-t / tm)
+        if not value > 0:  # no further lag: the table's first-order motor
+            second = first
+        elif abs(tm - value) > 1e-9:
+            second = 1.0 - (tm * np.exp(-t / tm) - value * np.exp(-t / value)) / (tm - value)
+        else:
+            second = 1.0 - (1.0 + t / tm) * np.exp(-t / tm)
+        return Shape("t after a voltage step [s]", t, "motor state / steady state", second, first,
+                     f"second-order motor: a further lag of {value:.3g} s after the table's {tm:.3g} s")
     if c.modify is not None:  # a voltage transform declared in the model room (model/effects.py)
         u = _span(u_v)
         return Shape(f"logged {'u1' if ax != 'yaw' else 'u2'} [V]", u, "voltage the motor sees [V]",

@@ -59,6 +59,8 @@ class Candidate:
     #: 1.9x the yaw noise level), so a finding of one takes its value from the output-error profile
     #: (oe.Fitter.profile) when the current model is one that fit carries
     step: bool = False
+    #: ``modify`` takes the sample time too: (voltages [V], parameter, dt [s]) -> voltages (a filter)
+    needs_dt: bool = False
 
     @property
     def key(self) -> str:
@@ -83,6 +85,21 @@ def _dead_zone(u: np.ndarray, w: float) -> np.ndarray:
 
 def _saturation(u: np.ndarray, limit: float) -> np.ndarray:
     return np.clip(u, -limit, limit)
+
+
+def second_lag(u: np.ndarray, t2_s: float, dt_s: float) -> np.ndarray:
+    """The held voltages u [V] through a further first-order lag 1/(T2 s + 1), as the mean over each sample
+    interval of the lag's exact response (a second-order motor: two linear lags in cascade act the same in
+    either order, so the motor's first-order state following this drive is the second-order motor's).  The
+    lag starts in its steady state for the first voltage, as the motors do."""
+    from scipy.signal import lfilter
+
+    if not t2_s > 0 or u.size == 0:
+        return np.asarray(u, dtype=float)
+    a = math.exp(-dt_s / t2_s)
+    u = np.asarray(u, dtype=float)
+    y = lfilter([0.0, 1.0 - a], [1.0, -a], u, zi=[u[0]])[0]  # the lag's state at each sample
+    return u + (y - u) * (t2_s / dt_s) * (1.0 - a)  # its mean over the interval that follows
 
 
 CANDIDATES: tuple[Candidate, ...] = (
@@ -137,6 +154,12 @@ CANDIDATES: tuple[Candidate, ...] = (
               sentence="the main motor's time constant is {value:.3g} {unit}, not the table's value"),
     Candidate("motor_lag", "yaw", "T", "s", "grid", (),
               sentence="the tail motor's time constant is {value:.3g} {unit}, not the table's value"),
+    Candidate("motor_second_lag", "pitch", "T2", "s", "grid", _geom(0.02, 1.0, 16),
+              sentence="the main motor is second order: its drive follows the voltage through a further lag of "
+                       "{value:.3g} {unit}", bounds=POSITIVE, modify=second_lag, needs_dt=True),
+    Candidate("motor_second_lag", "yaw", "T2", "s", "grid", _geom(0.02, 1.0, 16),
+              sentence="the tail motor is second order: its drive follows the voltage through a further lag of "
+                       "{value:.3g} {unit}", bounds=POSITIVE, modify=second_lag, needs_dt=True),
 )
 
 #: sensor_offset on yaw: the yaw equation has no term in beta itself, so an encoder zero offset

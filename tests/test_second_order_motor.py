@@ -1,0 +1,70 @@
+"""A second-order motor (issue #32 item 3): the simulator's further lag, the model room's candidate, diagnose."""
+import math
+
+import numpy as np
+import pytest
+
+from sim import SimSettings, simulate
+from sim.effects import pack
+from sim.plant import PARAM_ORDER, open_loop
+from trms_ident.diagnosis.run import diagnose
+from trms_ident.diagnosis.shapes import term_shape
+from trms_ident.model import effects
+from trms_ident.model.effects import second_lag
+from trms_ident.params import defaults
+
+from .conftest import as_log
+
+Q12 = 2 * math.pi / 4096
+
+
+@pytest.mark.parametrize("axis", ["pitch", "yaw"])
+def test_the_simulators_further_lag_is_the_model_rooms_filtered_voltage(axis):
+    """Two implementations that share no code: the simulator integrates the drive's lag as a state; the model
+    room filters the held voltage (the interval mean of the exact response).  Two linear lags in cascade act
+    the same in either order, so the angles agree, to a difference that falls with the square of the step."""
+    p = defaults()
+    vec = np.array([p[k] for k in PARAM_ORDER])
+    t2 = 0.3
+    diffs = []
+    for dt in (0.01, 0.001):
+        t = np.arange(int(5.0 / dt)) * dt
+        on = t >= 1.0  # from rest: the drive's lag starts where the simulator's state does
+        u1 = on * (1.0 + 0.5 * np.sign(np.sin(2 * np.pi * 0.3 * t)))
+        u2 = on * 0.5 * np.sign(np.sin(2 * np.pi * 0.2 * t))
+        lagged = np.array(pack([{"effect": "motor_second_lag", "axis": axis, "value": t2}]), dtype=float)
+        plain = np.array(pack([]), dtype=float)
+        filt1 = second_lag(u1, t2, dt) if axis == "pitch" else u1
+        filt2 = second_lag(u2, t2, dt) if axis == "yaw" else u2
+        a = open_loop(dt, u1, u2, vec, 0, lagged, 5e-4, np.zeros(9))
+        b = open_loop(dt, filt1, filt2, vec, 0, plain, 5e-4, np.zeros(9))
+        c = open_loop(dt, u1, u2, vec, 0, plain, 5e-4, np.zeros(9))
+        diffs.append(np.max(np.abs(a - b)))
+        assert np.max(np.abs(a - c)) > 1e3 * diffs[-1]  # the lag itself is large
+    assert diffs[1] < diffs[0] / 50  # second order in the step
+    assert diffs[0] < 1e-4
+
+
+def test_a_second_order_yaw_motor_is_named_with_its_lag_and_nothing_else():
+    r = simulate(SimSettings(ref="multisine", sample_rate_hz=100.0, duration_s=60.0, quantization_rad=Q12, seed=3,
+                             effects=[{"effect": "motor_second_lag", "axis": "yaw", "value": 0.25}]))
+    d = diagnose(as_log(r))
+    assert d.verdict == "explained"
+    assert [(f.effect, f.axis) for f in d.findings] == [("motor_second_lag", "yaw")]
+    assert d.findings[0].parameter["value"] == pytest.approx(0.25, rel=0.1)
+    assert d.findings[0].parameter["unit"] == "s"
+
+
+def test_the_second_order_step_response_is_drawn_beside_the_first_order_one():
+    c = effects.by_key("motor_second_lag:yaw")
+    p = defaults()
+    x = np.linspace(-1, 1, 50)
+    sh = term_shape(c, 0.25, p, "quadratic", x, x, x, x, 0.01)
+    assert sh.x_label.startswith("t after a voltage step")
+    assert sh.fitted[0] == pytest.approx(0.0, abs=1e-12) and sh.fitted[-1] == pytest.approx(1.0, abs=0.01)
+    assert np.all(sh.fitted <= sh.seed + 1e-12)  # the further lag only slows the motor
+
+
+def test_the_simulator_refuses_a_lag_that_is_not_positive():
+    with pytest.raises(ValueError, match="motor_second_lag must be > 0 s"):
+        pack([{"effect": "motor_second_lag", "axis": "pitch", "value": 0.0}])
