@@ -171,7 +171,10 @@ def test_cli_json_contract_and_report(tmp_path):
     assert isinstance(f["fit_before"], float) and f["fit_after"] > f["fit_before"] and f["evidence"]
     for key in ("nominal", "augmented"):
         assert set(doc["estimates"][key]) == {"J1", "B1", "J2", "B2"}
-    assert doc["settings"]["estimates_augmented_from"] == "equation_error"
+    # the output-error fit's J/B once that fit of the findings' model reaches the noise level and predicts no worse
+    assert doc["settings"]["estimates_augmented_from"] == "output_error"
+    for k in ("J1", "B1", "J2", "B2"):
+        assert doc["estimates"]["augmented"][k] == pytest.approx(r.truth["estimated"][k], rel=0.01)
     assert "1. coulomb_friction on yaw: Fc = " in res.stderr
     html = (tmp_path / "rep" / "report.html").read_text()
     assert html.count("data:image/png;base64,") == 4  # residual, regime, overlay; one set for the finding
@@ -711,3 +714,21 @@ def test_an_axis_the_findings_model_cannot_predict_is_never_explained():
     assert verdict == "partly_explained"
     assert "(the pitch prediction error cannot be told: the findings' model has no prediction of it)" in sentence
     assert "nan" not in sentence
+
+
+def test_the_output_error_check_decides_the_verdict_when_it_can_carry_the_findings():
+    """Explained rests on the findings' model simulated by output error, the test estimate applies to the seed
+    model (within 1.2x the noise level), not on the 2 s predictions, which restart from measured angles and use
+    the equation error's J/B; a ratio that is not a number never passes."""
+    from types import SimpleNamespace
+
+    from trms_ident.diagnosis.run import _verdict
+
+    log = SimpleNamespace(alpha_rad=np.linspace(0, 0.3, 100), beta_rad=np.linspace(0, 0.2, 100))
+    seed = {"adequate": False, "axes": {"pitch": {"noise_floor_rad": 1e-3}, "yaw": {"noise_floor_rad": 1e-3}}}
+    poor_predictions = {"pitch": 50.0, "yaw": 50.0}
+    assert _verdict(log, seed, ["f"], poor_predictions, {}, {"alpha": 1.0, "beta": 1.1})[0] == "explained"
+    verdict, sentence = _verdict(log, seed, ["f"], {"pitch": 99.99, "yaw": 99.99}, {}, {"alpha": 1.0, "beta": 1.3})
+    assert verdict == "partly_explained" and "yaw angle's error is still 1.3x" in sentence
+    assert _verdict(log, seed, ["f"], {"pitch": 99.99, "yaw": 99.99}, {}, {"alpha": math.nan, "beta": 1.0})[0] \
+        == "partly_explained"

@@ -329,11 +329,16 @@ class Fitter:
         return self._base[model]
 
     def check(self, model: Model, values: dict, theta0: dict) -> dict | None:
+        """As check_fit, the ratios alone."""
+        got = self.check_fit(model, values, theta0)
+        return None if got is None else got[0]
+
+    def check_fit(self, model: Model, values: dict, theta0: dict) -> tuple[dict, dict] | None:
         """The findings' model checked as estimate checks the seed model (numerics/adequacy.py): fitted by output
         error with its input modifications at their values, J/B, its torque terms' parameters and the start
         states free, to convergence (a base fit that ran out of iterations goes on from where it stopped, once);
-        angle -> error RMS over the angle's noise floor.  None when a finding is one the fit cannot carry or the fit
-        fails."""
+        (angle -> error RMS over the angle's noise floor, the fit's J1, B1, J2, B2).  None when a finding is one the
+        fit cannot carry or the fit fails."""
         if not all(carries(k) for k in model.linear):
             return None
         r = self.base(model, values, theta0)
@@ -345,7 +350,8 @@ class Fitter:
                 pass
         if r is None or not all(math.isfinite(r.rms_rad[a]) for a in self.noise):
             return None
-        return {a: float(r.rms_rad[a] / self.noise_floor[a]) for a in self.noise}
+        return ({a: float(r.rms_rad[a] / self.noise_floor[a]) for a in self.noise},
+                {k: float(v) for k, v in r.estimate.items()})
 
     def _asked(self, method, model: Model, values: dict, theta0: dict, key: str, *rest) -> OEFit | None:
         """``method``'s answer for these arguments, computed once per Fitter."""

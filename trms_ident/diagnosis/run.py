@@ -300,7 +300,16 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         start_after = _start_after(log, p, law, current, values, augmented, starts)
         if start_after != start:
             fit_after, over_after = _fits(log, p, law, current, values, augmented, start=start_after)
-    oe_check = fitter.check(current, values, _oe_start(score_now, reg_now, p)) if findings else None
+    checked = fitter.check_fit(current, values, _oe_start(score_now, reg_now, p)) if findings else None
+    oe_check = checked[0] if checked else None
+    if checked and max(oe_check.values()) <= EXPLAINED_OE_OVER_NOISE and _physical(checked[1]):
+        # the findings' model fits by output error, but its 2 s predictions use the equation error's J/B, which
+        # noise can bias (measured: a 0.29 s second-order yaw motor on a 500 Hz log cut mid-run, simulated at
+        # 0.99x the yaw noise level, predicted at 10x): predict with the output-error fit's J/B where they do better
+        fits2, over2 = _fits(log, p, law, current, values, checked[1], start=start_after)
+        worse = [x for x in fit_after if not fits2[x] >= fit_after[x]]
+        if not worse:
+            fit_after, over_after, augmented = fits2, over2, checked[1]
     del fitter  # its cached fits are not needed any more (memory on long logs)
     # (model, regression, score) before each finding (they are added in order), then the final one
     states = [f[0]["before"] for f in findings] + [(current, reg_now, score_now)]
@@ -722,6 +731,20 @@ def _verdict(log: Log, seed: dict, findings: list, fit_after: dict, seg: dict, o
     over its noise floor (oe.Fitter.check), None when that fit cannot carry the findings."""
     if seed.get("adequate") and not findings:
         return "consistent", VERDICTS["consistent"] + "."
+    if findings and oe_check is not None:
+        # the findings' model simulated by output error, judged as estimate judges the seed model: the one test
+        # both commands share (the 2 s predictions restart from measured angles and use the equation error's
+        # J/B: they passed a yaw that drifts between restarts, and failed a 0.29 s second-order yaw motor at 10x
+        # on a 500 Hz log its output-error simulation fits at 0.99x)
+        ratio = {a: (v if math.isfinite(v) else math.inf) for a, v in oe_check.items()}  # NaN never passes
+        worst = max(ratio, key=ratio.get)
+        if not ratio[worst] <= EXPLAINED_OE_OVER_NOISE:
+            return "partly_explained", (
+                VERDICTS["partly_explained"] + f" (simulated by output error with the findings in, the "
+                f"{AXIS_OF[worst]} angle's error is still {oe_check[worst]:.3g}x its noise level; "
+                f"{EXPLAINED_OE_OVER_NOISE:g}x is allowed).")
+        return "explained", VERDICTS["explained"] + " (simulated by output error with the findings in, both angles "\
+            f"within {EXPLAINED_OE_OVER_NOISE:g}x their noise levels)."
     if findings:
         ratios = _over_noise(log, seed, fit_after)
         if any(r > EXPLAINED_RMS_OVER_NOISE for r in ratios.values()):
@@ -729,16 +752,8 @@ def _verdict(log: Log, seed: dict, findings: list, fit_after: dict, seg: dict, o
             still = (f"is still {ratios[worst]:.3g}x its noise level" if math.isfinite(ratios[worst]) else
                      "cannot be told: the findings' model has no prediction of it")
             return "partly_explained", VERDICTS["partly_explained"] + f" (the {worst} prediction error {still})."
-        if oe_check is None:
-            return "explained", (VERDICTS["explained"] + " in its 2 s predictions (the output-error simulation "
-                                 "cannot carry these findings, so it did not check them).")
-        worst = max(oe_check, key=oe_check.get)
-        if oe_check[worst] > EXPLAINED_OE_OVER_NOISE:
-            return "partly_explained", (
-                VERDICTS["partly_explained"] + f" (the 2 s predictions are within {EXPLAINED_RMS_OVER_NOISE:g}x the "
-                f"noise level, but simulated by output error with the findings in, the {AXIS_OF[worst]} angle's "
-                f"error is still {oe_check[worst]:.3g}x its noise level; {EXPLAINED_OE_OVER_NOISE:g}x is allowed).")
-        return "explained", VERDICTS["explained"] + "."
+        return "explained", (VERDICTS["explained"] + " in its 2 s predictions (the output-error simulation "
+                             "cannot carry these findings, so it did not check them).")
     where = []
     for axis, s in seg.items():
         for g in s[:2] if isinstance(s, list) else []:
