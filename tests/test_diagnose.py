@@ -172,7 +172,7 @@ def test_cli_json_contract_and_report(tmp_path):
     for key in ("nominal", "augmented"):
         assert set(doc["estimates"][key]) == {"J1", "B1", "J2", "B2"}
     # the output-error fit's J/B once that fit of the findings' model reaches the noise level and predicts no worse
-    assert doc["settings"]["estimates_augmented_from"] == "output_error"
+    assert doc["settings"]["estimates_augmented_from"] == "output_error_check"
     for k in ("J1", "B1", "J2", "B2"):
         assert doc["estimates"]["augmented"][k] == pytest.approx(r.truth["estimated"][k], rel=0.01)
     assert "1. coulomb_friction on yaw: Fc = " in res.stderr

@@ -302,14 +302,16 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
             fit_after, over_after = _fits(log, p, law, current, values, augmented, start=start_after)
     checked = fitter.check_fit(current, values, _oe_start(score_now, reg_now, p)) if findings else None
     oe_check = checked[0] if checked else None
-    if checked and max(oe_check.values()) <= EXPLAINED_OE_OVER_NOISE and _physical(checked[1]):
+    from_check = False
+    if (checked and max(oe_check.values()) <= EXPLAINED_OE_OVER_NOISE and _physical(checked[1])
+            and augmented == _estimates(score_now, reg_now)):
         # the findings' model fits by output error, but its 2 s predictions use the equation error's J/B, which
-        # noise can bias (measured: a 0.29 s second-order yaw motor on a 500 Hz log cut mid-run, simulated at
-        # 0.99x the yaw noise level, predicted at 10x): predict with the output-error fit's J/B where they do better
+        # noise can bias: predict with the output-error fit's J/B where they do no worse (J/B already taken from
+        # the output-error fit that decided a finding, where the equation error's were not physical, stay)
         fits2, over2 = _fits(log, p, law, current, values, checked[1], start=start_after)
         worse = [x for x in fit_after if not fits2[x] >= fit_after[x]]
         if not worse:
-            fit_after, over_after, augmented = fits2, over2, checked[1]
+            fit_after, over_after, augmented, from_check = fits2, over2, checked[1], True
     del fitter  # its cached fits are not needed any more (memory on long logs)
     # (model, regression, score) before each finding (they are added in order), then the final one
     states = [f[0]["before"] for f in findings] + [(current, reg_now, score_now)]
@@ -383,7 +385,8 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                       "start_states_after": start_after,
                       "output_error_check": ({"rms_over_noise": oe_check, "threshold": EXPLAINED_OE_OVER_NOISE}
                                              if oe_check is not None else None),
-                      "estimates_augmented_from": ("equation_error" if augmented == _estimates(score_now, reg_now)
+                      "estimates_augmented_from": ("output_error_check" if from_check else
+                                                   "equation_error" if augmented == _estimates(score_now, reg_now)
                                                    else "output_error"),
                       "unobservable": UNOBSERVABLE}, residual, overlay,
                      {axis: cache[("velocity", axis)] for axis in axes}, verdict, sentence, refused, seed,

@@ -46,7 +46,7 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
             "estimates.augmented": "the same with the findings' terms added and refitted together; where those are "
                                    "not physical, the J, B of the output-error fit that decided the last finding; "
                                    "the output-error check's J, B when that fit of the findings' model reaches the "
-                                   "noise level and predicts no worse; "
+                                   "noise level and predicts no worse (output_error_check); "
                                    "for a known-value finding, those of its output-error refit "
                                    "(settings.estimates_augmented_from)",
             "findings (effect known_value)": "a known value of eq. (1) that, set free alone and refitted by output "
@@ -238,7 +238,8 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
                   + (f"<td>{marked(k, corrected[k])}</td>" if k in corrected else ("<td></td>" if corrected else ""))
                   + "</tr>" for k in ("J1", "B1", "J2", "B2"))
     est_head = "<th>with the correction</th>" if corrected else ""
-    aug_from = {"output_error": " (output-error fit)",
+    aug_from = {"output_error": " (output-error fit: the equation error's were not physical)",
+                "output_error_check": " (output-error check of the findings' model)",
                 "known_value": " (output-error refit with the known value free)"}.get(
         doc["settings"].get("estimates_augmented_from"), "")
     imgs = "".join(f"<h2>{html.escape(title)}</h2><img alt='{html.escape(title)}' src='{uri}'>" for title, uri in figs)
