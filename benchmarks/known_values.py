@@ -98,8 +98,13 @@ def run_case(c: dict) -> dict:
     first = d.findings[0] if d.findings else None
     named = None
     if first is not None:
+        from trms_ident.diagnosis.weigh import SAME
+
         if first.effect == "known_value":
             named = first.parameter["name"]
+        elif f"{first.effect}:{first.axis}" in SAME and f"known_value:{SAME[first.effect + ':' + first.axis]}" in \
+                first.alternatives:  # motor_lag is T11/T21 under another name: both name the same value
+            named = SAME[f"{first.effect}:{first.axis}"]
         names = [first.parameter["name"] if first.effect == "known_value" else f"{first.effect}:{first.axis}"]
         names += [a.split(":", 1)[1] if a.startswith("known_value:") else a for a in first.alternatives]
     else:
