@@ -82,7 +82,6 @@ def achievable_error_rad(y: np.ndarray, u: np.ndarray, dt_s: float, window_s: fl
         for i, (a, b) in enumerate(windows):
             if i % 2 != fold:
                 err[a:b] = yd[a:b] - _simulate(coef, yd, ud, a, b)
-    held = ~np.isnan(err[:, 0]) | ~np.isnan(err[:, 1])
     for j, ang in enumerate(("alpha", "beta")):
         rows = np.concatenate([np.arange(a, b) for a, b in windows])
         e = err[rows, j]
@@ -93,5 +92,4 @@ def achievable_error_rad(y: np.ndarray, u: np.ndarray, dt_s: float, window_s: fl
         fit = 100.0 * (1.0 - float(np.linalg.norm(e)) / spread) if spread > 0 else math.nan
         out[ang]["fit_percent"] = fit
         out[ang]["rms_rad"] = float(np.sqrt(np.mean(e * e)))
-    del held
     return out
