@@ -178,9 +178,21 @@ def mixed_regressions(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law
                             motor), phi, eps)
         out[axis] = (phi, eps)
 
+    both_axes(run, _axis)
+    return out
+
+
+def both_axes(run, kernel) -> None:
+    """run("pitch") and run("yaw") on two threads, once ``kernel`` is compiled in this process; before that,
+    one after the other in the calling thread: numba compiling (or loading from its cache) in two threads at
+    once aborted the process twice in this project's test runs (LLVM, with the garbage collector running in
+    the compiling thread)."""
+    if not kernel.signatures:
+        for axis in ("pitch", "yaw"):
+            run(axis)
+        return
     with ThreadPoolExecutor(max_workers=2) as pool:
         list(pool.map(run, ("pitch", "yaw")))
-    return out
 
 
 @dataclass(frozen=True)
@@ -212,8 +224,7 @@ def drem_summaries(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: s
                               block, sums, totals, gam, float(rate_per_s), float(floor_fraction), trace, int(step))
         out[axis] = AxisSummary(float(totals[0]), totals[1:].copy(), sums, trace, final)
 
-    with ThreadPoolExecutor(max_workers=2) as pool:
-        list(pool.map(run, ("pitch", "yaw")))
+    both_axes(run, _axis_summary)
     return out
 
 

@@ -474,7 +474,8 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
     args = (u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block,
             np.zeros((0, 2)) if ext is None else ext, fs, tq)
     tail = (out, extra, costs, a_mat, b_vec, scores)
-    groups = min(_threads(), nw) if n >= THREAD_MIN_SAMPLES else 1
+    # threads only once the kernel is compiled in this process (fused.both_axes says why)
+    groups = min(_threads(), nw) if n >= THREAD_MIN_SAMPLES and windows_pass.signatures else 1
     if groups <= 1:
         windows_pass(*args, 0, nw, *tail)
     else:
