@@ -195,11 +195,16 @@ def estimate_with(log, settings: Settings, *, truth: dict | None = None, truth_s
     from .report.summary import summarize
 
     stage = on_stage or (lambda _: None)
-    warm = threading.Thread(target=_load_numerics, daemon=True)
+    refinement = isinstance(log, (str, Path)) and (settings.refine == "on" or (
+        settings.refine == "auto" and _size(log) <= REFINE_WARM_UP_BYTES))
+
+    def load() -> None:  # one thread, one kernel after the other, joined before identify: numba loading or
+        _load_numerics()  # compiling in two threads at once aborted the process (LLVM) in this project's tests
+        if refinement:
+            _load_refinement()
+
+    warm = threading.Thread(target=load, daemon=True)
     warm.start()
-    if isinstance(log, (str, Path)) and (settings.refine == "on" or (
-            settings.refine == "auto" and _size(log) <= REFINE_WARM_UP_BYTES)):
-        threading.Thread(target=_load_refinement, daemon=True).start()  # identify waits for it if needed
     stage("reading")
     data = with_inputs_unit(_as_log(log, read), settings.inputs_unit)
     warm.join()
