@@ -64,14 +64,15 @@ def _deriv(x, u1, u2, p, law, fx, dx):
     # a second-order motor: the drive follows the voltage through a further first-order lag (the cascade of two
     # linear lags is the same in either order, so the thrust sees the doubly lagged state)
     drive1, drive2 = u1, u2
-    dx[7] = 0.0
-    dx[8] = 0.0
-    if fx[16] > 0.0:
-        drive1 = x[7]
-        dx[7] = (u1 - x[7]) / fx[16]
-    if fx[17] > 0.0:
-        drive2 = x[8]
-        dx[8] = (u2 - x[8]) / fx[17]
+    if dx.size > 8 and x.size > 8 and fx.size > 17:  # numba checks no bounds: a 7-state caller stays first order
+        dx[7] = 0.0
+        dx[8] = 0.0
+        if fx[16] > 0.0:
+            drive1 = x[7]
+            dx[7] = (u1 - x[7]) / fx[16]
+        if fx[17] > 0.0:
+            drive2 = x[8]
+            dx[8] = (u2 - x[8]) / fx[17]
     dx[4] = (k1 * drive1 - T10 * tau1) / T11
     dx[5] = (k2 * drive2 - T20 * tau2) / T21
     dx[6] = (tau1 - zeta) / Tp

@@ -46,14 +46,14 @@ def test_the_output_error_kernel_and_the_simulator_agree_on_eq_1(law, effects):
     sim_p = np.array([p[k] for k in sim_plant.PARAM_ORDER])
     fx = _sim_vector(effects)
     x, u = _states(np.random.default_rng(7))
-    ours, theirs = np.empty(R._NS), np.empty(7)
+    ours, theirs = np.empty(R._NS), np.empty(9)  # the simulator's 9 states (its second-order motors' drives)
     for xi, ui in zip(x, u):
         full = np.zeros(R._NS)
         full[:7] = xi
         R._rhs(full, ui[0], ui[1], 0.0, 0.0, pv, law == "signed", ours, np.zeros(0, dtype=np.int64),
                np.zeros((0, 2)))
-        sim_plant._deriv(xi, ui[0], ui[1], sim_p, 1 if law == "signed" else 0, fx, theirs)
-        np.testing.assert_allclose(ours[:7], theirs, rtol=1e-12, atol=1e-12)
+        sim_plant._deriv(np.r_[xi, 0.0, 0.0], ui[0], ui[1], sim_p, 1 if law == "signed" else 0, fx, theirs)
+        np.testing.assert_allclose(ours[:7], theirs[:7], rtol=1e-12, atol=1e-12)
 
 
 @pytest.mark.parametrize("law", ["quadratic", "signed"])
@@ -64,7 +64,7 @@ def test_the_prediction_model_and_the_simulator_agree_on_eq_1(law):
     effects = EFFECTS
     fx_sim = _sim_vector(effects)
     x, u = _states(np.random.default_rng(8))
-    dx = np.empty(7)
+    dx = np.empty(9)  # the simulator's 9 states: a 7-element array was written past its end
     signed = 1.0 if law == "signed" else 0.0
     # predict's effect vector: Fc, c, k_cable, com delta, sensor delta, thrust asymmetry s, yaw dJ
     fx_p = np.array([effects["coulomb_friction:pitch"], effects["quadratic_drag:pitch"], 0.0,
@@ -75,7 +75,7 @@ def test_the_prediction_model_and_the_simulator_agree_on_eq_1(law):
     th_y = np.array([p["J2"], p["B2"], p["a2"], p["b2"], p["Mg"], p["Kg"], signed])
     sim_p = np.array([p[k] for k in sim_plant.PARAM_ORDER])
     for xi, ui in zip(x, u):
-        sim_plant._deriv(xi, ui[0], ui[1], sim_p, int(signed), fx_sim, dx)
+        sim_plant._deriv(np.r_[xi, 0.0, 0.0], ui[0], ui[1], sim_p, int(signed), fx_sim, dx)
         al, dal, be, dbe, tau1, tau2, zeta = xi
         mr = P.reaction_moment.py_func(tau1, zeta, p["kc"], p["T0"], p["Tp"])
         s2, scw = math.sin(al) ** 2, math.sin(al) * math.cos(al) * dal
