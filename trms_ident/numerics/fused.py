@@ -172,38 +172,15 @@ def mixed_regressions(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law
     n = alpha_rad.size
     out = {}
 
-    def args(axis: str) -> tuple:
-        return (*_axis_inputs(axis, u1_v, u2_v, alpha_rad, beta_rad, dt_s, p, law, a_rad_s, b_rad_s, f_gain, h_gain,
-                              motor), np.empty(n), np.empty((n, 2)))
+    def run(axis: str):
+        phi, eps = np.empty(n), np.empty((n, 2))
+        _axis(*_axis_inputs(axis, u1_v, u2_v, alpha_rad, beta_rad, dt_s, p, law, a_rad_s, b_rad_s, f_gain, h_gain,
+                            motor), phi, eps)
+        out[axis] = (phi, eps)
 
-    def run(axis: str, a: tuple):
-        _axis(*a)
-        out[axis] = (a[-2], a[-1])
-
-    both_axes(run, args, _axis)
-    return out
-
-
-def compiled_for(kernel, args: tuple) -> bool:
-    """Has numba compiled (or loaded) ``kernel`` for these arguments' types in this process?"""
-    try:
-        return tuple(kernel.typeof_pyval(a) for a in args) in kernel.overloads
-    except Exception:  # a type numba cannot name here: say no, and let the call compile it in one thread
-        return False
-
-
-def both_axes(run, args, kernel) -> None:
-    """run(axis, args(axis)) for pitch and yaw on two threads when ``kernel`` is compiled for those arguments'
-    types in this process; otherwise one after the other in the calling thread, so that numba compiles (or loads
-    from its cache) in one thread only: compiling in two threads at once aborted the process three times in this
-    project's test runs (LLVM, with the garbage collector running in the compiling thread)."""
-    jobs = {axis: args(axis) for axis in ("pitch", "yaw")}
-    if not all(compiled_for(kernel, a) for a in jobs.values()):
-        for axis, a in jobs.items():
-            run(axis, a)
-        return
     with ThreadPoolExecutor(max_workers=2) as pool:
-        list(pool.map(lambda item: run(*item), jobs.items()))
+        list(pool.map(run, ("pitch", "yaw")))
+    return out
 
 
 @dataclass(frozen=True)
@@ -226,20 +203,17 @@ def drem_summaries(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: s
     n = alpha_rad.size
     out = {}
 
-    def args(axis: str) -> tuple:
+    def run(axis: str):
         sums, totals = np.zeros((n // block, 3)), np.zeros(3)
         trace = np.empty(((n + step - 1) // step, 2))
         gam = np.array([-1.0 if g is None else float(g) for g in gamma[axis]])
-        return (*_axis_inputs(axis, u1_v, u2_v, alpha_rad, beta_rad, dt_s, p, law, a_rad_s, b_rad_s, f_gain, h_gain,
-                              motor), block, sums, totals, gam, float(rate_per_s), float(floor_fraction), trace,
-                int(step))
-
-    def run(axis: str, a: tuple):
-        final = _axis_summary(*a)
-        sums, totals, trace = a[-7], a[-6], a[-2]  # (..., block, sums, totals, gam, rate, floor, trace, step)
+        final = _axis_summary(*_axis_inputs(axis, u1_v, u2_v, alpha_rad, beta_rad, dt_s, p, law, a_rad_s, b_rad_s,
+                                            f_gain, h_gain, motor),
+                              block, sums, totals, gam, float(rate_per_s), float(floor_fraction), trace, int(step))
         out[axis] = AxisSummary(float(totals[0]), totals[1:].copy(), sums, trace, final)
 
-    both_axes(run, args, _axis_summary)
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        list(pool.map(run, ("pitch", "yaw")))
     return out
 
 

@@ -45,7 +45,6 @@ from numba import njit
 from scipy.special import stdtrit
 
 from . import safe
-from .fused import compiled_for
 from ..model.plant import (FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, N_SLOTS, PARAM_ORDER,
                            SENSOR_OFFSET_SLOT, YAW_INERTIA_SLOT, centrifugal_pitch, coriolis_yaw, coulomb_sign,
                            friction, lag_rate, model_vector, motor_rate, pitch_torque, reaction_moment, reversed_gain,
@@ -476,8 +475,6 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
             np.zeros((0, 2)) if ext is None else ext, fs, tq)
     tail = (out, extra, costs, a_mat, b_vec, scores)
     groups = min(_threads(), nw) if n >= THREAD_MIN_SAMPLES else 1
-    if groups > 1 and not compiled_for(windows_pass, (*args, 0, nw, *tail)):
-        groups = 1  # threads only once the kernel is compiled for these types (fused.both_axes says why)
     if groups <= 1:
         windows_pass(*args, 0, nw, *tail)
     else:
