@@ -15,6 +15,7 @@ from .numerics.design import FilterDesign, angle_noise_rad, design_filters
 from .numerics.fused import drem_summaries
 from .numerics.adequacy import RMS_OVER_NOISE, model_check
 from . import known_values
+from .known_values import over_noise as _over_noise
 from .numerics.refine import WINDOW_S, Refined, refine, substeps
 from .numerics.stats import IDENTIFIABLE_REL_HALF_WIDTH, MIN_BLOCKS, Interval, block_length, interval_from_sums
 from .params import ESTIMATED, merge
@@ -176,11 +177,6 @@ ADEQUATE_RMS_OVER_NOISE = RMS_OVER_NOISE
 #: when the refinement did not run, the check's own output-error fit covers at most this many integration
 #: steps (about 4 min at 1 kHz, ~0.5 s): enough samples for the verdict, a bounded cost on hour-long logs
 CHECK_MAX_STEPS = REFINE_AUTO_MAX_STEPS // 4
-
-
-def _over_noise(r: Refined, noise: dict) -> dict:
-    """Each angle's error RMS after the fit over its noise floor."""
-    return {ax: r.rms_rad[ax] / noise[ax] if noise[ax] > 0 else math.inf for ax in ("alpha", "beta")}
 
 
 def _usable_start(offline: dict) -> bool:

@@ -36,10 +36,10 @@ import numpy as np
 
 from .numerics.adequacy import RMS_OVER_NOISE
 from .numerics.refine import Refined, suspect_known_values
-from .params import BY_NAME, ESTIMATED
+from .params import BY_NAME, ESTIMATED, KNOWN
 
 #: every known value of eq. (1) (Table 1's "known" rows), each a hypothesis
-HYPOTHESES = ("a1", "b1", "a2", "b2", "Mg", "Kg", "k1", "k2", "T11", "T10", "T21", "T20", "kc", "T0", "Tp")
+HYPOTHESES = KNOWN
 #: the angle a known value acts on first (the equation it enters; the main motor's values drive the pitch)
 AXIS = {"a1": "pitch", "b1": "pitch", "Mg": "pitch", "Kg": "pitch", "k1": "pitch", "T11": "pitch", "T10": "pitch",
         "a2": "yaw", "b2": "yaw", "k2": "yaw", "T21": "yaw", "T20": "yaw", "kc": "yaw", "T0": "yaw", "Tp": "yaw"}

@@ -154,23 +154,21 @@ def model_check(y: np.ndarray, pred: np.ndarray, u: np.ndarray, noise_rad: dict,
             over = rms / bb["rms_rad"] if bb["rms_rad"] else math.inf
             if bb["rms_rad"] is not None and over > RMS_OVER_NOISE:  # a flexible model does measurably better
                 axes[AXIS_OF[ang]].update(floor_used="black_box", black_box_ratio=over)
+                problems.append(f"the {AXIS_OF[ang]} angle's error is {over:.3g}x what a flexible black-box model "
+                                f"leaves on held-out data ({rms:.3g} rad against {bb['rms_rad']:.3g} rad; the angles "
+                                "carry no measurable noise, so that is the floor this log can measure)")
             elif bb["rms_rad"] is None or bb["fit_percent"] < MIN_FIT_PERCENT:
                 axes[AXIS_OF[ang]].update(floor_used="none", adequate=None)
                 undecided.append(f"the {AXIS_OF[ang]} angle's noise floor cannot be measured (its angles carry less "
                                  f"noise than any encoder leaves, below {SMOOTHED_FLOOR_RAD:g} rad) and a flexible "
                                  f"black-box model does not simulate it well enough to stand in for it (held-out fit "
                                  f"{bb['fit_percent']:.3g} %)")
-                continue
             else:
                 axes[AXIS_OF[ang]].update(floor_used="black_box", black_box_ratio=over, adequate=None)
                 undecided.append(f"the {AXIS_OF[ang]} angle is simulated as well as a flexible black-box model "
                                  f"simulates it on held-out data ({rms:.3g} rad against {bb['rms_rad']:.3g} rad), "
                                  "and its noise floor cannot be measured (its angles carry less noise than any "
                                  "encoder leaves): a finer misfit cannot be told on this log")
-                continue
-            problems.append(f"the {AXIS_OF[ang]} angle's error is {over:.3g}x what a flexible black-box model leaves "
-                            f"on held-out data ({rms:.3g} rad against {bb['rms_rad']:.3g} rad; the angles carry no "
-                            "measurable noise, so that is the floor this log can measure)")
             continue
         if not ok_rms:
             worst = max(cross, key=cross.get)
