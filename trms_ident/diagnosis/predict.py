@@ -38,7 +38,7 @@ def _rhs(pitch, x, v, tau_m, other, s2, scw, ext, th, fx):
     return (acc - th[1] * v) / (th[0] - fx[6] * s2)  # over yaw_inertia(J2, dJ, sin alpha), s2 = sin^2 alpha
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # the GIL released: diagnosis/run.py's _fits predicts both axes at once
 def _predict(pitch, x_start, v_start, x_off, v_off, tau, other, s2, scw, ext, dt, horizon, th, fx, out):
     """Angle predictions [rad] into ``out``, restarted every ``horizon`` samples from x_start + x_off[window]
     (logged angle) and v_start + v_off[window] [rad/s] at the restart sample; inputs (tau, other = beta' or
@@ -79,7 +79,7 @@ def predict(pitch, x_start, v_start, tau, other, s2, scw, ext, dt, horizon, th, 
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _normal_sums(x, y0, yx, yv, hx, hv, horizon, sums):
     """Per window: the Gauss-Newton normal equations of (start angle, start velocity) from the finite-difference
     sensitivities (yx - y0)/hx, (yv - y0)/hv: columns a11, a12, a22, b1, b2 of ``sums``."""
@@ -95,7 +95,7 @@ def _normal_sums(x, y0, yx, yv, hx, hv, horizon, sums):
         sums[w, 4] += sv * e
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _keep_better(x, y0, y1, horizon):
     """Per window, y0 takes y1 where y1's squared error is lower (in place)."""
     n = x.size

@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import math
+import weakref
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -176,6 +178,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
     oe_values: dict = {}  # findings the output-error test decided: key -> its fitted value
     oe_tested: list = []
     refused: list = []  # findings refused, first those the output-error test turned down in the rounds
+    stopped = None  # the round after which the findings reached the noise floor, when they did
     for round_i in range(MAX_FINDINGS):
         results = []
         for i, c in enumerate(cands):
@@ -241,6 +244,9 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         reg_now, score_now = best["reg"], best["score"]
         excluded.update(alts)
         findings.append((best, alts))
+        if _reaches_floor(fitter, current, reg_now, score_now, oe_values, p):
+            stopped = round_i + 1
+            break  # the simplest explanation that reaches the noise floor wins (weigh.py): no further round
     drop_search_columns(cache)
     progress("prediction fits", _SEED_SHARE + _ROUNDS_SHARE)
     fit_before, over_before = _fits(log, p, law, Model(), {}, nominal, start=seed.get("start_states"))
@@ -278,6 +284,11 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                             fitter, oe_tested, oe_values, seed.get("start_states"))
         if dropped:
             refused.extend(dropped)
+            kept = {f[0]["c"].key for f in findings}
+            current = _without(current, tuple(k for k in current.keys if k not in kept))
+            if any(oe.profiled(f[0]["c"].key) for f in findings):  # their values were fitted beside the dropped
+                current = _polish(findings, current, values, oe_values, fitter, log, p,
+                                  _oe_start(score_now, reg_now, p))
             current, reg_now, score_now = _rebuild(findings, current, log, p, law, a, cache, ids)
             augmented, values, fit_after, over_after = _model_fits(log, p, law, current, reg_now, score_now,
                                                                    oe_values, seed.get("start_states"),
@@ -383,6 +394,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                      {"a_rad_s": a, "block_s": block * dt, "horizon_s": HORIZON_S, "thrust_law": law,
                       "alpha_family": FAMILY_ALPHA, "candidates": len(cands), "start_states_before": start_before,
                       "start_states_after": start_after,
+                      "search_stopped_after_round": stopped,
                       "output_error_check": ({"rms_over_noise": oe_check, "threshold": EXPLAINED_OE_OVER_NOISE}
                                              if oe_check is not None else None),
                       "estimates_augmented_from": ("output_error_check" if from_check else
@@ -565,6 +577,17 @@ def _backward(findings, current, augmented, values, fit_after, log, p, law, a, c
     return dropped
 
 
+def _reaches_floor(fitter, model: Model, reg, sc, oe_values: dict, p: dict) -> bool:
+    """Do the findings so far bring both angles within EXPLAINED_OE_OVER_NOISE of their noise floors, simulated
+    by output error with J/B and the start states free (the check the verdict rests on, oe.Fitter.check_fit)?
+    Then a further round could only add parameters to a model that already fits (measured on an hour at 1 kHz
+    with a yaw cable: the second round tested 18 candidates for 27 s of 90 s and found nothing)."""
+    values = _effect_values(model, sc, reg)
+    values.update({k: v for k, v in oe_values.items() if k in model.keys})
+    checked = fitter.check_fit(model, values, _oe_start(sc, reg, p))
+    return bool(checked) and max(checked[0].values()) <= EXPLAINED_OE_OVER_NOISE and _physical(checked[1])
+
+
 def _polish(findings, current, values, oe_values, fitter, log, p, theta0) -> Model:
     """Each input-modification finding's value profiled by output error again with all the other findings in
     (their values fixed or, for torque terms, free): a value found in an early round stood in for what later
@@ -600,6 +623,13 @@ def _negligible(c: Candidate, value: float, found: float, log: Log, p: dict, law
     after it shrank to less than half the value it was ``found`` with, or None.  A finding that keeps its value
     is left to the tests that passed it (measured: a right 0.03 pitch drag on a 100 Hz multisine sits at
     0.48 % of the thrust torque)."""
+    if c.effect == "input_saturation":  # a limit above every logged voltage of its motor clips nothing
+        u = log.u1_v if c.axis == "pitch" else log.u2_v
+        top = float(np.max(np.abs(u))) if len(u) else 0.0
+        if value >= top and found < top:
+            return (f"its limit, {value:.4g} V, is above every logged {c.axis} voltage "
+                    f"(at most {top:.4g} V): it changes nothing")
+        return None
     if c.effect == "motor_lag":  # its neutral value is the table's time constant, not 0
         table = p["T11" if c.axis == "pitch" else "T21"]
         if abs(value / table - 1.0) < MOTOR_LAG_NEUTRAL and abs(found / table - 1.0) >= MOTOR_LAG_NEUTRAL:
@@ -801,7 +831,7 @@ def _try(c, log, p, law, a, current, cache, ids, score_now, n_tests):
             model = current.with_mod(c.key, v)
             reg = sc = None  # the last grid point's columns go before the next are built (memory on long logs)
             reg = regression(log, p, law, a, model, cache)
-            sc = score(reg, ids, ("pitch", "yaw"))
+            sc = score(reg, ids, axes_c)  # the gain reads the candidate's axes only (_at_value scores both)
             gains.append(compare(score_now, sc, reg, axes_c, n_tests).gain)
         i = int(np.argmax(gains))
         reg = sc = None
@@ -1069,6 +1099,32 @@ def _yaw_inertia_signals(alpha_rad: np.ndarray, dt: float) -> tuple[np.ndarray, 
     return s, scw
 
 
+#: (what, id(angle array)) -> (weak reference to the array, dt, the signal): _fits predicts the same log's angles
+#: for every model and start it judges, and the restart velocity and the pitch-dependent yaw inertia's signals
+#: depend on the angles alone (measured on an hour at 1 kHz: 24 Savitzky-Golay passes, 5.6 s of a 90 s
+#: diagnosis, for two distinct arrays).  A few entries at most
+_PER_ANGLES: dict = {}
+_PER_ANGLES_KEPT = 6
+
+
+def _per_angles(what: str, x: np.ndarray, dt: float, compute: Callable):
+    """compute(x, dt), computed once per angle array and ``what`` (the caller must not write to the result)."""
+    key = (what, id(x))
+    hit = _PER_ANGLES.get(key)
+    if hit is not None and hit[0]() is x and hit[1] == dt:
+        return hit[2]
+    got = compute(x, dt)
+    while len(_PER_ANGLES) >= _PER_ANGLES_KEPT:
+        _PER_ANGLES.pop(next(iter(_PER_ANGLES)), None)
+    _PER_ANGLES[key] = (weakref.ref(x), dt, got)
+    return got
+
+
+#: logs at least this long predict their two axes in two threads (_fits); shorter ones are done before a thread
+#: would start paying off
+PARALLEL_FITS_SAMPLES = 200_000
+
+
 def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, extra: dict | None = None,
           start: dict | None = None):
     """Prediction fit [%] and predictions per axis; ``extra``: axis -> extra torque [N m] per sample; ``start``:
@@ -1086,11 +1142,10 @@ def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, ex
                 extra[axis] = values[key] * t[:, j] + (0.0 if extra[axis] is None else extra[axis])
     del u1, u2
     horizon = max(int(round(HORIZON_S / dt)), 1)
-    fits, preds = {}, {}
     zeros = np.zeros_like(log.alpha_rad)
-    for axis in ("pitch", "yaw"):
+
+    def predicted(axis: str) -> np.ndarray:
         x = getattr(log, AXIS_ANGLE[axis])
-        v = restart_velocity(x, dt)
         fx = np.zeros(7)
         fx[0] = values.get(f"coulomb_friction:{axis}", 0.0)
         fx[1] = values.get(f"quadratic_drag:{axis}", 0.0)
@@ -1105,14 +1160,20 @@ def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, ex
             fx[4] = values.get("sensor_offset:pitch", 0.0)
             th = np.array([est["J1"], est["B1"], pp["a1"], pp["b1"], pp["Mg"], pp["Kg"], law == "signed"], dtype=float)
             drive, other = ps.tau1, ps.dbeta_rad_s
-        if all(math.isfinite(q) and q > 0 for q in th[:2]):
-            aux = (zeros, zeros) if axis == "pitch" else _yaw_inertia_signals(log.alpha_rad, dt)
-            ext = zeros if extra[axis] is None else extra[axis]
-            y = predict_fitted_start(axis == "pitch", x, v, drive, other, *aux, ext, dt, horizon, th, fx)
-            del aux
-        else:  # J or B not physical: nothing to predict with, nothing to score
-            y = np.full_like(x, np.nan)
-        del v
-        fits[axis] = nrmse_fit(x, y)
-        preds[axis] = y
+        if not all(math.isfinite(q) and q > 0 for q in th[:2]):  # J or B not physical: nothing to predict with
+            return np.full_like(x, np.nan)
+        aux = (zeros, zeros) if axis == "pitch" else _per_angles("yaw inertia", log.alpha_rad, dt,
+                                                                 _yaw_inertia_signals)
+        ext = zeros if extra[axis] is None else extra[axis]
+        return predict_fitted_start(axis == "pitch", x, _per_angles("velocity", x, dt, restart_velocity), drive, other, *aux, ext, dt,
+                                    horizon, th, fx)
+
+    axes = ("pitch", "yaw")
+    if len(log) >= PARALLEL_FITS_SAMPLES:  # the predictions release the GIL: both axes at once on two cores
+        with ThreadPoolExecutor(max_workers=2) as pool:
+            ys = list(pool.map(predicted, axes))
+    else:
+        ys = [predicted(axis) for axis in axes]
+    preds = dict(zip(axes, ys))
+    fits = {axis: nrmse_fit(getattr(log, AXIS_ANGLE[axis]), preds[axis]) for axis in axes}
     return fits, preds
