@@ -88,27 +88,34 @@ def pairs(a: list[str], b: list[str], repeat: int) -> dict:
             "a_peak_mb": max(x[1] for x in ra)}
 
 
-def make_csv(path: Path, seconds: float) -> dict:
-    r = simulate(SimSettings(ref="multisine", duration_s=seconds, quantization_rad=2 * np.pi / 4096, seed=5))
+def make_csv(path: Path, seconds: float, cable_yaw: float = 0.0) -> dict:
+    effects = [dict(effect="cable_stiffness", axis="yaw", value=cable_yaw)] if cable_yaw else []
+    r = simulate(SimSettings(ref="multisine", duration_s=seconds, quantization_rad=2 * np.pi / 4096, seed=5,
+                             effects=effects))
     cols = {"t": np.round(r.t_s, 3), "u1": np.round(r.u1_v, 6), "u2": np.round(r.u2_v, 6),
             "alpha": np.round(r.alpha_rad, 9), "beta": np.round(r.beta_rad, 9)}
     write_columns(path, cols)
     return cols
 
 
-def make_logs(csv: Path, seconds: float, mcap: Path | None = None) -> None:
-    """make_csv (and the same log as MCAP) in a child process, so that this one never holds the data."""
-    subprocess.run([PY, __file__, "--make", str(csv), str(seconds)] + ([str(mcap)] if mcap else []), check=True)
+def make_logs(csv: Path, seconds: float, mcap: Path | None = None, cable_yaw: float = 0.0) -> None:
+    """make_csv (and the same log as MCAP) in a child process, so that this one never holds the data.
+
+    cable_yaw [N m/rad]: a yaw cable_stiffness effect of that size in the simulated bench (0: none)."""
+    extra = ["--cable-yaw", str(cable_yaw)] if cable_yaw else []
+    subprocess.run([PY, __file__, "--make", str(csv), str(seconds)] + ([str(mcap)] if mcap else []) + extra,
+                   check=True)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--make", nargs="+", metavar="ARG", help="CSV SECONDS [MCAP]: only write the log (internal)")
+    ap.add_argument("--cable-yaw", type=float, default=0.0, help="with --make: a yaw cable [N m/rad] (internal)")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--out", default=str(Path(__file__).with_name("RESULTS.md")))
     args = ap.parse_args()
     if args.make:
-        cols = make_csv(Path(args.make[0]), float(args.make[1]))
+        cols = make_csv(Path(args.make[0]), float(args.make[1]), args.cable_yaw)
         if len(args.make) > 2:
             write_mcap_log(Path(args.make[2]), cols["t"], cols["u1"], cols["u2"], cols["alpha"], cols["beta"],
                            encoding="cdr")
