@@ -118,6 +118,65 @@ def test_the_known_value_wins_over_effects_that_need_more_parameters(monkeypatch
     assert not [r for r in d2.refused if r["reason"].startswith("a known value explains")]
 
 
+def test_two_known_values_off_are_found_together_and_win_over_invented_effects(monkeypatch):
+    """Kg doubled and kc halved: each alone misses the floor in the standard windows (kc alone fits 1 s shooting
+    windows, not 40 s ones), the two refitted together reach it.  diagnose names both, with their values, and
+    refuses effects that do not reach the floor; the library is emptied here so that the test is quick."""
+    from trms_ident.diagnosis import run
+    from trms_ident.model import effects
+
+    log = as_log(_sim({"Kg": 0.1, "kc": -0.1}))
+    monkeypatch.setattr(effects, "CANDIDATES", ())
+    original = run._diagnose
+
+    def invented(*args, **kwargs):  # an effect search that names a cable and leaves the angles above the floor
+        out = original(*args, **kwargs)
+        out.findings = [run.Finding("cable_stiffness", "yaw", {"name": "k", "value": 0.07, "unit": "N m/rad"}, 50.0,
+                                    90.0, "stub", "stub", 0.5, 5.0, 1e-6)]
+        out.verdict = "partly_explained"
+        return out
+
+    monkeypatch.setattr(run, "_diagnose", invented)
+    d = diagnose(log)
+    assert d.verdict == "explained", d.verdict_sentence
+    got = {f.parameter["name"]: f.parameter["value"] for f in d.findings}
+    assert [f.effect for f in d.findings] == ["known_value", "known_value"]
+    assert got["kc"] == pytest.approx(-0.1, rel=0.01) and got["Kg"] == pytest.approx(0.1, rel=0.01)
+    assert d.seed_check["known_values"]["named"] is None  # no single value: the joint search found them
+    j = d.known_values_joint
+    assert j["explains"] and sorted(j["determined"]) == ["Kg", "kc"] and j["stage"] == "windows"
+    assert max(j["over_noise"].values()) <= 1.2 and j["steps"][0][1] > 1.2  # the first value alone did not
+    assert [r["effect"] for r in d.refused if "known values refitted together" in r["reason"]] == ["cable_stiffness"]
+    assert "--free kc --free Kg" in d.verdict_sentence or "--free Kg --free kc" in d.verdict_sentence
+
+
+def test_the_joint_search_adds_no_value_a_single_one_does_not_need():
+    """A bench with kc alone off: kc explains the log alone, so the forward search from it adds nothing (a
+    second value would be a parameter the log does not ask for)."""
+    log = as_log(_sim({"kc": -0.1}))
+    from trms_ident.identify import known_value_fit
+
+    fit, noise, n = known_value_fit(log, Settings())
+    found = known_values.search(fit, defaults(), noise, n)
+    assert found.best is not None and found.best.name == "kc"
+    assert known_values.joint(fit, defaults(), noise, found.fits) is None
+
+
+def test_refits_that_all_wander_off_say_the_bench_is_far_from_the_table():
+    """A real CE150 recording judged with Table 1's values: each refit alone ran to T11 = 622 s with J1 = 5e7
+    kg m^2.  Neither a value nor a joint set is reported from such numbers; the sentence says the bench is far
+    from the values given and asks for its own."""
+    jb = {"J1": 5.0e7, "B1": 1.5e7, "J2": 46.0, "B2": 83.0}
+    wild = [{"name": "T11", "value": 622.0, "table": 1.1, "cost": 1.0, "estimates": jb},
+            {"name": "a1", "value": 1.04, "table": 0.0135, "cost": 2.0, "estimates": {**jb, "J1": 0.07}}]
+    said = known_values.far_from_table(wild)
+    assert said is not None and "T11 622 instead of 1.1" in said and "--params" in said
+    assert known_values.joint(lambda *a, **k: pytest.fail("nothing to refit from"), defaults(), {}, wild) is None
+    sane = wild + [{"name": "kc", "value": -0.15, "table": -0.2, "cost": 3.0,
+                    "estimates": {"J1": 0.07, "B1": 0.006, "J2": 0.02, "B2": 0.1}}]
+    assert known_values.far_from_table(sane) is None
+
+
 def test_the_rule_orders_look_alikes_by_how_near_the_floor_each_leaves_the_angles():
     assert weigh._closer({"rms_over_noise": {"alpha": 1.0, "beta": 1.0}}, {"alpha": 1.1, "beta": 1.0})
     assert not weigh._closer({"rms_over_noise": {"alpha": 1.1, "beta": 1.1}}, {"alpha": 1.0, "beta": 1.05})

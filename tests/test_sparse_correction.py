@@ -25,12 +25,21 @@ def _log(ref, overrides, seed=21):
                                 overrides=overrides))
 
 
-#: two known values off, one per axis: no known value alone explains the log (diagnose's known-value hypotheses
-#: are single values, known_values.py), and no effect of the library describes either axis' mismatch
+#: two known values off, one per axis: no known value alone explains the log and no effect of the library
+#: describes either axis' mismatch.  Refitted together the two values do (known_values.joint, which
+#: tests/test_known_values.py checks on this same bench); these tests take that joint search out
+#: (no_joint) to test the correction, diagnose's last resort, on a mismatch whose form is known
 TWO_OFF = {"Kg": 0.1, "kc": -0.1}
 
 
-def test_outside_the_library_is_described_and_raises_the_fit():
+@pytest.fixture
+def no_joint(monkeypatch):
+    from trms_ident.diagnosis import weigh
+
+    monkeypatch.setattr(weigh, "_joint", lambda *args: None)
+
+
+def test_outside_the_library_is_described_and_raises_the_fit(no_joint):
     # the gyroscopic coupling twice the table's Kg: the correction adds -Kg M1 beta' cos(alpha) once more (the
     # reaction moment's case, through the command line: test_cli_reports_the_correction_in_words_and_json)
     axis, term, coefficient = "pitch", "gyroscopic", -0.05
@@ -39,6 +48,7 @@ def test_outside_the_library_is_described_and_raises_the_fit():
     assert d.verdict in ("partly_explained", "unexplained")  # never explained by a correction
     assert not d.findings  # no named effect (tests/test_model_room.py adds one for it: then it is explained)
     assert d.seed_check["known_values"]["named"] is None  # each value alone leaves the other axis off
+    assert d.known_values_joint is None  # taken out (no_joint)
     (c,) = [c for c in d.corrections if c.axis == axis]
     names = [t["term"] for t in c.terms]
     assert names == [term], c.terms
@@ -66,7 +76,7 @@ def test_library_cannot_rebuild_the_right_hand_side():
     assert sparse._keeps_physics(np.array([0.02, 0.1]), np.array([-0.17, 0.15]))  # repairs a non-physical fit
 
 
-def test_cli_reports_the_correction_in_words_and_json(tmp_path):
+def test_cli_reports_the_correction_in_words_and_json(tmp_path, no_joint):
     # the reaction moment half the table's: the correction gives back +0.5 M_R
     r = _log("steps", TWO_OFF)
     path = tmp_path / "kc.csv"

@@ -272,18 +272,26 @@ def _undecided(check: dict, r: Refined) -> None:
 SUSPECT_MAX_STEPS = REFINE_AUTO_MAX_STEPS // 4
 
 
+def known_value_fit(log: Log, settings: Settings) -> tuple[known_values.Fit, dict, int]:
+    """The output-error fit the known-value searches run (known_values.search, and diagnose's known_values.joint):
+    (fit, the angles' noise floors [rad] there, samples), on the log's first SUSPECT_MAX_STEPS integration
+    steps."""
+    n = min(len(log), max(SUSPECT_MAX_STEPS // substeps(log.sample_time_s), 10))
+    noise = _noise(log, n)
+
+    def fit(free_now: tuple, theta0: dict, values: dict, **options) -> Refined:
+        return _refine_first(log, n, values, settings, theta0, noise, free_now, **options)
+
+    return fit, noise, n
+
+
 def _blame(check: dict, log: Log, settings: Settings, params: dict) -> None:
     """Which known value do the data blame for the misfit?  The known-value search (known_values.py: each value
     of the table a one-parameter hypothesis, refitted by multiple shooting then in the standard windows) on the
     log's first SUSPECT_MAX_STEPS integration steps; a value is named only if freeing it alone makes the model
     fit.  ``check["known_values"]`` keeps the search for diagnose, which reads this same result."""
-    n = min(len(log), max(SUSPECT_MAX_STEPS // substeps(log.sample_time_s), 10))
-    noise = _noise(log, n)
+    fit, noise, n = known_value_fit(log, settings)
     free = tuple(settings.free)
-
-    def fit(free_now: tuple, theta0: dict, values: dict, **options) -> Refined:
-        return _refine_first(log, n, values, settings, theta0, noise, free_now, **options)
-
     try:
         found = known_values.search(fit, params, noise, n, free=free)
     except (np.linalg.LinAlgError, FloatingPointError, ValueError, ZeroDivisionError):

@@ -46,10 +46,10 @@ EXPLAINED_BY_VALUE = ("the model fits the log to its noise level once one known 
                       "instead of the one it was given: a known value, not new physics")
 
 
-def weigh(d, log: Log, p: dict, law: str):
+def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
     """The diagnosis after the rule (module docstring); ``d`` the effect search's (run.Diagnosis), ``p`` the
-    values it was given.  Unchanged when the seed check ran no known-value search (the model fits, or the fit
-    was not decided)."""
+    values it was given (``overrides``: the ones that differ from Table 1, as diagnose was called).  Unchanged
+    when the seed check ran no known-value search (the model fits, or the fit was not decided)."""
     from . import run
 
     kv = d.seed_check.get("known_values")
@@ -58,22 +58,27 @@ def weigh(d, log: Log, p: dict, law: str):
     named = kv.get("named")
     if named is None:
         if d.verdict in ("partly_explained", "unexplained"):
+            far = known_values.far_from_table(kv["fits"])
+            if far is not None:  # every refit wandered off: nothing to refit jointly from
+                d.verdict_sentence += far
+                return d
             tried = ", ".join(f"{f['name']} {max(f['over_noise'].values()):.3g}x" for f in kv["fits"])
             d.verdict_sentence += (" No known value explains the log alone (each refitted by output error, the most "
                                    f"likely leave the angles above their noise floors: {tried or 'none could be fitted'}).")
+            j = _joint(log, law, overrides, p, kv)
+            if j is not None:
+                d.known_values_joint = j.to_json()
+                if j.explains:
+                    return _explained_by_values(d, log, p, law, j)
+                base = max(kv.get("shooting_over_noise", {}).values(), default=None)
+                d.verdict_sentence += known_values.joint_sentence(j, base)
         return d
     fit = next(f for f in kv["fits"] if f["name"] == named)
     name, value, table = fit["name"], fit["value"], fit["table"]
     pp = {**p, name: value}
     est = dict(fit["estimates"])
-    start = {k: fit["start_states"][k] for k in ("tau1_0", "tau2_0", "zeta_0") if k in fit["start_states"]}
-    start = start if len(start) == 3 and all(math.isfinite(v) for v in start.values()) else None
-    with np.errstate(all="ignore"):
-        fits_after, preds = run._fits(log, pp, law, Model(), {}, est, start=start)
-        a = d.settings["a_rad_s"]
-        block = block_length(len(log), log.sample_time_s, 1.0 / a)
-        reg = regression(log, pp, law, a, Model(), {("start_states",): start})
-        sc = run.score(reg, run.block_ids(len(log), block), ("pitch", "yaw"))
+    start = _start(fit["start_states"])
+    fits_after, preds, reg, sc = _refitted(d, log, pp, law, est, start)
     axis = known_values.AXIS[name]
     effect_alike = (d.verdict == "explained" and len(d.findings) == 1)
     alternatives = list(kv.get("look_alikes", []))
@@ -138,6 +143,93 @@ def weigh(d, log: Log, p: dict, law: str):
     return replace(d, mismatch=True, findings=findings, augmented=est, fit_after=fits_after, overlay=overlay,
                    residual=residual, verdict="explained", verdict_sentence=sentence, refused=refused,
                    corrections=[], steps=[step] + (d.steps[:1] if effect_alike else []), settings=settings)
+
+
+def _start(states: dict) -> dict | None:
+    """The motors' start states of a known-value refit, as plant_signals takes them (None: not all finite)."""
+    start = {k: states[k] for k in ("tau1_0", "tau2_0", "zeta_0") if k in states}
+    return start if len(start) == 3 and all(math.isfinite(v) for v in start.values()) else None
+
+
+def _refitted(d, log: Log, pp: dict, law: str, est: dict, start: dict | None):
+    """The seed model with known values ``pp`` and J/B ``est``: its 2 s prediction fits and predictions, and its
+    equation-error regression and score (for the residual figures)."""
+    from . import run
+
+    with np.errstate(all="ignore"):
+        fits_after, preds = run._fits(log, pp, law, Model(), {}, est, start=start)
+        a = d.settings["a_rad_s"]
+        block = block_length(len(log), log.sample_time_s, 1.0 / a)
+        reg = regression(log, pp, law, a, Model(), {("start_states",): start})
+        sc = run.score(reg, run.block_ids(len(log), block), ("pitch", "yaw"))
+    return fits_after, preds, reg, sc
+
+
+def _joint(log: Log, law: str, overrides: dict | None, p: dict, kv: dict):
+    """known_values.joint on the fit estimate's search used (identify.known_value_fit); None when it finds no
+    set of two or more values that earns its place, or cannot be fitted."""
+    from ..identify import known_value_fit
+    from ..settings import Settings
+
+    fit, noise, _ = known_value_fit(log, Settings(thrust_law=law, overrides=dict(overrides or {})))
+    try:
+        return known_values.joint(fit, p, noise, kv.get("fits", []))
+    except (np.linalg.LinAlgError, FloatingPointError, ValueError, ZeroDivisionError):
+        return None
+
+
+def _explained_by_values(d, log: Log, p: dict, law: str, j):
+    """The diagnosis when several known values, refitted together, bring both angles to their noise floors and
+    no single one does, nor the effect search: each value a finding, the effect search's findings refused."""
+    from . import run
+
+    pp = {**p, **j.values}
+    est = dict(j.estimates)
+    start = _start(j.start_states)
+    fits_after, preds, reg, sc = _refitted(d, log, pp, law, est, start)
+    base = d.seed_check.get("axes", {})
+    before = ", ".join(f"{ang} {v['rms_over_noise']:.3g}x" for ang, v in base.items() if "rms_over_noise" in v)
+    listed = ", ".join(f"{k} = {j.values[k]:.4g} instead of {j.table[k]:.4g}" for k in j.names)
+    findings = []
+    for name in j.names:
+        axis = known_values.AXIS[name]
+        lo, hi = j.ci95[name]
+        se = (hi - lo) / (2 * 1.959963984540054) if hi > lo else math.inf
+        t = (j.values[name] - j.table[name]) / se if se > 0 else math.inf
+        others = [k for k in j.names if k != name]
+        evidence = (f"freed together with {', '.join(others)} and refitted by output error with J1, B1, J2, B2 and "
+                    f"the start states (multiple shooting in {known_values.SHOOTING_WINDOW_S:g} s windows, then the "
+                    f"standard windows), the {len(j.names)} values bring the angles to {j.over_noise['alpha']:.3g}x "
+                    f"and {j.over_noise['beta']:.3g}x their noise floors (seed model: {before}); no single known "
+                    f"value does; 95 % interval {lo:.6g} to {hi:.6g} {j.units[name]}" +
+                    ("" if name in j.determined else
+                     f" (wider than {100 * known_values.DETERMINED_REL:g} % of the value: this log does not "
+                     "determine it well)"))
+        findings.append(run.Finding(
+            "known_value", axis, {"name": name, "value": j.values[name], "table": j.table[name],
+                                  "unit": j.units[name], "ci95": [lo, hi]},
+            d.fit_before.get(axis, math.nan), fits_after.get(axis, math.nan), evidence,
+            f"the bench's {name} is {j.values[name]:.4g}, not the {j.table[name]:.4g} it was given",
+            _drop(base, j.over_noise), float(t), float(2 * norm.sf(abs(t))) if math.isfinite(t) else 0.0,
+            [], {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est}))
+    why = (f"{len(j.names)} known values refitted together explain the log ({listed}); the effect search's "
+           "findings do not bring the angles to their noise floors")
+    refused = list(d.refused) + [{"effect": f.effect, "axis": f.axis, "parameter": f.parameter["value"],
+                                  "reason": why} for f in d.findings]
+    overlay = {ax: (ov[0], ov[1], ov[2], preds[ax]) for ax, ov in d.overlay.items()}
+    residual = {ax: (r[0], r[1], reg.g[ax] - reg.x[ax] @ sc.theta[ax]) for ax, r in d.residual.items()}
+    step = _step(log, ", ".join(j.names), "both", d, overlay, residual, fits_after)
+    sentence = (f"the model fits the log to its noise level once {len(j.names)} known values take the bench's own "
+                f"values instead of the ones it was given: {listed} (refitted together, both angles within "
+                f"{RMS_OVER_NOISE:g}x their noise floors; no single value and no effect of the library does). "
+                f"Check them on the bench, or estimate them with `trms-ident estimate "
+                + " ".join(f"--free {k}" for k in j.names) + "`.")
+    settings = {**d.settings, "output_error_check": {"rms_over_noise": dict(j.over_noise), "threshold": RMS_OVER_NOISE},
+                "start_states_after": start, "estimates_augmented_from": "known_value",
+                "rule": "simplest explanation reaching the noise floor (diagnosis/weigh.py)"}
+    return replace(d, mismatch=True, findings=findings, augmented=est, fit_after=fits_after, overlay=overlay,
+                   residual=residual, verdict="explained", verdict_sentence=sentence, refused=refused,
+                   corrections=[], steps=[step], settings=settings)
 
 
 def _closer(effect_check: dict | None, ratio: dict) -> bool:

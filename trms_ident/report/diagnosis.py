@@ -18,6 +18,7 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
         "mismatch": d.mismatch,
         "refused": d.refused,
         "seed_model_check": d.seed_check,
+        "known_values_joint": d.known_values_joint,
         "findings": [{"effect": f.effect, "axis": f.axis, "parameter": f.parameter, "fit_before": f.fit_before,
                       "fit_after": f.fit_after, "evidence": f.evidence, "explanation": f.explanation,
                       "alternatives": f.alternatives, "estimate_shift_percent": f.shift} for f in d.findings],
@@ -58,6 +59,12 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
             "seed_model_check.known_values": "the known-value search estimate's adequacy check ran on this log "
                                              "(trms_ident/known_values.py): score-test ranking, the refits and "
                                              "the value named",
+            "known_values_joint": "diagnose's forward search over several known values refitted together "
+                                  "(known_values.joint), run when no single value and no effect explains the log: "
+                                  "names in the order freed, values, ci95, over_noise after, explains, determined "
+                                  "(95 % half-width within 10 % of the value), off_table (interval excludes the "
+                                  "value given), steps (names freed, worst angle over its floor); null when not run "
+                                  "or no second value earned its place",
             "output_error_tested": "every candidate the equation-error test passed and the output-error fit can "
                                    "carry (that test decides; torque_floor false: judged without the torque-share "
                                    "floor), and, when the equation-error test passes no candidate, its best "
