@@ -426,7 +426,8 @@ def test_an_earlier_finding_is_judged_again_given_the_later_ones(first, value, s
     from trms_ident.diagnosis import oe
     from trms_ident.model.effects import BY_KEY
     from trms_ident.diagnosis.model import Model, regression
-    from trms_ident.diagnosis.run import (_at_value, _backward, _effect_values, _estimates, _fits, _try, block_ids,
+    from trms_ident.diagnosis.fits import prediction_fits
+    from trms_ident.diagnosis.run import (_at_value, _backward, _effect_values, _estimates, _try, block_ids,
                                           block_length, score)
     from trms_ident.numerics.design import design_filters
     from trms_ident.params import defaults
@@ -449,7 +450,7 @@ def test_an_earlier_finding_is_judged_again_given_the_later_ones(first, value, s
     findings = [(res, []), (last, [])]
     current, augmented = last["model"], _estimates(last["score"], last["reg"])
     values = _effect_values(current, last["score"], last["reg"])
-    fit_after, _ = _fits(log, p, law, current, values, augmented)
+    fit_after, _ = prediction_fits(log, p, law, current, values, augmented)
     dropped = _backward(findings, current, augmented, values, fit_after, log, p, law, a, cache, ids, n,
                         oe.Fitter(log, p, law), [], {}, None)
     assert [f[0]["c"].key for f in findings] == kept

@@ -2,9 +2,6 @@
 from __future__ import annotations
 
 import math
-import weakref
-from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -21,9 +18,10 @@ from ..params import PLAUSIBLE_FACTOR, merge, not_credible
 from . import oe
 from .discriminate import PAIR, tell_offsets_apart
 from .locate import lag_profile, regimes, segments
-from .model import (AXIS_ANGLE, Model, drop_search_columns, modified_inputs, regression, restart_velocity,
-                    smoothed_velocity)
-from .predict import HORIZON_S, fit_text, nrmse_fit, predict_fitted_start
+from .model import AXIS_ANGLE, Model, drop_search_columns, modified_inputs, regression, smoothed_velocity
+from .fits import REST, best_start, prediction_fits, start_cost, start_samples
+from .predict import HORIZON_S, fit_text
+from .result import VERDICTS, Diagnosis, Finding  # noqa: F401  (Finding: the rule's findings are run.Finding)
 from .select import FAMILY_ALPHA, block_ids, compare, score
 from .shapes import declared_shape, term_shape, thin
 
@@ -34,56 +32,6 @@ ALIAS_CORRELATION = 0.95
 ALIAS_GAIN_RATIO = 0.8
 
 
-@dataclass
-class Finding:
-    effect: str
-    axis: str
-    parameter: dict
-    fit_before: float
-    fit_after: float
-    evidence: str
-    explanation: str
-    gain: float
-    t: float
-    p: float
-    alternatives: list = field(default_factory=list)
-    shift: dict = field(default_factory=dict)
-
-
-@dataclass
-class Diagnosis:
-    mismatch: bool
-    findings: list[Finding]
-    nominal: dict
-    augmented: dict
-    fit_before: dict  # axis -> NRMSE %
-    fit_after: dict
-    segments: dict
-    regimes: dict
-    lag: dict
-    tested: list[dict]
-    settings: dict
-    residual: dict  # axis -> (t, residual before, residual after)
-    overlay: dict  # axis -> (t, measured, predicted before, predicted after)
-    velocity: dict  # axis -> smoothed velocity [rad/s] used for the regressors and the regimes
-    verdict: str = "consistent"  # consistent | explained | partly_explained | unexplained (VERDICTS)
-    verdict_sentence: str = ""
-    refused: list = field(default_factory=list)  # findings the equation error chose but the checks refused
-    seed_check: dict = field(default_factory=dict)  # identify's model_check of the seed model
-    corrections: list = field(default_factory=list)  # sparse.Correction per axis left above its noise level
-    steps: list = field(default_factory=list)  # per finding, thinned for its figures (_finding_steps)
-    oe_tested: list = field(default_factory=list)  # candidates judged by output error (oe.py), in order
-    #: several known values refitted together (known_values.joint), when no single one nor the effect search
-    #: explains the log (weigh.py); None when that search did not run or found no set
-    known_values_joint: dict | None = None
-
-
-VERDICTS = {
-    "consistent": "the seed model already fits the log to its noise level",
-    "explained": "the accepted findings bring the model's fit to the noise level",
-    "partly_explained": "the accepted findings raise the fit, but not to the noise level: something else is missing",
-    "unexplained": "no effect in the library improves the fit: the mismatch is physics outside the library",
-}
 #: the findings' prediction errors within this factor of the noise level count as explained
 EXPLAINED_RMS_OVER_NOISE = 1.5
 #: and, when the output-error fit can carry the findings, the angles it simulates within this factor (estimate's
@@ -252,7 +200,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
             break  # the simplest explanation that reaches the noise floor wins (weigh.py): no further round
     drop_search_columns(cache)
     progress("prediction fits", _SEED_SHARE + _ROUNDS_SHARE)
-    fit_before, over_before = _fits(log, p, law, Model(), {}, nominal, start=seed.get("start_states"))
+    fit_before, over_before = prediction_fits(log, p, law, Model(), {}, nominal, start=seed.get("start_states"))
     while True:  # accept only findings that keep J/B physical and raise the fit of every axis they touch
         augmented, values, fit_after, over_after = _model_fits(log, p, law, current, reg_now, score_now, oe_values,
                                                                seed.get("start_states"), _last_oe(findings))
@@ -297,7 +245,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                                                                    oe_values, seed.get("start_states"),
                                                                    _last_oe(findings))
     # the motors' start states are unknowns of each model: each model the report predicts with picks its own
-    # among the estimates at hand (_start_after), the findings' output-error fits' among them
+    # among the estimates at hand (fits.best_start), the findings' output-error fits' among them
     starts = [start]
     start_before = start_after = start
     if findings:
@@ -308,12 +256,12 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
             fitted = oe.motor_start(fit) if fit is not None else {}
             starts += [fitted] if fitted else []
         starts = [x for i, x in enumerate(starts) if x not in starts[:i]]
-        start_before = _start_after(log, p, law, Model(), {}, nominal, starts)
+        start_before = best_start(log, p, law, Model(), {}, nominal, starts)
         if start_before != start:
-            fit_before, over_before = _fits(log, p, law, Model(), {}, nominal, start=start_before)
-        start_after = _start_after(log, p, law, current, values, augmented, starts)
+            fit_before, over_before = prediction_fits(log, p, law, Model(), {}, nominal, start=start_before)
+        start_after = best_start(log, p, law, current, values, augmented, starts)
         if start_after != start:
-            fit_after, over_after = _fits(log, p, law, current, values, augmented, start=start_after)
+            fit_after, over_after = prediction_fits(log, p, law, current, values, augmented, start=start_after)
     checked = fitter.check_fit(current, values, _oe_start(score_now, reg_now, p)) if findings else None
     oe_check = checked[0] if checked else None
     from_check = False
@@ -322,7 +270,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         # the findings' model fits by output error, but its 2 s predictions use the equation error's J/B, which
         # noise can bias: predict with the output-error fit's J/B where they do no worse (J/B already taken from
         # the output-error fit that decided a finding, where the equation error's were not physical, stay)
-        fits2, over2 = _fits(log, p, law, current, values, checked[1], start=start_after)
+        fits2, over2 = prediction_fits(log, p, law, current, values, checked[1], start=start_after)
         worse = [x for x in fit_after if not fits2[x] >= fit_after[x]]
         if not worse:
             fit_after, over_after, augmented, from_check = fits2, over2, checked[1], True
@@ -411,11 +359,12 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
 def _step_fits(log, p, law, states, fits: dict, starts: list) -> dict:
     """Prediction fits and predictions of each intermediate state (index i: findings 0..i-1 added), given those
     of the seed model (0) and the final one (len(states) - 1); each from the motor start states of ``starts``
-    that suit it best (_start_after)."""
+    that suit it best (fits.best_start)."""
     for i in range(1, len(states) - 1):
         model, reg, sc = states[i]
         values, est = _effect_values(model, sc, reg), _estimates(sc, reg)
-        fits[i] = _fits(log, p, law, model, values, est, start=_start_after(log, p, law, model, values, est, starts))
+        start = best_start(log, p, law, model, values, est, starts)
+        fits[i] = prediction_fits(log, p, law, model, values, est, start=start)
     return fits
 
 
@@ -492,7 +441,7 @@ def _corrections(log, p, law, a, current, values, augmented, reg_now, score_now,
         jb = ("J1", "B1") if axis == "pitch" else ("J2", "B2")
         est[jb[0]], est[jb[1]] = float(sc.theta[axis][0]), float(sc.theta[axis][1])
         torque = sparse.torque(terms, coef, sig)
-        fits, preds = _fits(log, p, law, current, values, est, extra={axis: torque}, start=start)
+        fits, preds = prediction_fits(log, p, law, current, values, est, extra={axis: torque}, start=start)
         before = fit_after[axis]
         if not (math.isfinite(fits[axis]) and (not math.isfinite(before) or fits[axis] > before)):
             continue  # it must raise the prediction fit (or give one where the model had no physical J, B)
@@ -673,7 +622,7 @@ def _model_fits(log: Log, p: dict, law: str, model: Model, reg, sc, oe_values: d
         est = {k: float(last_oe.estimates[k]) for k in est}
     values = _effect_values(model, sc, reg)
     values.update({k: v for k, v in oe_values.items() if k in model.keys})  # the output-error fit's value
-    return (est, values, *_fits(log, p, law, model, values, est, start=start))
+    return (est, values, *prediction_fits(log, p, law, model, values, est, start=start))
 
 
 def _rebuild(findings, current, log, p, law, a, cache, ids):
@@ -705,38 +654,6 @@ def _unphysical(c: Candidate, augmented: dict) -> str | None:
     return None
 
 
-#: how much of the log's beginning decides the motors' start states (_choose_start) [s]
-START_JUDGE_S = 60.0
-#: the motors at rest at the first sample
-REST = {"tau1_0": 0.0, "tau2_0": 0.0, "zeta_0": 0.0}
-
-
-def _start_after(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, options: list) -> dict | None:
-    """The motors' start states ``model`` predicts best from (on the leading START_JUDGE_S), among ``options``
-    (the first wins a tie): the seed model's choice, the steady state, rest, the seed check's estimate and the
-    output-error fits' estimates with the findings in.  A start estimated with a model that misses a delay
-    left the yaw prediction of a log cut mid-run 10x its noise level for its first 5 s."""
-    if len(options) == 1:
-        return options[0]
-    head = log.head(_start_samples(log))
-    best, best_cost = options[0], math.inf
-    for opt in options:
-        cost = _start_cost(_fits(head, p, law, model, values, est, start=opt)[0])
-        if cost < best_cost:
-            best, best_cost = opt, cost
-    return best
-
-
-def _start_samples(log: Log) -> int:
-    """How many leading samples judge the motors' start states: START_JUDGE_S of the log (the start is forgotten
-    within a few motor time constants; an hour-long log would otherwise pay full regressions and predictions)."""
-    return min(len(log), max(int(START_JUDGE_S / log.sample_time_s), 1))
-
-
-def _start_cost(fits: dict) -> float:
-    """What a start-state option costs: the sum over axes of (1 - prediction fit)^2, infinite without a fit."""
-    return sum((1.0 - fits[ax] / 100.0) ** 2 if math.isfinite(fits[ax]) else math.inf for ax in fits)
-
 
 def _choose_start(log: Log, p: dict, law: str, a: float, estimated: dict | None, ids: np.ndarray) -> dict | None:
     """The motors' states at the first sample: at rest, in the steady state of the first voltages (None), or as
@@ -744,15 +661,15 @@ def _choose_start(log: Log, p: dict, law: str, a: float, estimated: dict | None,
     whose seed-model predictions fit the angles best is used (the equation error cannot tell: its start-state
     regressors absorb the difference)."""
     options = [None, REST] + ([estimated] if estimated is not None else [])
-    n = _start_samples(log)
+    n = start_samples(log)
     log, ids = log.head(n), ids[:n]
     best, best_cost = None, math.inf
     for opt in options:
         reg = regression(log, p, law, a, Model(), {("start_states",): opt})
         # J/B of the table when the equation error's are not physical (a missed delay drives B1 below 0): with no
         # prediction to score, every option would cost the same and the first (the steady state) would stand
-        fits, _ = _fits(log, p, law, Model(), {}, _oe_start(score(reg, ids, ("pitch", "yaw")), reg, p), start=opt)
-        cost = _start_cost(fits)
+        fits, _ = prediction_fits(log, p, law, Model(), {}, _oe_start(score(reg, ids, ("pitch", "yaw")), reg, p), start=opt)
+        cost = start_cost(fits)
         if cost < best_cost:
             best, best_cost = opt, cost
     return best
@@ -1097,94 +1014,3 @@ def _effect_values(model: Model, sc, reg) -> dict:
         axis = key.split(":")[1]
         vals[key] = float(sc.theta[axis][reg.names[axis].index(key)])
     return vals
-
-
-def _yaw_inertia_signals(alpha_rad: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """sin^2(alpha) and sin(alpha) cos(alpha) alpha' of the measured pitch (the pitch-dependent yaw inertia's
-    terms), in place where numpy allows (the same operations, in the same order, as the plain expressions)."""
-    s = np.sin(alpha_rad)
-    scw = np.cos(alpha_rad)
-    scw *= s
-    scw *= smoothed_velocity(alpha_rad, dt)
-    s *= s
-    return s, scw
-
-
-#: (what, id(angle array)) -> (weak reference to the array, dt, the signal): _fits predicts the same log's angles
-#: for every model and start it judges, and the restart velocity and the pitch-dependent yaw inertia's signals
-#: depend on the angles alone (measured on an hour at 1 kHz: 24 Savitzky-Golay passes, 5.6 s of a 90 s
-#: diagnosis, for two distinct arrays).  A few entries at most
-_PER_ANGLES: dict = {}
-_PER_ANGLES_KEPT = 6
-
-
-def _per_angles(what: str, x: np.ndarray, dt: float, compute: Callable):
-    """compute(x, dt), computed once per angle array and ``what`` (the caller must not write to the result)."""
-    key = (what, id(x))
-    hit = _PER_ANGLES.get(key)
-    if hit is not None and hit[0]() is x and hit[1] == dt:
-        return hit[2]
-    got = compute(x, dt)
-    while len(_PER_ANGLES) >= _PER_ANGLES_KEPT:
-        _PER_ANGLES.pop(next(iter(_PER_ANGLES)), None)
-    _PER_ANGLES[key] = (weakref.ref(x), dt, got)
-    return got
-
-
-#: logs at least this long predict their two axes in two threads (_fits); shorter ones are done before a thread
-#: would start paying off
-PARALLEL_FITS_SAMPLES = 200_000
-
-
-def _fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, extra: dict | None = None,
-          start: dict | None = None):
-    """Prediction fit [%] and predictions per axis; ``extra``: axis -> extra torque [N m] per sample; ``start``:
-    the motors' states at the first sample (plant_signals)."""
-    from ..numerics.fused import plant_signals
-
-    dt = log.sample_time_s
-    u1, u2, changes = modified_inputs(log, dict(model.mods))
-    pp = {**p, **changes}
-    ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, dt, pp, law, start=start, rows="motors")
-    extra = {axis: (extra or {}).get(axis) for axis in ("pitch", "yaw")}
-    for key, t in oe.unit_torques(log, pp, law, [k for k in model.linear if k in values], u1, u2).items():
-        for j, axis in enumerate(("pitch", "yaw")):  # the model room's torque effects (model/effects.py)
-            if np.any(t[:, j]):
-                extra[axis] = values[key] * t[:, j] + (0.0 if extra[axis] is None else extra[axis])
-    del u1, u2
-    horizon = max(int(round(HORIZON_S / dt)), 1)
-    zeros = np.zeros_like(log.alpha_rad)
-
-    def predicted(axis: str) -> np.ndarray:
-        x = getattr(log, AXIS_ANGLE[axis])
-        fx = np.zeros(7)
-        fx[0] = values.get(f"coulomb_friction:{axis}", 0.0)
-        fx[1] = values.get(f"quadratic_drag:{axis}", 0.0)
-        fx[5] = values.get(f"thrust_asymmetry:{axis}", 0.0)
-        fx[6] = values.get("yaw_inertia_pitch:yaw", 0.0)  # also on pitch: its centrifugal term
-        if axis == "yaw":
-            fx[2] = values.get("cable_stiffness:yaw", 0.0)
-            th = np.array([est["J2"], est["B2"], pp["a2"], pp["b2"], 0.0, 0.0, law == "signed"], dtype=float)
-            drive, other = ps.tau2, ps.MR_nm
-        else:
-            fx[3] = values.get("com_offset:pitch", 0.0)
-            fx[4] = values.get("sensor_offset:pitch", 0.0)
-            th = np.array([est["J1"], est["B1"], pp["a1"], pp["b1"], pp["Mg"], pp["Kg"], law == "signed"], dtype=float)
-            drive, other = ps.tau1, ps.dbeta_rad_s
-        if not all(math.isfinite(q) and q > 0 for q in th[:2]):  # J or B not physical: nothing to predict with
-            return np.full_like(x, np.nan)
-        aux = (zeros, zeros) if axis == "pitch" else _per_angles("yaw inertia", log.alpha_rad, dt,
-                                                                 _yaw_inertia_signals)
-        ext = zeros if extra[axis] is None else extra[axis]
-        return predict_fitted_start(axis == "pitch", x, _per_angles("velocity", x, dt, restart_velocity), drive, other, *aux, ext, dt,
-                                    horizon, th, fx)
-
-    axes = ("pitch", "yaw")
-    if len(log) >= PARALLEL_FITS_SAMPLES:  # the predictions release the GIL: both axes at once on two cores
-        with ThreadPoolExecutor(max_workers=2) as pool:
-            ys = list(pool.map(predicted, axes))
-    else:
-        ys = [predicted(axis) for axis in axes]
-    preds = dict(zip(axes, ys))
-    fits = {axis: nrmse_fit(getattr(log, AXIS_ANGLE[axis]), preds[axis]) for axis in axes}
-    return fits, preds

@@ -36,7 +36,10 @@ from .. import known_values
 from ..log import Log
 from ..numerics.adequacy import RMS_OVER_NOISE
 from ..numerics.stats import block_length
+from .fits import prediction_fits
 from .model import AXIS_ANGLE, Model, regression
+from .result import Finding
+from .select import block_ids, score
 
 #: library effects that are a known value of eq. (1) under another name: the motor time constant the motor_lag
 #: candidate fits is T11 (T21) itself
@@ -47,11 +50,9 @@ EXPLAINED_BY_VALUE = ("the model fits the log to its noise level once one known 
 
 
 def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
-    """The diagnosis after the rule (module docstring); ``d`` the effect search's (run.Diagnosis), ``p`` the
+    """The diagnosis after the rule (module docstring); ``d`` the effect search's (result.Diagnosis), ``p`` the
     values it was given (``overrides``: the ones that differ from Table 1, as diagnose was called).  Unchanged
     when the seed check ran no known-value search (the model fits, or the fit was not decided)."""
-    from . import run
-
     kv = d.seed_check.get("known_values")
     if not kv:
         return d
@@ -97,7 +98,7 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
                 f"{fit['score']:.2g} of the misfit")
     if alternatives:
         evidence += "; cannot be told apart with this log from " + ", ".join(alternatives)
-    finding = run.Finding(
+    finding = Finding(
         "known_value", axis, {"name": name, "value": value, "table": table, "unit": fit["unit"],
                               "ci95": [lo, hi]},
         d.fit_before.get(axis, math.nan), fits_after.get(axis, math.nan), evidence,
@@ -154,14 +155,12 @@ def _start(states: dict) -> dict | None:
 def _refitted(d, log: Log, pp: dict, law: str, est: dict, start: dict | None):
     """The seed model with known values ``pp`` and J/B ``est``: its 2 s prediction fits and predictions, and its
     equation-error regression and score (for the residual figures)."""
-    from . import run
-
     with np.errstate(all="ignore"):
-        fits_after, preds = run._fits(log, pp, law, Model(), {}, est, start=start)
+        fits_after, preds = prediction_fits(log, pp, law, Model(), {}, est, start=start)
         a = d.settings["a_rad_s"]
         block = block_length(len(log), log.sample_time_s, 1.0 / a)
         reg = regression(log, pp, law, a, Model(), {("start_states",): start})
-        sc = run.score(reg, run.block_ids(len(log), block), ("pitch", "yaw"))
+        sc = score(reg, block_ids(len(log), block), ("pitch", "yaw"))
     return fits_after, preds, reg, sc
 
 
@@ -181,8 +180,6 @@ def _joint(log: Log, law: str, overrides: dict | None, p: dict, kv: dict):
 def _explained_by_values(d, log: Log, p: dict, law: str, j):
     """The diagnosis when several known values, refitted together, bring both angles to their noise floors and
     no single one does, nor the effect search: each value a finding, the effect search's findings refused."""
-    from . import run
-
     pp = {**p, **j.values}
     est = dict(j.estimates)
     start = _start(j.start_states)
@@ -205,7 +202,7 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
                     ("" if name in j.determined else
                      f" (wider than {100 * known_values.DETERMINED_REL:g} % of the value: this log does not "
                      "determine it well)"))
-        findings.append(run.Finding(
+        findings.append(Finding(
             "known_value", axis, {"name": name, "value": j.values[name], "table": j.table[name],
                                   "unit": j.units[name], "ci95": [lo, hi]},
             d.fit_before.get(axis, math.nan), fits_after.get(axis, math.nan), evidence,

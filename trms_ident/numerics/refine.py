@@ -673,7 +673,6 @@ def _setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s=WIN
     starts = np.array([[alpha[s], _start_velocity(alpha, t, s), beta[s], _start_velocity(beta, t, s)]
                        for s in range(0, nw * win, win)])
     free = tuple(free)
-    m = len(free)
     effects = dict(effects or {})
     exogenous = tuple(torques or {})
     given = [float(params[k] if k in _P else effects.get(k, 0.0)) for k in free]  # the freed values' starts

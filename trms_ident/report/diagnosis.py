@@ -5,7 +5,7 @@ import html
 
 from ..model.effects import with_unit
 from ..diagnosis.predict import fit_change, fit_text
-from ..diagnosis.run import Diagnosis
+from ..diagnosis.result import Diagnosis
 from ..log import Log
 from ..params import PLAUSIBLE_FACTOR, marked, not_credible
 from .summary import units_text, versions
