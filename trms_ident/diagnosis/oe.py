@@ -78,13 +78,6 @@ PROFILE_KEYS = ("dead_zone:pitch", "dead_zone:yaw", "input_saturation:pitch", "i
 #: dead zone's cost is sharply peaked (3 % off its width gave back 3 % of an 80 % drop in angle error)
 PROFILE_NEIGHBOURS = 3
 PROFILE_BISECTIONS = 5
-#: ... and goes on halving, up to PROFILE_BISECTIONS_MAX in all, while a neighbour's cost still exceeds the best's
-#: by more than PROFILE_COST_RESOLUTION (noise-weighted squared error: 1 is about one standard error of the value).
-#: A second-order pitch motor of 0.145 s in a 1 kHz chirp has a cost this sharp: 0.35 % off its value left the yaw
-#: at 1.21x its noise floor (through the reaction torque), where the value itself reaches 0.98x; five halvings
-#: of a 25 % grid end 0.7 % apart, and the parabola through such points missed the peak by 12 standard errors
-PROFILE_BISECTIONS_MAX = 12
-PROFILE_COST_RESOLUTION = 1.0
 #: when the best value is at an end of those, at most this many more steps outwards
 PROFILE_EXTEND = 8
 #: a profile whose best value still leaves more than this multiple of the noise-weighted squared error of a model
@@ -442,14 +435,11 @@ class Fitter:
             ratio = min(ratio, PROFILE_SCAN_RATIO)
             for v in sorted(self._screen(model, values, base.estimate, key, g[0], g[-1], ratio))[:PROFILE_SCAN_KEEP]:
                 at(v[1])
-        for k in range(PROFILE_BISECTIONS_MAX):
+        for _ in range(PROFILE_BISECTIONS):
             ratio = math.sqrt(ratio)
             best = min(tried, key=cost)
             at(best * ratio)
             at(best / ratio)
-            if k + 1 >= PROFILE_BISECTIONS and not (max(cost(best * ratio), cost(best / ratio)) - cost(best)
-                                                    > PROFILE_COST_RESOLUTION):
-                break  # resolved: the neighbours' costs are within the noise of the best's
         vs = sorted(v for v in tried if tried[v] is not None)
         if not vs:
             return None
