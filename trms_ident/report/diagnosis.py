@@ -247,7 +247,9 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
     est_head = "<th>with the correction</th>" if corrected else ""
     aug_from = {"output_error": " (output-error fit: the equation error's were not physical)",
                 "output_error_check": " (output-error check of the findings' model)",
-                "known_value": " (output-error refit with the known value free)"}.get(
+                "known_value": (" (output-error refit with the known values free)"
+                                if sum(f["effect"] == "known_value" for f in doc["findings"]) > 1 else
+                                " (output-error refit with the known value free)")}.get(
         doc["settings"].get("estimates_augmented_from"), "")
     imgs = "".join(f"<h2>{html.escape(title)}</h2><img alt='{html.escape(title)}' src='{uri}'>" for title, uri in figs)
     colour = {"consistent": "#e8f5e9", "explained": "#e8f5e9", "partly_explained": "#fff4e0"}.get(doc["verdict"],
