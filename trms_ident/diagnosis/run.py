@@ -21,7 +21,7 @@ from .locate import lag_profile, regimes, segments
 from .model import AXIS_ANGLE, Model, drop_search_columns, modified_inputs, regression, smoothed_velocity
 from .fits import REST, best_start, prediction_fits, start_cost, start_samples
 from .predict import HORIZON_S, fit_text
-from .result import VERDICTS, Diagnosis, Finding  # noqa: F401  (Finding: the rule's findings are run.Finding)
+from .result import VERDICTS, Diagnosis, Finding
 from .select import FAMILY_ALPHA, block_ids, compare, score
 from .shapes import declared_shape, term_shape, thin
 
@@ -197,7 +197,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         findings.append((best, alts))
         if _reaches_floor(fitter, current, reg_now, score_now, oe_values, p):
             stopped = round_i + 1
-            break  # the simplest explanation that reaches the noise floor wins (weigh.py): no further round
+            break  # the findings reach the floor (STOP_OE_OVER_NOISE): a further round could only add parameters
     drop_search_columns(cache)
     progress("prediction fits", _SEED_SHARE + _ROUNDS_SHARE)
     fit_before, over_before = prediction_fits(log, p, law, Model(), {}, nominal, start=seed.get("start_states"))

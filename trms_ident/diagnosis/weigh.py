@@ -22,7 +22,13 @@ refitted with every one):
    the motor_lag candidate's time constant is T11 or T21 itself).  Otherwise they need more parameters, or
    leave more than the noise, for what the one value explains: they are refused, each with that reason;
 3. with no known value reaching the floor, the effect search's verdict stands, and its sentence says which
-   known values were tried alone and how far each left the angles from their floors.
+   known values were tried alone and how far each left the angles from their floors;
+4. when neither a single known value nor the effect search reaches the floor, several known values are refitted
+   together (known_values.joint, a forward search, each value a further parameter that must earn its place).
+   A set that reaches the floor explains the log: one finding per value, the effect search's findings refused
+   (they do not reach it).  A set that does not is reported in the sentence with the values the log
+   determines.  Refits that wander off to implausible numbers are never reported (known_values.far_from_table
+   says the bench is far from the values given).
 """
 from __future__ import annotations
 
