@@ -882,11 +882,8 @@ def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now,
         return None
     theta0 = _oe_start(score_now, reg_now, p)
     values = _effect_values(current, score_now, reg_now)
-    # the equation error's best first, those whose held-out blocks improve on the whole (t > 0) before those
-    # whose gain comes from a few blocks while most get worse (measured: a 0.1 V yaw dead zone, gain 0.0036 at
-    # t > 0, was pushed out of the three by pitch motor lags with gains 0.16-0.18 at p = 1, and never fitted)
     order = sorted((r for r in results if oe.fittable(r["c"].key) and r["c"].key not in current.keys),
-                   key=lambda r: (not r["test"].t > 0, -r["test"].gain))[:OE_TOP_K]
+                   key=lambda r: -r["test"].gain)[:OE_TOP_K]
     good = []
     for r in order:
         f, short = _oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested)
