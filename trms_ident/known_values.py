@@ -307,7 +307,8 @@ def _explains(staged: list, noise: dict) -> bool:
 
 
 def joint_sentence(j: KnownValueSet, base_over_noise: float | None = None) -> str:
-    """What the joint search found, for diagnose's verdict."""
+    """What a joint search that did not reach the noise floor found, for diagnose's verdict (a set that reaches
+    it becomes findings: weigh._explained_by_values)."""
     vals = ", ".join(f"{k} {j.values[k]:.4g} (given {j.table[k]:.4g})" for k in j.names)
     before = f" from {base_over_noise:.3g}x" if base_over_noise is not None and math.isfinite(base_over_noise) else ""
     worst = max(j.over_noise.values())
@@ -317,9 +318,6 @@ def joint_sentence(j: KnownValueSet, base_over_noise: float | None = None) -> st
     undetermined = [k for k in j.names if k not in j.determined]
     if j.determined and undetermined:
         det += f", not {', '.join(undetermined)}"
-    if j.explains:
-        return (f" {len(j.names)} known values off together explain it: refitted jointly, {vals} bring both angles "
-                f"within {RMS_OVER_NOISE:g}x their noise floors{det}.")
     return (f" The bench's known values are not the table's: refitted together, {vals} take the worst angle"
             f"{before} to {worst:.3g}x its noise floor, still above it{det}; the model leaves out more (physics "
             "or further values).")

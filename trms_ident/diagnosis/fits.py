@@ -52,7 +52,6 @@ def start_cost(fits: dict) -> float:
     return sum((1.0 - fits[ax] / 100.0) ** 2 if math.isfinite(fits[ax]) else math.inf for ax in fits)
 
 
-
 def yaw_inertia_signals(alpha_rad: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """sin^2(alpha) and sin(alpha) cos(alpha) alpha' of the measured pitch (the pitch-dependent yaw inertia's
     terms), in place where numpy allows (the same operations, in the same order, as the plain expressions)."""
@@ -64,10 +63,10 @@ def yaw_inertia_signals(alpha_rad: np.ndarray, dt: float) -> tuple[np.ndarray, n
     return s, scw
 
 
-#: (what, id(angle array)) -> (weak reference to the array, dt, the signal): _fits predicts the same log's angles
-#: for every model and start it judges, and the restart velocity and the pitch-dependent yaw inertia's signals
-#: depend on the angles alone (measured on an hour at 1 kHz: 24 Savitzky-Golay passes, 5.6 s of a 90 s
-#: diagnosis, for two distinct arrays).  A few entries at most
+#: (what, id(angle array)) -> (weak reference to the array, dt, the signal): prediction_fits predicts the same
+#: log's angles for every model and start it judges, and the restart velocity and the pitch-dependent yaw
+#: inertia's signals depend on the angles alone (measured on an hour at 1 kHz: 24 Savitzky-Golay passes, 5.6 s of
+#: a 90 s diagnosis, for two distinct arrays).  A few entries at most; an entry goes with its angle array
 _PER_ANGLES: dict = {}
 _PER_ANGLES_KEPT = 6
 
@@ -82,16 +81,17 @@ def _per_angles(what: str, x: np.ndarray, dt: float, compute: Callable):
     while len(_PER_ANGLES) >= _PER_ANGLES_KEPT:
         _PER_ANGLES.pop(next(iter(_PER_ANGLES)), None)
     _PER_ANGLES[key] = (weakref.ref(x), dt, got)
+    weakref.finalize(x, _PER_ANGLES.pop, key, None)  # the log is gone: so are its signals (memory in a batch)
     return got
 
 
-#: logs at least this long predict their two axes in two threads (_fits); shorter ones are done before a thread
-#: would start paying off
+#: logs at least this long predict their two axes in two threads (prediction_fits); shorter ones are done before
+#: a thread would start paying off
 PARALLEL_FITS_SAMPLES = 200_000
 
 
 def prediction_fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, extra: dict | None = None,
-          start: dict | None = None):
+                    start: dict | None = None):
     """Prediction fit [%] and predictions per axis; ``extra``: axis -> extra torque [N m] per sample; ``start``:
     the motors' states at the first sample (plant_signals)."""
     from ..numerics.fused import plant_signals
@@ -130,8 +130,8 @@ def prediction_fits(log: Log, p: dict, law: str, model: Model, values: dict, est
         aux = (zeros, zeros) if axis == "pitch" else _per_angles("yaw inertia", log.alpha_rad, dt,
                                                                  yaw_inertia_signals)
         ext = zeros if extra[axis] is None else extra[axis]
-        return predict_fitted_start(axis == "pitch", x, _per_angles("velocity", x, dt, restart_velocity), drive, other, *aux, ext, dt,
-                                    horizon, th, fx)
+        v = _per_angles("velocity", x, dt, restart_velocity)
+        return predict_fitted_start(axis == "pitch", x, v, drive, other, *aux, ext, dt, horizon, th, fx)
 
     axes = ("pitch", "yaw")
     if len(log) >= PARALLEL_FITS_SAMPLES:  # the predictions release the GIL: both axes at once on two cores

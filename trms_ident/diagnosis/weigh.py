@@ -85,18 +85,16 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
     pp = {**p, name: value}
     est = dict(fit["estimates"])
     start = _start(fit["start_states"])
-    fits_after, preds, reg, sc = _refitted(d, log, pp, law, est, start)
+    fits_after, overlay, residual = _refitted(d, log, pp, law, est, start)
     axis = known_values.AXIS[name]
     effect_alike = (d.verdict == "explained" and len(d.findings) == 1)
     alternatives = list(kv.get("look_alikes", []))
     if effect_alike:
         alternatives.append(f"{d.findings[0].effect}:{d.findings[0].axis}")
     lo, hi = fit["ci95"]
-    se = (hi - lo) / (2 * 1.959963984540054) if hi > lo else math.inf
-    t = (value - table) / se if se > 0 else math.inf
     ratio = fit["over_noise"]
     base = d.seed_check.get("axes", {})
-    before = ", ".join(f"{ang} {v['rms_over_noise']:.3g}x" for ang, v in base.items() if "rms_over_noise" in v)
+    before = _seed_ratios(base)
     evidence = (f"set free alone and refitted by output error with J1, B1, J2, B2 and the start states "
                 f"(multiple shooting in {known_values.SHOOTING_WINDOW_S:g} s windows, then the standard windows), "
                 f"it brings the angles to {ratio['alpha']:.3g}x and {ratio['beta']:.3g}x their noise floors "
@@ -109,16 +107,13 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
                               "ci95": [lo, hi]},
         d.fit_before.get(axis, math.nan), fits_after.get(axis, math.nan), evidence,
         f"the bench's {name} is {value:.4g}, not the {table:.4g} it was given", _drop(base, ratio),
-        float(t), float(2 * norm.sf(abs(t))) if math.isfinite(t) else 0.0, alternatives,
-        {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est})
+        *_against_table(value, table, (lo, hi)), alternatives, {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est})
     refused = list(d.refused)
     if not effect_alike:
         why = (f"a known value explains the log alone with one parameter ({name} = {value:.4g} instead of "
                f"{table:.4g} brings both angles to their noise floors); this effect is not needed")
         refused += [{"effect": f.effect, "axis": f.axis, "parameter": f.parameter["value"], "reason": why}
                     for f in d.findings]
-    overlay = {ax: (ov[0], ov[1], ov[2], preds[ax]) for ax, ov in d.overlay.items()}
-    residual = {ax: (r[0], r[1], reg.g[ax] - reg.x[ax] @ sc.theta[ax]) for ax, r in d.residual.items()}
     step = _step(log, name, axis, d, overlay, residual, fits_after)
     sentence = EXPLAINED_BY_VALUE + f": the bench's {name} is {value:.4g}, not {table:.4g}"
     if alternatives:
@@ -143,13 +138,11 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
         d.findings.append(finding)
         d.steps.append(step)
         return d
-    settings = {**d.settings, "output_error_check": {"rms_over_noise": dict(ratio), "threshold": RMS_OVER_NOISE},
-                "start_states_after": start, "estimates_augmented_from": "known_value",
-                "rule": "simplest explanation reaching the noise floor (diagnosis/weigh.py)"}
     findings = [finding] + ([d.findings[0]] if effect_alike else [])
     return replace(d, mismatch=True, findings=findings, augmented=est, fit_after=fits_after, overlay=overlay,
                    residual=residual, verdict="explained", verdict_sentence=sentence, refused=refused,
-                   corrections=[], steps=[step] + (d.steps[:1] if effect_alike else []), settings=settings)
+                   corrections=[], steps=[step] + (d.steps[:1] if effect_alike else []),
+                   settings=_value_settings(d, ratio, start))
 
 
 def _start(states: dict) -> dict | None:
@@ -159,15 +152,37 @@ def _start(states: dict) -> dict | None:
 
 
 def _refitted(d, log: Log, pp: dict, law: str, est: dict, start: dict | None):
-    """The seed model with known values ``pp`` and J/B ``est``: its 2 s prediction fits and predictions, and its
-    equation-error regression and score (for the residual figures)."""
+    """The seed model with known values ``pp`` and J/B ``est``: its 2 s prediction fits, and ``d``'s overlay and
+    residual with its predictions and equation error as the "after" ones."""
     with np.errstate(all="ignore"):
         fits_after, preds = prediction_fits(log, pp, law, Model(), {}, est, start=start)
         a = d.settings["a_rad_s"]
         block = block_length(len(log), log.sample_time_s, 1.0 / a)
         reg = regression(log, pp, law, a, Model(), {("start_states",): start})
         sc = score(reg, block_ids(len(log), block), ("pitch", "yaw"))
-    return fits_after, preds, reg, sc
+    overlay = {ax: (ov[0], ov[1], ov[2], preds[ax]) for ax, ov in d.overlay.items()}
+    residual = {ax: (r[0], r[1], reg.g[ax] - reg.x[ax] @ sc.theta[ax]) for ax, r in d.residual.items()}
+    return fits_after, overlay, residual
+
+
+def _against_table(value: float, table: float, ci95) -> tuple[float, float]:
+    """t and two-sided p of a refitted known value against the value given, from its 95 % interval."""
+    lo, hi = ci95
+    se = (hi - lo) / (2 * 1.959963984540054) if hi > lo else math.inf
+    t = (value - table) / se if se > 0 else math.inf
+    return float(t), float(2 * norm.sf(abs(t))) if math.isfinite(t) else 0.0
+
+
+def _seed_ratios(base: dict) -> str:
+    """The seed check's angle errors over their floors, as text ("alpha 7.48x, beta 457x")."""
+    return ", ".join(f"{ang} {v['rms_over_noise']:.3g}x" for ang, v in base.items() if "rms_over_noise" in v)
+
+
+def _value_settings(d, ratio: dict, start: dict | None) -> dict:
+    """``d``'s settings when known values explain the log: their refit's check, start states and J/B."""
+    return {**d.settings, "output_error_check": {"rms_over_noise": dict(ratio), "threshold": RMS_OVER_NOISE},
+            "start_states_after": start, "estimates_augmented_from": "known_value",
+            "rule": "simplest explanation reaching the noise floor (diagnosis/weigh.py)"}
 
 
 def _joint(log: Log, law: str, overrides: dict | None, p: dict, kv: dict):
@@ -189,16 +204,14 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
     pp = {**p, **j.values}
     est = dict(j.estimates)
     start = _start(j.start_states)
-    fits_after, preds, reg, sc = _refitted(d, log, pp, law, est, start)
+    fits_after, overlay, residual = _refitted(d, log, pp, law, est, start)
     base = d.seed_check.get("axes", {})
-    before = ", ".join(f"{ang} {v['rms_over_noise']:.3g}x" for ang, v in base.items() if "rms_over_noise" in v)
+    before = _seed_ratios(base)
     listed = ", ".join(f"{k} = {j.values[k]:.4g} instead of {j.table[k]:.4g}" for k in j.names)
     findings = []
     for name in j.names:
         axis = known_values.AXIS[name]
         lo, hi = j.ci95[name]
-        se = (hi - lo) / (2 * 1.959963984540054) if hi > lo else math.inf
-        t = (j.values[name] - j.table[name]) / se if se > 0 else math.inf
         others = [k for k in j.names if k != name]
         evidence = (f"freed together with {', '.join(others)} and refitted by output error with J1, B1, J2, B2 and "
                     f"the start states (multiple shooting in {known_values.SHOOTING_WINDOW_S:g} s windows, then the "
@@ -213,26 +226,21 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
                                   "unit": j.units[name], "ci95": [lo, hi]},
             d.fit_before.get(axis, math.nan), fits_after.get(axis, math.nan), evidence,
             f"the bench's {name} is {j.values[name]:.4g}, not the {j.table[name]:.4g} it was given",
-            _drop(base, j.over_noise), float(t), float(2 * norm.sf(abs(t))) if math.isfinite(t) else 0.0,
+            _drop(base, j.over_noise), *_against_table(j.values[name], j.table[name], (lo, hi)),
             [], {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est}))
     why = (f"{len(j.names)} known values refitted together explain the log ({listed}); the effect search's "
            "findings do not bring the angles to their noise floors")
     refused = list(d.refused) + [{"effect": f.effect, "axis": f.axis, "parameter": f.parameter["value"],
                                   "reason": why} for f in d.findings]
-    overlay = {ax: (ov[0], ov[1], ov[2], preds[ax]) for ax, ov in d.overlay.items()}
-    residual = {ax: (r[0], r[1], reg.g[ax] - reg.x[ax] @ sc.theta[ax]) for ax, r in d.residual.items()}
     step = _step(log, ", ".join(j.names), "both", d, overlay, residual, fits_after)
     sentence = (f"the model fits the log to its noise level once {len(j.names)} known values take the bench's own "
                 f"values instead of the ones it was given: {listed} (refitted together, both angles within "
                 f"{RMS_OVER_NOISE:g}x their noise floors; no single value and no effect of the library does). "
                 f"Check them on the bench, or estimate them with `trms-ident estimate "
                 + " ".join(f"--free {k}" for k in j.names) + "`.")
-    settings = {**d.settings, "output_error_check": {"rms_over_noise": dict(j.over_noise), "threshold": RMS_OVER_NOISE},
-                "start_states_after": start, "estimates_augmented_from": "known_value",
-                "rule": "simplest explanation reaching the noise floor (diagnosis/weigh.py)"}
     return replace(d, mismatch=True, findings=findings, augmented=est, fit_after=fits_after, overlay=overlay,
                    residual=residual, verdict="explained", verdict_sentence=sentence, refused=refused,
-                   corrections=[], steps=[step], settings=settings)
+                   corrections=[], steps=[step], settings=_value_settings(d, j.over_noise, start))
 
 
 def _closer(effect_check: dict | None, ratio: dict) -> bool:
