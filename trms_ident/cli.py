@@ -471,6 +471,7 @@ def diagnose(
 ) -> None:
     """Find where the model and the recording disagree, name the missing physics, fit it, show the gain."""
     from .model.effects import with_unit
+    from .diagnosis.held_out import sentence as held_out_sentence
     from .diagnosis.predict import fit_change, fit_text
     from .io.atomic import write_text
     from .io.readers import read_log
@@ -516,6 +517,8 @@ def diagnose(
             say(f"     fit {fit_change(f.fit_before, f.fit_after)}; {f.evidence}")
         say("  estimates  " + "  ".join(f"{k} {marked(k, d.nominal[k])} -> {marked(k, d.augmented[k])}"
                                         for k in ESTIMATED))
+    if d.held_out is not None:
+        say("  " + held_out_sentence(d.held_out, bool(d.findings)))
     for r in d.refused:
         say(f"  refused: {r['effect']} on {r['axis']}: {r['reason']}")
     for c in d.corrections:

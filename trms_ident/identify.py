@@ -13,7 +13,7 @@ from .errors import IdentificationError, SettingsError
 from .log import Log
 from .numerics.design import FilterDesign, angle_noise_rad, design_filters
 from .numerics.fused import drem_summaries
-from .numerics.adequacy import RMS_OVER_NOISE, model_check
+from .numerics.adequacy import RMS_OVER_NOISE, judging_floors, model_check
 from . import known_values
 from .known_values import over_noise as _over_noise
 from .numerics.refine import WINDOW_S, Refined, refine, substeps
@@ -272,12 +272,14 @@ def _undecided(check: dict, r: Refined) -> None:
 SUSPECT_MAX_STEPS = REFINE_AUTO_MAX_STEPS // 4
 
 
-def known_value_fit(log: Log, settings: Settings) -> tuple[known_values.Fit, dict, int]:
+def known_value_fit(log: Log, settings: Settings, check: dict | None = None
+                    ) -> tuple[known_values.Fit, dict, int]:
     """The output-error fit the known-value searches run (known_values.search, and diagnose's known_values.joint):
-    (fit, the angles' noise floors [rad] there, samples), on the log's first SUSPECT_MAX_STEPS integration
-    steps."""
+    (fit, the angles' floors [rad] there, samples), on the log's first SUSPECT_MAX_STEPS integration steps.
+    ``check``: the seed model's model_check, whose black-box floor stands in for a noise floor the log cannot
+    measure (adequacy.judging_floors), for the fits' weights and for the verdict on them alike."""
     n = min(len(log), max(SUSPECT_MAX_STEPS // substeps(log.sample_time_s), 10))
-    noise = _noise(log, n)
+    noise = judging_floors(check, _noise(log, n))[0]
 
     def fit(free_now: tuple, theta0: dict, values: dict, **options) -> Refined:
         return _refine_first(log, n, values, settings, theta0, noise, free_now, **options)
@@ -290,7 +292,7 @@ def _blame(check: dict, log: Log, settings: Settings, params: dict) -> None:
     of the table a one-parameter hypothesis, refitted by multiple shooting then in the standard windows) on the
     log's first SUSPECT_MAX_STEPS integration steps; a value is named only if freeing it alone makes the model
     fit.  ``check["known_values"]`` keeps the search for diagnose, which reads this same result."""
-    fit, noise, n = known_value_fit(log, settings)
+    fit, noise, n = known_value_fit(log, settings, check)
     free = tuple(settings.free)
     try:
         found = known_values.search(fit, params, noise, n, free=free)

@@ -87,10 +87,15 @@ class Log:
 
     def head(self, n: int) -> "Log":
         """The log's first n samples (views, no copies); the log itself when it is no longer."""
-        if n >= len(self):
+        return self.span(0, n)
+
+    def span(self, i0: int, i1: int) -> "Log":
+        """Samples i0 to i1 - 1 (views, no copies); the log itself when that is all of it."""
+        if i0 <= 0 and i1 >= len(self):
             return self
-        return replace(self, t_s=self.t_s[:n], u1_v=self.u1_v[:n], u2_v=self.u2_v[:n], alpha_rad=self.alpha_rad[:n],
-                       beta_rad=self.beta_rad[:n], u_switch_s=None if self.u_switch_s is None else self.u_switch_s[:n])
+        k = slice(i0, i1)
+        return replace(self, t_s=self.t_s[k], u1_v=self.u1_v[k], u2_v=self.u2_v[k], alpha_rad=self.alpha_rad[k],
+                       beta_rad=self.beta_rad[k], u_switch_s=None if self.u_switch_s is None else self.u_switch_s[k])
 
 
 #: steps taken at a time by _step_statistics, and the distinct step values it counts before it falls back

@@ -51,6 +51,7 @@ from ..log import Log
 from ..model import effects as room
 from ..model.plant import EFFECT_SLOTS, thrust_law
 from ..numerics import safe
+from ..numerics.adequacy import judging_floors
 from ..numerics.design import angle_noise_rad
 from ..numerics.refine import BLOCK_S, substeps
 from ..numerics.refine import refine as oe_refine
@@ -245,10 +246,13 @@ def modification_torque_share(key: str, value: float, log: Log, p: dict, law: st
 class Fitter:
     """Output-error fits of one log: the current model (cached per model) and the model with one candidate."""
 
-    def __init__(self, log: Log, p: dict, law: str):
+    def __init__(self, log: Log, p: dict, law: str, max_samples: int | None = None, check: dict | None = None):
+        """``check``: the seed model's model_check; where it says the log cannot measure an angle's noise floor,
+        the black-box floor it measured weights and judges that angle (adequacy.judging_floors)."""
         self.log, self.p, self.law = log, p, law
-        self.n = min(len(log), max(MAX_STEPS // substeps(log.sample_time_s), 10))
-        self.noise = {"alpha": angle_noise_rad(log.alpha_rad[:self.n]), "beta": angle_noise_rad(log.beta_rad[:self.n])}
+        self.n = min(len(log), max(MAX_STEPS // substeps(log.sample_time_s), 10), max_samples or len(log))
+        measured = {"alpha": angle_noise_rad(log.alpha_rad[:self.n]), "beta": angle_noise_rad(log.beta_rad[:self.n])}
+        self.noise, self.floor_used = judging_floors(check, measured)
         self.var = {"alpha": float(np.var(log.alpha_rad[:self.n])), "beta": float(np.var(log.beta_rad[:self.n]))}
         self._base: dict = {}
         self._torques: dict = {}  # (key, input modifications) -> unit_torques of the fitted samples
@@ -260,28 +264,64 @@ class Fitter:
         self._answers: dict = {}
 
     def _fit(self, model: Model, values: dict, theta0: dict, extra_key: str | None, mods: dict | None = None,
-             max_iterations: int | None = None):
+             max_iterations: int | None = None, span: tuple[int, int] | None = None, hold: bool = False):
         """The refinement of the log's first n samples with the model's torque effects (linear ones and the
         centre-of-mass offset, all free) and, when given, ``extra_key`` free from 0; the voltages go through the
-        model's input modifications at their values, ``mods`` (key -> value) added or replacing them (fixed)."""
+        model's input modifications at their values, ``mods`` (key -> value) added or replacing them (fixed).
+        ``span``: samples i0 to i1 - 1 of those instead; ``hold``: J/B and the torque effects stay at theta0 and
+        ``values`` (the offsets at ``values``' too, when there), only the start states are fitted."""
         n, log = self.n, self.log
         effects = {k: values[k] for k in model.linear}
-        effects.update({k: v for k, v in model.mods if k in OFFSETS})
+        effects.update({k: values.get(k, v) if hold else v for k, v in model.mods if k in OFFSETS})
         free = tuple(effects) + ((extra_key,) if extra_key else ())
-        u1, u2, p = log.u1_v[:n], log.u2_v[:n], self.p
+        part = log.head(n) if span is None else log.span(*span)
+        u1, u2, p = part.u1_v, part.u2_v, self.p
         mods = {**{k: v for k, v in model.mods if k not in OFFSETS}, **(mods or {})}
         if mods:
-            u1, u2, changes = modified_inputs(log.head(n), mods)
+            u1, u2, changes = modified_inputs(part, mods)
             p = {**p, **changes}
         kw = {} if max_iterations is None else {"max_iterations": max_iterations}
         torques = {}
         for k in (k for k in free if room.generic(k)):
+            if span is not None:  # a part of the samples: its own torques (not cached)
+                torques[k] = unit_torques(part, p, self.law, (k,), u1, u2, {})[k]
+                continue
             ck = (k, tuple(sorted(mods.items())))
             if ck not in self._torques:
-                self._torques[ck] = unit_torques(log.head(n), p, self.law, (k,), u1, u2, self._signals)[k]
+                self._torques[ck] = unit_torques(part, p, self.law, (k,), u1, u2, self._signals)[k]
             torques[k] = self._torques[ck]
-        return oe_refine(u1, u2, log.alpha_rad[:n], log.beta_rad[:n], log.sample_time_s, p, self.law, theta0,
-                         self.noise, free=free, effects=effects, torques=torques or None, **kw)
+        return oe_refine(u1, u2, part.alpha_rad, part.beta_rad, log.sample_time_s, p, self.law, theta0,
+                         self.noise, free=free, effects=effects, torques=torques or None, hold=hold, **kw)
+
+    def held_out(self, model: Model, values: dict, theta0: dict) -> dict | None:
+        """The model's held-out simulation fit: fitted (J/B, its torque effects' parameters and the start states
+        free, input modifications at their values) on one half of the fitted samples, then simulated on the
+        other with those values held and only the start states fitted (the motors' and each WINDOW_S window's
+        angles and rates), both ways round.  {"fit_percent": axis -> NRMSE fit [%] over both held-out halves,
+        "rms_rad": angle -> error RMS [rad], "prediction": (n, 2) the held-out simulated angles, "estimates":
+        per fold the fitted J/B}; None when a fit fails or the model holds an effect the fit cannot carry."""
+        if not all(carries(k) for k in model.linear):
+            return None
+        n = self.n
+        h = n // 2
+        pred = np.empty((n, 2))
+        folds = []
+        try:
+            for fit_span, test_span in (((0, h), (h, n)), ((h, n), (0, h))):
+                r = self._fit(model, values, theta0, None, span=fit_span)
+                fitted = {**values, **{k: v["estimate"] for k, v in r.freed.items()}}
+                t = self._fit(model, fitted, dict(r.estimate), None, span=test_span, hold=True)
+                pred[test_span[0]:test_span[1]] = t.prediction
+                folds.append({"fitted_on": list(fit_span), "estimates": dict(r.estimate),
+                              "values": {k: v["estimate"] for k, v in r.freed.items()}})
+        except _FAILED:
+            return None
+        if not np.all(np.isfinite(pred)):
+            return None
+        rms = {a: float(np.sqrt(np.mean((getattr(self.log, f"{a}_rad")[:n] - pred[:, j]) ** 2)))
+               for j, a in enumerate(("alpha", "beta"))}
+        return {"fit_percent": {axis: fit for axis, (fit, _) in self._simulation_fits(rms, rms).items()},
+                "rms_rad": rms, "prediction": pred, "folds": folds}
 
     def _blocks(self, v: np.ndarray) -> np.ndarray:
         """Per-sample values summed over BLOCK_S blocks (a last partial block left out)."""

@@ -47,6 +47,8 @@ class Diagnosis:
     #: several known values refitted together (known_values.joint), when no single one nor the effect search
     #: explains the log (weigh.py); None when that search did not run or found no set
     known_values_joint: dict | None = None
+    #: the seed model's and the findings' model's held-out simulation fits (held_out.py); None when not run
+    held_out: dict | None = None
 
 
 VERDICTS = {

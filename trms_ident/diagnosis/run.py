@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Callable
 
 import numpy as np
@@ -83,11 +84,15 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
     """Find what the seed model leaves out of this log, fit it, and give the verdict (VERDICTS).
 
     ``progress(stage, fraction done)``: called as the work advances (the CLI draws a bar with it)."""
+    from .held_out import held_out_fits
     from .weigh import weigh
 
+    progress = progress or (lambda stage, done: None)
+    p = merge(overrides or {}, source="parameter overrides")
     with np.errstate(all="ignore"):  # a model far off the log overflows its predictions: they score as misfits
-        d = _diagnose(log, overrides, law, a_rad_s, progress or (lambda stage, done: None))
-    return weigh(d, log, merge(overrides or {}, source="parameter overrides"), law, overrides)
+        d = weigh(_diagnose(log, overrides, law, a_rad_s, progress), log, p, law, overrides)
+        progress("held-out simulation fits", 0.97)
+        return replace(d, held_out=held_out_fits(d, log, p, law))
 
 
 #: the held-out tests need this many blocks (each five filter memories long)
@@ -125,7 +130,8 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
     n_tests = len(cands)
     reg_now, score_now = base_reg, base
     excluded: set[str] = set()  # look-alikes already named as a finding's alternatives
-    fitter = oe.Fitter(log, p, law)  # output-error fits of candidates (oe.py)
+    fitter = oe.Fitter(log, p, law, check=seed)  # output-error fits of candidates (oe.py), judged against the
+    floors = dict(fitter.noise), dict(fitter.floor_used)  # floors the seed check says the log measures
     oe_values: dict = {}  # findings the output-error test decided: key -> its fitted value
     oe_tested: list = []
     refused: list = []  # findings refused, first those the output-error test turned down in the rounds
@@ -328,7 +334,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
     delay = next((r for r in tested if r["effect"] == "input_delay"), None)
     lag = lag_profile([delay["parameter"]], [delay["held_out_gain"]]) if delay else {}
     overlay = {axis: (log.t_s, getattr(log, AXIS_ANGLE[axis]), over_before[axis], over_after[axis]) for axis in axes}
-    verdict, sentence = _verdict(log, seed, out, fit_after, seg, oe_check)
+    verdict, sentence = _verdict(log, seed, out, fit_after, seg, oe_check, floors[1])
     if out:
         verdict, sentence = _credible(verdict, sentence, augmented)
     corrections = []
@@ -346,6 +352,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
                       "alpha_family": FAMILY_ALPHA, "candidates": len(cands), "start_states_before": start_before,
                       "start_states_after": start_after,
                       "search_stopped_after_round": stopped,
+                      "floors": {AXIS_OF[a]: {"rad": floors[0][a], "used": floors[1][a]} for a in floors[0]},
                       "output_error_check": ({"rms_over_noise": oe_check, "threshold": EXPLAINED_OE_OVER_NOISE}
                                              if oe_check is not None else None),
                       "estimates_augmented_from": ("output_error_check" if from_check else
@@ -686,10 +693,18 @@ def _seed_check(log: Log, overrides: dict | None, law: str) -> dict:
     return {**res.model_check, "start_states": start}
 
 
-def _verdict(log: Log, seed: dict, findings: list, fit_after: dict, seg: dict, oe_check: dict | None
-             ) -> tuple[str, str]:
+def _floor_words(used: dict, angle: str) -> str:
+    """What an angle's floor is, in words (adequacy.judging_floors' kinds)."""
+    if used.get(angle) == "black_box":
+        return "the error a flexible black-box model leaves on held-out data (its angles carry no measurable noise)"
+    return "its noise level"
+
+
+def _verdict(log: Log, seed: dict, findings: list, fit_after: dict, seg: dict, oe_check: dict | None,
+             used: dict | None = None) -> tuple[str, str]:
     """The verdict and its sentence; ``oe_check``: angle -> the findings' model's output-error simulation error
-    over its noise floor (oe.Fitter.check), None when that fit cannot carry the findings."""
+    over its floor (oe.Fitter.check), None when that fit cannot carry the findings; ``used``: angle -> which
+    floor (adequacy.judging_floors)."""
     if seed.get("adequate") and not findings:
         return "consistent", VERDICTS["consistent"] + "."
     if findings and oe_check is not None:
@@ -699,13 +714,27 @@ def _verdict(log: Log, seed: dict, findings: list, fit_after: dict, seg: dict, o
         # on a 500 Hz log its output-error simulation fits at 0.99x)
         ratio = {a: (v if math.isfinite(v) else math.inf) for a, v in oe_check.items()}  # NaN never passes
         worst = max(ratio, key=ratio.get)
+        used = used or {}
+        if used.get(worst) == "none":  # neither a noise floor nor a black box measures this angle's floor
+            return "partly_explained", (
+                VERDICTS["partly_explained"] + f" as far as this log can tell: the {AXIS_OF[worst]} angle carries "
+                "no measurable noise and a flexible black-box model does not simulate it either, so no floor says "
+                "how well it can be fitted.")
         if not ratio[worst] <= EXPLAINED_OE_OVER_NOISE:
             return "partly_explained", (
                 VERDICTS["partly_explained"] + f" (simulated by output error with the findings in, the "
-                f"{AXIS_OF[worst]} angle's error is still {oe_check[worst]:.3g}x its noise level; "
+                f"{AXIS_OF[worst]} angle's error is still {oe_check[worst]:.3g}x {_floor_words(used, worst)}; "
                 f"{EXPLAINED_OE_OVER_NOISE:g}x is allowed).")
-        return "explained", VERDICTS["explained"] + " (simulated by output error with the findings in, both angles "\
-            f"within {EXPLAINED_OE_OVER_NOISE:g}x their noise levels)."
+        boxed = [AXIS_OF[a] for a in ratio if used.get(a) == "black_box"]
+        if not boxed:
+            floors_told = "noise levels)."
+        else:
+            many = len(boxed) > 1
+            floors_told = (f"floors; the {' and '.join(boxed)} {'angles carry' if many else 'angle carries'} no "
+                           f"measurable noise, so {'their' if many else 'its'} floor is the error a flexible "
+                           "black-box model leaves on held-out data: the finest misfit this log can show).")
+        return "explained", (VERDICTS["explained"] + " (simulated by output error with the findings in, both angles "
+                             f"within {EXPLAINED_OE_OVER_NOISE:g}x their " + floors_told)
     if findings:
         ratios = _over_noise(log, seed, fit_after)
         if any(r > EXPLAINED_RMS_OVER_NOISE for r in ratios.values()):
@@ -885,12 +914,7 @@ def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now,
     values = _effect_values(current, score_now, reg_now)
     off = _misfit_axes(fitter, current, {**values, **{k: v for k, v in oe_values.items() if k in current.keys}},
                        theta0)
-    # the equation error's best by held-out gain, those acting on an axis the current model leaves above its
-    # floor first: a candidate on an axis that already fits can only trade its fit for the other's (measured:
-    # two pitch motor lags with gains 0.16-0.18 at p = 1 on a log whose pitch fitted at 1.00x pushed a 0.1 V
-    # yaw dead zone, the yaw at 1.89x, out of the three and it was never fitted)
-    order = sorted((r for r in results if oe.fittable(r["c"].key) and r["c"].key not in current.keys),
-                   key=lambda r: (not _acts_on(r["c"], off), -r["test"].gain))[:OE_TOP_K]
+    order = _rescue_order((r for r in results if oe.fittable(r["c"].key) and r["c"].key not in current.keys), off)
     good = []
     for r in order:
         f, short = _oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested)
@@ -905,6 +929,15 @@ def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now,
         res = _try(r["c"], log, p, law, a, current, cache, ids, score_now, n_tests)  # its regression (dropped before)
     res["oe"], res["value"] = f, f.value
     return res
+
+
+def _rescue_order(results, off: set) -> list:
+    """The OE_TOP_K candidates the rescue fits: the equation error's best by held-out gain, those acting on an
+    axis in ``off`` (left above its floor by the current model) first.  A candidate on an axis that already fits
+    can only trade its fit for the other's (measured: two pitch motor lags with gains 0.16-0.18 at p = 1, on a
+    log whose pitch fitted at 1.00x, pushed a 0.1 V yaw dead zone, the yaw at 1.89x, out of the three, and it
+    was never fitted)."""
+    return sorted(results, key=lambda r: (not _acts_on(r["c"], off), -r["test"].gain))[:OE_TOP_K]
 
 
 def _misfit_axes(fitter, model: Model, values: dict, theta0: dict) -> set:

@@ -108,7 +108,7 @@ def term_shape(c: Candidate, value: float, p: dict, law: str, velocity: np.ndarr
         else:
             second = 1.0 - (1.0 + t / tm) * np.exp(-t / tm)
         return Shape("t after a voltage step [s]", t, "motor state / steady state", second, first,
-                     f"second-order motor: a further lag of {value:.3g} s after the table's {tm:.3g} s")
+                     f"second-order motor: a further lag of {value:.3g} s after the given {tm:.3g} s")
     if c.modify is not None:  # a voltage transform declared in the model room (model/effects.py)
         u = _span(u_v)
         return Shape(f"logged {'u1' if ax != 'yaw' else 'u2'} [V]", u, "voltage the motor sees [V]",

@@ -72,7 +72,7 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
             tried = ", ".join(f"{f['name']} {max(f['over_noise'].values()):.3g}x" for f in kv["fits"])
             d.verdict_sentence += (" No known value explains the log alone (each refitted by output error, the most "
                                    f"likely leave the angles above their noise floors: {tried or 'none could be fitted'}).")
-            j = _joint(log, law, overrides, p, kv)
+            j = _joint(log, law, overrides, p, kv, d.seed_check)
             if j is not None:
                 d.known_values_joint = j.to_json()
                 if j.explains:
@@ -185,13 +185,13 @@ def _value_settings(d, ratio: dict, start: dict | None) -> dict:
             "rule": "simplest explanation reaching the noise floor (diagnosis/weigh.py)"}
 
 
-def _joint(log: Log, law: str, overrides: dict | None, p: dict, kv: dict):
+def _joint(log: Log, law: str, overrides: dict | None, p: dict, kv: dict, check: dict | None = None):
     """known_values.joint on the fit estimate's search used (identify.known_value_fit); None when it finds no
     set of two or more values that earns its place, or cannot be fitted."""
     from ..identify import known_value_fit
     from ..settings import Settings
 
-    fit, noise, _ = known_value_fit(log, Settings(thrust_law=law, overrides=dict(overrides or {})))
+    fit, noise, _ = known_value_fit(log, Settings(thrust_law=law, overrides=dict(overrides or {})), check)
     try:
         return known_values.joint(fit, p, noise, kv.get("fits", []))
     except (np.linalg.LinAlgError, FloatingPointError, ValueError, ZeroDivisionError):

@@ -202,6 +202,25 @@ def model_check(y: np.ndarray, pred: np.ndarray, u: np.ndarray, noise_rad: dict,
     return {"adequate": adequate, "axes": axes, "simulation": scope, "sentence": sentence, "caution": caution}
 
 
+def judging_floors(check: dict | None, noise_rad: dict) -> tuple[dict, dict]:
+    """The floors a model is fitted and judged against on this log, from the seed model's check (model_check):
+    (angle -> floor [rad], angle -> which: "noise", "black_box" or "none").  The measured noise floor where the
+    log measures one; where the angles carry no measurable noise and the seed model misses them, the black-box
+    model's held-out error that check measured ("black_box": the floor the log can measure, and the weight of
+    that angle in an output-error fit: a 1e-9 rad "floor" of a smoothed angle would make the other angle count
+    for nothing); "none" where the black box does not simulate the angle either (the noise floor is kept, a
+    lower bound: no verdict can rest on it)."""
+    floors, used = dict(noise_rad), {}
+    for ang in ANGLES:
+        ax = ((check or {}).get("axes") or {}).get(AXIS_OF[ang]) or {}
+        kind = ax.get("floor_used", "noise")
+        bb = (ax.get("black_box") or {}).get("rms_rad")
+        if kind == "black_box" and bb:
+            floors[ang] = max(float(noise_rad[ang]), float(bb))
+        used[ang] = kind
+    return floors, used
+
+
 def _black_box(y: np.ndarray, u: np.ndarray, dt_s: float, window_s: float, known: dict | None) -> dict:
     """The black box's held-out errors (blackbox.achievable_error_rad), computed once for both angles."""
     if known is not None:

@@ -700,7 +700,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
            window_s: float = WINDOW_S, gravity_offset_rad: float = 0.0, t_s: np.ndarray | None = None,
            free: tuple[str, ...] = (), switch_delay_s: np.ndarray | None = None,
            effects: dict | None = None, max_iterations: int = MAX_ITERATIONS,
-           torques: dict | None = None, start_states0: dict | None = None) -> Refined:
+           torques: dict | None = None, start_states0: dict | None = None, hold: bool = False) -> Refined:
     """Gauss-Newton on the noise-weighted angle errors, from theta0 (DREM's estimate).
 
     ``t_s``: the sample stamps [s] when they are not uniform (default: uniform steps of ``dt`` [s]); the
@@ -717,7 +717,9 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     ``effects`` (or 0) and estimated when its key is in ``free``.  ``start_states0``: where the motor and lag
     start states (START_NAMES) and the first window's rates (alpha_dot_0_rad_s, beta_dot_0_rad_s) begin, e.g. a
     previous fit's ``start_states`` (default: the motors' steady state for the first voltages, rates from the
-    angles' first 50 ms)."""
+    angles' first 50 ms).  ``hold``: J/B and the freed values stay at theta0 and their starts, only the start
+    states (the motors' and each window's) are fitted: a model fitted elsewhere simulated on these samples (a
+    held-out check); the intervals are then those of the values held, not estimates."""
     su = _setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s, gravity_offset_rad, t_s, free,
                 switch_delay_s, effects, torques, start_states0)
     prob, starts, theta, scale, win, block, n, nw, y = (su.prob, su.starts, su.theta, su.scale, su.win, su.block,
@@ -730,6 +732,9 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     for it in range(1, max_iterations + 1):
         s_mat, s_rhs, per_window = _schur(a, b, ng)
         step = _scaled_inverse(s_mat) @ s_rhs
+        if hold:  # only the motors' start states move among the globals: their block of the Schur complement
+            step = np.zeros_like(step)
+            step[4:NG] = _scaled_inverse(s_mat[4:NG, 4:NG]) @ s_rhs[4:NG]
         step_starts = np.array([k[:, ng] - k[:, :ng] @ step for k in per_window])
         se = np.sqrt(np.maximum(np.diag(_covariance(s_mat, per_window, scores, win, block)), 0.0))
         small = (np.abs(step) <= STEP_OVER_SE * se) | (np.abs(step) <= TOLERANCE * scale)

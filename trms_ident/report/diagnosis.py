@@ -31,6 +31,9 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                            "started from the angle and velocity fitted to it (a free run drifts on yaw, which has "
                            "no restoring force)",
                 "before": d.fit_before, "after": d.fit_after},
+        "held_out_fit": (None if d.held_out is None else
+                         {k: d.held_out[k] for k in ("before", "after", "rms_rad", "span_s", "samples", "folds",
+                                                     "method")}),
         "located": {"segments": d.segments, "regimes": d.regimes, "lag": d.lag},
         "tested": d.tested,
         "output_error_tested": d.oe_tested,
@@ -95,6 +98,16 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                                                                 "chosen by its fit over the first 60 s among the "
                                                                 "seed model's choice, steady state, rest and the "
                                                                 "estimates; null: steady state)",
+            "settings.floors": "per axis the floor [rad] the output-error fits are weighted by and the verdict is "
+                               "judged against, and which: noise (the measured noise floor), black_box (the angles "
+                               "carry no measurable noise; the held-out error of the flexible black-box model the "
+                               "seed model's check fitted, seed_model_check.axes.*.black_box), none (neither: the "
+                               "noise floor is kept as a lower bound and no verdict rests on it)",
+            "held_out_fit": "held-out simulation fit [%] per axis of the seed model (before) and of the model with "
+                            "the findings (after; null without findings): fitted by output error on one half of "
+                            "the first span_s seconds, simulated on the other half with J, B and the findings' "
+                            "values held and only the start states fitted, both ways round; NRMSE over both "
+                            "halves (diagnosis/held_out.py); null when the seed model's fit failed",
             "corrections": "physics outside the library: a sparse data-driven correction of an axis' residual torque "
                            "(terms from a small library, pysindy STLSQ, kept only when it lowers the held-out "
                            "residual beyond chance and raises the prediction fit); a description, not a named effect",
@@ -145,7 +158,7 @@ def finding_figure(step: dict):
         rr.legend(fontsize=7, markerscale=6, loc="upper right")
     if sh is not None:
         ax = fig.add_subplot(grid[2 * len(axes), :])
-        ax.plot(sh.x, sh.seed, color="0.45", lw=1.0, ls=":", label="seed model (Table 1)")
+        ax.plot(sh.x, sh.seed, color="0.45", lw=1.0, ls=":", label="seed model (the values given)")
         ax.plot(sh.x, sh.fitted, color="tab:red", lw=1.4, label="with the fitted term")
         ax.set_xlabel(sh.x_label)
         ax.set_ylabel(sh.y_label)
@@ -210,6 +223,26 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
     ax[1].set_xlabel("t [s]")
     fig.suptitle(f"{d.settings['horizon_s']:g} s multi-step predictions against the measurement")
     figs.append(("Fit overlay", png_data_uri(fig)))
+    # 3b. held-out simulation: each model fitted on one half, simulated on the other
+    if d.held_out is not None:
+        h = d.held_out
+        t = h["prediction"]["t_s"]
+        st = max(1, t.size // 4000)
+        fig, ax = plt.subplots(2, 1, figsize=(10, 5), sharex=True)
+        for j, (a, axis, angle) in enumerate(zip(ax, ("pitch", "yaw"), ("alpha_rad", "beta_rad"))):
+            a.plot(t[::st], getattr(log, angle)[:t.size][::st], "k", lw=0.8, label="measured")
+            a.plot(t[::st], h["prediction"]["before"][::st, j], lw=0.8,
+                   label=f"seed model ({fit_text(h['before'][axis])})")
+            if h["after"] is not None:
+                a.plot(t[::st], h["prediction"]["after"][::st, j], lw=0.8, ls="--",
+                       label=f"with findings ({fit_text(h['after'][axis])})")
+            a.axvline(t[t.size // 2], color="0.6", lw=0.8)
+            a.set_ylabel(f"{axis} [rad]")
+            a.legend(fontsize=8)
+            a.grid(alpha=0.3)
+        ax[1].set_xlabel("t [s] (each half simulated with the values fitted on the other)")
+        fig.suptitle("Held-out simulation against the measurement")
+        figs.append(("Held-out simulation", png_data_uri(fig)))
     # 4. per finding: what it changed on its axes, where, and the shape of its term
     for i, step in enumerate(d.steps, 1):
         figs.append((f"Finding {i}: {step['key'].replace(':', ' on ')}", png_data_uri(finding_figure(step))))
@@ -258,16 +291,23 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
                f'{html.escape(doc["verdict"].replace("_", " ").upper())}</span> '
                f'{html.escape(doc["verdict_sentence"])} {len(doc["findings"])} finding(s)')
     check = doc["settings"].get("output_error_check")
-    oe_line = ("" if check is None else " Output-error check of the findings' model: error RMS over the noise level "
-               + ", ".join(f"{ang} {r:.2f}x" for ang, r in check["rms_over_noise"].items())
-               + f" ({check['threshold']:g}x allowed for 'explained').")
+    oe_line = html.escape("" if check is None else " Output-error check of the findings' model: error RMS over its "
+                          "floor (settings.floors) " + ", ".join(f"{ang} {r:.3g}x"
+                                                                 for ang, r in check["rms_over_noise"].items())
+                          + f" ({check['threshold']:g}x allowed for 'explained').")
+    held = doc["held_out_fit"]
+    if held is not None:
+        oe_line += " Held-out simulation fit (fitted on one half, simulated on the other): " + ", ".join(
+            f"{ax} {fit_text(held['before'][ax])}" + ("" if held["after"] is None else
+                                                     f" &rarr; {fit_text(held['after'][ax])}")
+            for ax in ("pitch", "yaw")) + "."
     units = units_text(doc["input"])
     units = html.escape(units) + "<br>" if units else ""
     return f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident diagnose</title>
 <style>body{{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto}}img{{max-width:100%}}
 table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px}}.note{{color:#555;font-size:.9em}}</style>
 </head><body><h1>Diagnosis of {html.escape(log.source)}</h1><p><b>{verdict}</b>.
-Fit measure: {html.escape(doc['fit']['measure'])}.{html.escape(oe_line)}</p><ol>{items}{corrections}</ol>
+Fit measure: {html.escape(doc['fit']['measure'])}.{oe_line}</p><ol>{items}{corrections}</ol>
 <table><tr><th>parameter</th><th>seed model</th><th>with findings{aug_from}</th>{est_head}</tr>{est}</table>{imgs}
 <p class="note">{units}sha256 {log.sha256}; versions {html.escape(str(doc['versions']))}</p></body></html>
 """

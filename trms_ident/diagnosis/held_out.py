@@ -1,0 +1,98 @@
+"""Held-out simulation fits: does the model with diagnose's findings predict samples it was not fitted on
+better than the model without them?
+
+The prediction fits the findings are chosen on restart from the measured angles every 2 s, and the
+output-error check that gives the verdict fits every parameter on the samples it scores.  A finding that only
+fits this recording's noise raises both.  Here each model (the seed model, and the model with the findings:
+effects at their values, or the known values diagnose named at theirs) is fitted by output error on one half
+of the fitted samples (J/B, its torque effects' parameters and the start states free; oe.Fitter.held_out) and
+simulated on the other half with those values held, only the start states fitted there (the motors' and each
+40 s window's angles and rates), then the other way round.  The fit is NRMSE over both held-out halves:
+100 (1 - error RMS / the angle's standard deviation) [%].
+
+On a log the seed model already fits, before and after are one model.  A model holding a torque effect the
+output-error fit cannot carry has no held-out fit (None), and the report says so.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..log import Log
+from ..model import effects
+from . import oe
+from .model import Model
+
+#: the held-out fits use at most this many seconds of the output-error fit's samples (two halves): on an hour
+#: at 1 kHz the seed model's fit of a half that misses physics runs to its iteration limit, and 2 x 60 s of a
+#: multisine are as telling as 2 x 125 s
+MAX_SPAN_S = 120.0
+
+
+def final_model(findings) -> tuple[Model, dict, dict]:
+    """(the model, its effects' values, known values changed) the findings make: effects by key, known values
+    (effect "known_value") as parameter changes."""
+    by_key = {c.key: c for c in effects.CANDIDATES}
+    model, values, changes = Model(), {}, {}
+    for f in findings:
+        v = float(f.parameter["value"])
+        if f.effect == "known_value":
+            changes[f.parameter["name"]] = v
+            continue
+        key = f"{f.effect}:{f.axis}"
+        c = by_key[key]
+        model = model.with_mod(key, v) if c.kind == "grid" else model.with_linear(key)
+        values[key] = v
+    return model, values, changes
+
+
+def _start(est: dict, p: dict) -> dict:
+    """J/B a fit starts from: ``est`` when physical, else the table's."""
+    jb = ("J1", "B1", "J2", "B2")
+    ok = all(math.isfinite(est.get(k, math.nan)) and est[k] > 0 for k in jb)
+    return {k: float(est[k] if ok else p[k]) for k in jb}
+
+
+def held_out_fits(d, log: Log, p: dict, law: str) -> dict | None:
+    """{"before": {axis: fit %}, "after": {axis: fit %} (None when no finding changed the model), "span_s",
+    "samples", "prediction": {"t_s", "before", "after"} (held-out simulated angles, (n, 2) each), "folds",
+    "method"}; None when the seed model's fit fails.  The findings' model's is None when its fit fails."""
+    model, values, changes = final_model(d.findings)
+    most = int(MAX_SPAN_S / log.sample_time_s)
+    fitter = oe.Fitter(log, p, law, most, d.seed_check)
+    n = fitter.n
+    before = fitter.held_out(Model(), {}, _start(d.nominal, p))
+    if before is None:
+        return None
+    after = None
+    if d.findings:
+        f_after = fitter if not changes else oe.Fitter(log, {**p, **changes}, law, most, d.seed_check)
+        after = f_after.held_out(model, values, _start(d.augmented, p))
+    t = log.t_s[:n]
+    return {"before": before["fit_percent"], "after": after["fit_percent"] if after else None,
+            "rms_rad": {"before": before["rms_rad"], "after": after["rms_rad"] if after else None},
+            "span_s": float(t[-1] - t[0]), "samples": n,
+            "folds": {"before": before["folds"], "after": after["folds"] if after else None},
+            "prediction": {"t_s": t, "before": before["prediction"],
+                           "after": after["prediction"] if after else None},
+            "method": "output error fitted on one half of the samples, simulated on the other with J/B and the "
+                      "findings' values held (start states fitted), both ways round; NRMSE over both halves"}
+
+
+def sentence(h: dict | None, findings: bool) -> str:
+    """The held-out fits in words."""
+    if h is None:
+        return ""
+    if not findings or h["after"] is None:
+        return ("Held-out simulation fit (fitted on one half, simulated on the other): "
+                + ", ".join(f"{a} {v:.1f} %" for a, v in h["before"].items()) + ".")
+    return ("Held-out simulation fit (fitted on one half, simulated on the other), before -> after the findings: "
+            + ", ".join(f"{a} {h['before'][a]:.1f} % -> {h['after'][a]:.1f} %" for a in h["before"]) + ".")
+
+
+def lowered(h: dict | None, axes=("pitch", "yaw"), margin_percent: float = 0.0) -> list[str]:
+    """The axes whose held-out fit the findings lower (by more than ``margin_percent``)."""
+    if not h or h["after"] is None:
+        return []
+    return [a for a in axes if np.isfinite(h["before"][a]) and not h["after"][a] >= h["before"][a] - margin_percent]
