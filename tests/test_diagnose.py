@@ -765,6 +765,11 @@ def test_the_rescue_fits_candidates_on_an_axis_left_above_its_floor_first():
                res("dead_zone:yaw", 0.0036, 2.7), res("input_delay:both", 0.002, 5.2)]
     keys = [r["c"].key for r in run_mod._rescue_order(results, {"yaw"})]
     assert keys == ["cable_stiffness:yaw", "dead_zone:yaw", "input_delay:both"]
+    # power log 149: a pitch saturation left the pitch at its floor and the yaw at 3.7x (u1 drives the yaw through
+    # the reaction torque): it acts on the yaw and leads
+    sat = res("input_saturation:pitch", 0.90, 2.5)
+    keys = [r["c"].key for r in run_mod._rescue_order(results + [sat], {"yaw"})]
+    assert keys == ["input_saturation:pitch", "cable_stiffness:yaw", "dead_zone:yaw"]
     # both axes off (the sparse-correction tests' bench, Kg and kc off): by gain alone, as before
     keys = [r["c"].key for r in run_mod._rescue_order(results, {"pitch", "yaw"})]
     assert keys == ["motor_second_lag:pitch", "motor_lag:pitch", "cable_stiffness:yaw"]

@@ -932,12 +932,18 @@ def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now,
 
 
 def _rescue_order(results, off: set) -> list:
-    """The OE_TOP_K candidates the rescue fits: the equation error's best by held-out gain, those acting on an
-    axis in ``off`` (left above its floor by the current model) first.  A candidate on an axis that already fits
-    can only trade its fit for the other's (measured: two pitch motor lags with gains 0.16-0.18 at p = 1, on a
-    log whose pitch fitted at 1.00x, pushed a 0.1 V yaw dead zone, the yaw at 1.89x, out of the three, and it
-    was never fitted)."""
-    return sorted(results, key=lambda r: (not _acts_on(r["c"], off), -r["test"].gain))[:OE_TOP_K]
+    """The OE_TOP_K candidates the rescue fits: the equation error's best by held-out gain; when the current
+    model leaves one axis above its floor (``off``) and fits the other, first those that act on that axis
+    (directly, or through the reaction torque a pitch input modification changes on yaw: _axes_of) and whose
+    held-out blocks improve on the whole (t > 0).  Measured: on a log whose pitch fitted at 1.00x and yaw at
+    1.89x, two pitch motor lags with gains 0.16-0.18 at t = -262 and -38 took two of the three places and the
+    0.1 V yaw dead zone (gain 0.0036, t = 2.7) was never fitted; a pitch saturation that left the pitch at its
+    floor and the yaw at 3.7x (gain 0.90, t = 2.5) acts on yaw through the reaction torque and stays first.  With
+    both axes off, gain alone (t > 0 first there let a 1.07 s yaw motor lag stand in for a halved kc)."""
+    if len(off) != 1:
+        return sorted(results, key=lambda r: -r["test"].gain)[:OE_TOP_K]
+    return sorted(results, key=lambda r: (not _acts_on(r["c"], off), not r["test"].t > 0,
+                                          -r["test"].gain))[:OE_TOP_K]
 
 
 def _misfit_axes(fitter, model: Model, values: dict, theta0: dict) -> set:
@@ -950,8 +956,9 @@ def _misfit_axes(fitter, model: Model, values: dict, theta0: dict) -> set:
 
 
 def _acts_on(c: Candidate, axes: set) -> bool:
-    """Does candidate c act on one of ``axes`` (an input delay acts on both)?"""
-    return c.axis in axes or c.axis == "both"
+    """Does candidate c act on one of ``axes`` (_axes_of: an input delay on both, a pitch input modification on
+    yaw too)?"""
+    return bool(set(_axes_of(c)) & axes)
 
 
 def _oe_start(sc, reg, p: dict) -> dict:
