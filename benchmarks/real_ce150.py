@@ -48,6 +48,18 @@ def _floor(axis: dict) -> str:
     return (f"noise, {axis['rms_over_noise']:.3g}x" + ("" if axis["noise_floor_measured"] else " (not measurable)"))
 
 
+def _table_words(d) -> str:
+    """diagnose with Table 1's values, in a cell: the verdict, the known values it names, and whether it says the
+    bench is far from the values it was given."""
+    named = [f"{f.parameter['name']} {f.parameter['value']:.3g} (table {f.parameter['table']:.3g})"
+             for f in d.findings if f.effect == "known_value"]
+    effects = [f"{f.effect} on {f.axis}" for f in d.findings if f.effect != "known_value"]
+    far = "far from the values" in d.verdict_sentence
+    return (d.verdict + (": known values " + ", ".join(named) if named else "")
+            + ("; " + ", ".join(effects) if effects else "")
+            + ("; says the bench is far from the values given (give --params)" if far else ""))
+
+
 def _fmt(v) -> str:
     return "n.i." if v is None else f"{v:.3g}"
 
@@ -82,6 +94,12 @@ def main() -> None:
             row["findings"] = [f"{f.effect} on {f.axis} ({f.parameter['value']:.3g})" for f in d.findings]
             row["corrections"] = [f"{c.axis}: {c.sentence}" for c in d.corrections]
             row["prediction_fit"] = {a: (d.fit_before[a], d.fit_after[a]) for a in ("pitch", "yaw")}
+            h = d.held_out
+            row["held_out"] = ({a: (h["before"][a], (h["after"] or h["before"])[a]) for a in ("pitch", "yaw")}
+                               if h else None)
+            row["diag_floors"] = {a: v["used"] for a, v in d.settings["floors"].items()}
+            dt = ti.diagnose(path, **READ)  # Table 1's values: does diagnose say the bench is not the table?
+            row["table_diagnose"] = _table_words(dt)
         rows.append(row)
         print(row, flush=True)
     lines = ["## Real CE150 recordings", "",
@@ -93,8 +111,9 @@ def main() -> None:
              "",
              "| recording | blind | pitch fit Table 1 -> CE150 [%] | yaw fit Table 1 -> CE150 [%] | J1 | B1 | J2 | B2 "
              "| not credible | verdict (CE150's values): floor used per axis |"
-             + (" diagnose (CE150's values) | 2 s prediction fit before -> after [%] |" if args.diagnose else ""),
-             "|---|---|---|---|---|---|---|---|---|---|" + ("---|---|" if args.diagnose else "")]
+             + (" diagnose (CE150's values): floors, verdict, findings | held-out simulation fit before -> after [%] "
+                "| 2 s prediction fit before -> after [%] | diagnose (Table 1's values) |" if args.diagnose else ""),
+             "|---|---|---|---|---|---|---|---|---|---|" + ("---|---|---|---|" if args.diagnose else "")]
     for r in rows:
         e = r["estimates"]
         cells = [r["name"], "yes" if r["blind"] else "no",
@@ -103,15 +122,21 @@ def main() -> None:
                  *(_fmt(e[k]) for k in ("J1", "B1", "J2", "B2")), ", ".join(r["not_credible"]) or "-",
                  VERDICT[r["adequate"]] + ": " + "; ".join(f"{a} {f}" for a, f in r["floors"].items())]
         if args.diagnose:
-            cells.append(r["verdict"] + (": " + "; ".join(r["findings"]) if r["findings"] else "")
+            cells.append("floors " + ", ".join(f"{a} {u}" for a, u in r["diag_floors"].items()) + "; "
+                         + r["verdict"] + (": " + "; ".join(r["findings"]) if r["findings"] else "")
                          + ("; outside the library " + "; ".join(r["corrections"]) if r["corrections"] else ""))
+            cells.append("n/a" if r["held_out"] is None else
+                         ", ".join(f"{a} {b:.1f} -> {c:.1f}" for a, (b, c) in r["held_out"].items()))
             cells.append(", ".join(f"{a} {b:.1f} -> {c:.1f}" for a, (b, c) in r["prediction_fit"].items()))
+            cells.append(r["table_diagnose"])
         lines.append("| " + " | ".join(cells) + " |")
     lines += ["", f"Not estimated: {'; '.join(skipped) or 'none'}. {len(rows)} recordings in "
                   f"{time.perf_counter() - t0:.0f} s. The recordings smoothed the angles (third differences below "
                   "1.5e-6 rad), so no noise floor can be measured; where eq. (1) misses an axis, the floor is a "
                   "flexible black-box model's held-out simulation error (numerics/blackbox.py): above 1.2x it the "
-                  "axis does not fit (measured), within it the verdict is not decided."]
+                  "axis does not fit (measured), within it the verdict is not decided. diagnose judges such an "
+                  "axis against the same floor (settings.floors); its held-out simulation fit fits each model on "
+                  "one half of the recording's first 120 s and simulates it on the other, both ways round."]
     text = "\n".join(lines) + "\n"
     print(text)
     from results import update_section
