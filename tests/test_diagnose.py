@@ -205,7 +205,7 @@ def test_cli_clean_log_says_no_mismatch(square_csv):
     ([0.5, 1, 1.5, 2, 3, 4], 1.7, True),  # the delay grid, uneven even in log space
 ])
 def test_grid_refinement_finds_the_parabola_vertex(grid, vertex, log_space):
-    from trms_ident.diagnosis.run import _refine
+    from trms_ident.diagnosis.trials import _refine
 
     to = np.log if log_space else (lambda v: v)
     gains = [-(to(g) - to(vertex)) ** 2 for g in grid]
@@ -370,7 +370,8 @@ def test_output_error_profile_fits_an_input_modification_and_leaves_a_clean_log_
     from trms_ident.diagnosis import oe
     from trms_ident.model.effects import BY_KEY
     from trms_ident.diagnosis.model import Model
-    from trms_ident.diagnosis.run import FAMILY_ALPHA, _grid
+    from trms_ident.diagnosis.run import FAMILY_ALPHA
+    from trms_ident.diagnosis.trials import _grid
     from trms_ident.params import defaults
 
     p = defaults()
@@ -437,8 +438,8 @@ def test_an_earlier_finding_is_judged_again_given_the_later_ones(first, value, s
     from trms_ident.model.effects import BY_KEY
     from trms_ident.diagnosis.model import Model, regression
     from trms_ident.diagnosis.fits import prediction_fits
-    from trms_ident.diagnosis.run import (_at_value, _backward, _effect_values, _estimates, _try, block_ids,
-                                          block_length, score)
+    from trms_ident.diagnosis.run import _backward, block_ids, block_length, score
+    from trms_ident.diagnosis.trials import _at_value, _effect_values, _estimates, _try
     from trms_ident.numerics.design import design_filters
     from trms_ident.params import defaults
 
@@ -478,7 +479,7 @@ def test_a_rugged_dead_zone_profile_is_scanned_and_a_wrong_width_is_never_called
     # by that profile; left at the equation error's grid value (0.386 V) the findings' model does not fit, and
     # the verdict must say so rather than "explained"
     from sim import SimSettings, simulate
-    from trms_ident.diagnosis import oe, run
+    from trms_ident.diagnosis import oe, run, trials
     from trms_ident.model import effects
     from trms_ident.model.effects import BY_KEY
     from trms_ident.diagnosis.model import Model
@@ -493,7 +494,7 @@ def test_a_rugged_dead_zone_profile_is_scanned_and_a_wrong_width_is_never_called
 
     def profiled():
         fitter = oe.Fitter(log, p, "quadratic")
-        f = fitter.profile(Model(), {}, theta0, key, run._grid(BY_KEY[key], log, p), 0.15)
+        f = fitter.profile(Model(), {}, theta0, key, trials._grid(BY_KEY[key], log, p), 0.15)
         return f, fitter.check(Model().with_mod(key, f.value), {}, theta0)
 
     f, check = profiled()
@@ -544,7 +545,7 @@ def test_a_pitch_offset_of_no_practical_size_is_not_a_finding():
     gravity torque by oe.MIN_TORQUE_SHARE of the thrust torque, as the output-error fit asks of its candidates."""
     from trms_ident.diagnosis import oe
     from trms_ident.model.effects import CANDIDATES
-    from trms_ident.diagnosis.run import _practical
+    from trms_ident.diagnosis.trials import _practical
     from trms_ident.params import defaults
 
     r = sim_cached("square", 100.0, 90.0, 0.0, 0.0, 7, ())
@@ -751,7 +752,7 @@ def test_the_rescue_fits_candidates_on_an_axis_left_above_its_floor_first():
     # power benchmark log 134 (0.1 V yaw dead zone, square wave at 1 kHz, mid-run): the pitch fitted at 1.00x its
     # floor, the yaw at 1.89x; two pitch motor lags led the equation error's gains (0.16-0.18, at p = 1) and took
     # two of the rescue's three places, and the dead zone (gain 0.0036) was never fitted by output error
-    import trms_ident.diagnosis.run as run_mod
+    from trms_ident.diagnosis import judge
     from trms_ident.diagnosis.select import Test
     from trms_ident.model.effects import CANDIDATES
 
@@ -763,15 +764,15 @@ def test_the_rescue_fits_candidates_on_an_axis_left_above_its_floor_first():
     results = [res("motor_second_lag:pitch", 0.18, -262.0), res("motor_lag:pitch", 0.16, -38.0),
                res("cable_stiffness:yaw", 0.01, 3.0), res("thrust_asymmetry:pitch", 0.005, 3.7),
                res("dead_zone:yaw", 0.0036, 2.7), res("input_delay:both", 0.002, 5.2)]
-    keys = [r["c"].key for r in run_mod._rescue_order(results, {"yaw"})]
+    keys = [r["c"].key for r in judge._rescue_order(results, {"yaw"})]
     assert keys == ["cable_stiffness:yaw", "dead_zone:yaw", "input_delay:both"]
     # power log 149: a pitch saturation left the pitch at its floor and the yaw at 3.7x (u1 drives the yaw through
     # the reaction torque): it acts on the yaw and leads
     sat = res("input_saturation:pitch", 0.90, 2.5)
-    keys = [r["c"].key for r in run_mod._rescue_order(results + [sat], {"yaw"})]
+    keys = [r["c"].key for r in judge._rescue_order(results + [sat], {"yaw"})]
     assert keys == ["input_saturation:pitch", "cable_stiffness:yaw", "dead_zone:yaw"]
     # both axes off (the sparse-correction tests' bench, Kg and kc off): by gain alone, as before
-    keys = [r["c"].key for r in run_mod._rescue_order(results, {"pitch", "yaw"})]
+    keys = [r["c"].key for r in judge._rescue_order(results, {"pitch", "yaw"})]
     assert keys == ["motor_second_lag:pitch", "motor_lag:pitch", "cable_stiffness:yaw"]
 
     class Checked:  # the current model's output-error check: angle -> error over its floor
@@ -781,7 +782,7 @@ def test_the_rescue_fits_candidates_on_an_axis_left_above_its_floor_first():
         def check(self, model, values, theta0):
             return self.ratio
 
-    assert run_mod._misfit_axes(Checked({"alpha": 1.0, "beta": 1.89}), None, {}, {}) == {"yaw"}
-    assert run_mod._misfit_axes(Checked({"alpha": 1.3, "beta": 1.1}), None, {}, {}) == {"pitch"}
-    assert run_mod._misfit_axes(Checked({"alpha": math.nan, "beta": 1.0}), None, {}, {}) == {"pitch"}
-    assert run_mod._misfit_axes(Checked(None), None, {}, {}) == {"pitch", "yaw"}  # the fit cannot say
+    assert judge._misfit_axes(Checked({"alpha": 1.0, "beta": 1.89}), None, {}, {}) == {"yaw"}
+    assert judge._misfit_axes(Checked({"alpha": 1.3, "beta": 1.1}), None, {}, {}) == {"pitch"}
+    assert judge._misfit_axes(Checked({"alpha": math.nan, "beta": 1.0}), None, {}, {}) == {"pitch"}
+    assert judge._misfit_axes(Checked(None), None, {}, {}) == {"pitch", "yaw"}  # the fit cannot say

@@ -34,7 +34,7 @@ sizes are those of the torques, the torque share measured on the thrust torque t
 (MIN_MODIFICATION_SHARE). Once one is a finding the model is no longer one the output-error fit carries with
 every parameter free (representable), and later rounds are the equation error's alone.
 
-Where the output-error fit decides (diagnosis/run.py): when the equation error passes no candidate (its best
+Where the output-error fit decides (diagnosis/judge.py): when the equation error passes no candidate (its best
 OE_TOP_K fitted here), when it cannot tell its best candidate from look-alikes (each fitted here; the one that
 leaves the least misfit wins), when a finding it passed does not raise the prediction fit, and when an earlier
 finding is judged again given the later ones.

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -11,26 +11,25 @@ from ..errors import LogFormatError
 from ..log import Log
 from ..model import effects
 from ..model.effects import UNOBSERVABLE, Candidate
-from ..numerics import safe
 from ..numerics.adequacy import AXIS_OF, RMS_OVER_NOISE
 from ..numerics.design import design_filters
 from ..numerics.stats import block_length
 from ..params import PLAUSIBLE_FACTOR, merge, not_credible
 from . import oe
-from .discriminate import PAIR, tell_offsets_apart
+from .discriminate import PAIR
 from .locate import lag_profile, regimes, segments
 from .model import AXIS_ANGLE, Model, drop_search_columns, modified_inputs, regression, smoothed_velocity
 from .fits import REST, best_start, prediction_fits, start_cost, start_samples
 from .predict import HORIZON_S, fit_text
 from .result import VERDICTS, Diagnosis, Finding
-from .select import FAMILY_ALPHA, block_ids, compare, score
+from .judge import (_alternatives_by_output_error, _offsets_by_output_error, _oe_confirm, _oe_fit, _oe_rescue,
+                    _oe_start)
+from .select import FAMILY_ALPHA, block_ids, score
 from .shapes import declared_shape, term_shape, thin
+from .trials import (ALIAS_GAIN_RATIO, EXACT_OFFSETS, MOTOR_LAG_NEUTRAL, _alias, _axes_of, _effect_values,
+                     _estimates, _grid, _params_of, _practical, _residual, _separable, _try)
 
 MAX_FINDINGS = 3
-#: two candidates whose fitted contributions correlate this much and whose gains are this close
-#: cannot be told apart with the log's excitation
-ALIAS_CORRELATION = 0.95
-ALIAS_GAIN_RATIO = 0.8
 
 
 #: the findings' prediction errors within this factor of the noise level count as explained
@@ -40,43 +39,6 @@ EXPLAINED_RMS_OVER_NOISE = 1.5
 #: restarts can pass them (measured: a 0.4 V yaw dead zone fitted at 0.237 V, predictions within 1.5x, the
 #: output-error simulation left the yaw 5.7x its noise level)
 EXPLAINED_OE_OVER_NOISE = RMS_OVER_NOISE
-
-
-def _axes_of(c: Candidate) -> tuple[str, ...]:
-    if c.effect in ("input_delay",):
-        return ("pitch", "yaw")
-    if c.kind == "grid" and c.axis == "pitch":  # u1 also drives the yaw axis through M_R
-        return ("pitch", "yaw")
-    return (c.axis,) if c.axis != "both" else ("pitch", "yaw")
-
-
-def _grid(c: Candidate, log: Log, p: dict) -> tuple[float, ...]:
-    dt = log.sample_time_s
-    if c.effect == "input_delay":
-        g = [dt * s for s in (0.5, 1, 1.5, 2, 3, 4, 5, 6, 8, 10, 12, 15, 19, 24, 30, 38, 48)]
-        return tuple(d for d in g if d <= 0.25)
-    if c.effect == "motor_lag":
-        nominal = p["T11" if c.axis == "pitch" else "T21"]
-        return tuple(nominal * 0.55 * 1.07 ** i for i in range(18))
-    if c.effect == "input_saturation":  # below the largest logged command, down to 55 % of it
-        umax = float(np.max(np.abs(log.u1_v if c.axis == "pitch" else log.u2_v)))
-        return tuple(umax * 0.995 * 0.965 ** i for i in range(18))
-    return c.grid
-
-
-def _refine(grid, gains, best_i, log_space: bool = True) -> float:
-    """Vertex of the parabola through the best grid point and its neighbours (grids need not be evenly
-    spaced; ``log_space`` for positive parameters searched on geometric-like grids)."""
-    if 0 < best_i < len(grid) - 1:
-        x = np.array(grid[best_i - 1:best_i + 2], dtype=float)
-        x = np.log(x) if log_space else x
-        y = np.array(gains[best_i - 1:best_i + 2], dtype=float)
-        coef = safe.polyfit(x, y, 2)  # gains of a model that overflowed are not finite: keep the grid point
-        curv, slope = (coef[0], coef[1]) if coef is not None else (0.0, 0.0)
-        if curv < 0:
-            v = float(np.clip(-slope / (2 * curv), x.min(), x.max()))  # grids may descend
-            return float(np.exp(v)) if log_space else v
-    return float(grid[best_i])
 
 
 def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_rad_s: float | None = None,
@@ -103,7 +65,72 @@ MIN_BLOCKS_DIAGNOSE = 4
 _SEED_SHARE, _ROUNDS_SHARE = 0.15, 0.7
 
 
+@dataclass
+class _Run:
+    """What one diagnosis fixes before its search: the log, the values it was given (``p``), the thrust law, the
+    filter's a [rad/s], the held-out blocks' ids, the regressions' cache, the seed model's check, the motors'
+    start states, the output-error fitter with its floors (adequacy.judging_floors: angle -> rad, angle ->
+    which), the family's size, the record of output-error fits, and the progress callback."""
+    log: Log
+    p: dict
+    law: str
+    a: float
+    ids: np.ndarray
+    cache: dict
+    seed: dict
+    start: dict | None
+    estimated: dict | None  # the start states the seed check estimated (from the seed model)
+    block: int  # samples per held-out block
+    fitter: oe.Fitter
+    floors: tuple
+    n_tests: int
+    oe_tested: list
+    progress: Callable
+
+
+@dataclass
+class _Found:
+    """The search's state: the model with the findings so far, its regression and score, each finding with its
+    look-alikes ((its trial, alternatives), in order), the values the output-error fits decided (key -> value),
+    the refusals, the first round's table of tests, and the round after which the findings reached the floor."""
+    current: Model
+    reg: object
+    score: object
+    findings: list
+    oe_values: dict
+    refused: list
+    tested: list
+    stopped: int | None = None
+
+
+@dataclass
+class _Kept:
+    """The accepted findings' model fitted: J/B, the findings' values, and the 2 s prediction fits and predictions
+    of the seed model (before) and of the findings' model (after)."""
+    augmented: dict
+    values: dict
+    fit_before: dict
+    over_before: dict
+    fit_after: dict
+    over_after: dict
+
+
 def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None, progress) -> Diagnosis:
+    """The diagnosis in four rooms: _prepare (the seed model's check, the filter, the blocks, the start states),
+    _search (each round tests every hypothesis of the library by the equation error, the output-error fit judges,
+    the best passing one becomes a finding), _accept (the findings kept: each must raise the fit of its axes
+    with J/B physical, values profiled again given the others, earlier ones re-judged given the later) and
+    _report (predictions, per-finding evidence, where the residual sits, the verdict, corrections)."""
+    run, base_reg, base = _prepare(log, overrides, law, a_rad_s, progress)
+    nominal = _estimates(base, base_reg)
+    found = _search(run, base_reg, base)
+    kept = _accept(run, found, nominal)
+    return _report(run, found, kept, base_reg, base, nominal)
+
+
+def _prepare(log: Log, overrides: dict | None, law: str, a_rad_s: float | None, progress):
+    """(_Run, the seed model's regression, its score): the seed model checked as estimate checks it, the filter
+    and the held-out blocks, the motors' start states chosen, the output-error fitter set to the log's floors."""
     p = merge(overrides or {}, source="parameter overrides")
     progress("fitting the seed model", 0.0)
     seed = _seed_check(log, overrides, law)  # also refuses an axis with no excitation (exit 6), as estimate does
@@ -124,16 +151,27 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
     current = Model()
     base_reg = regression(log, p, law, a, current, cache)
     base = score(base_reg, ids, axes)
-    nominal = _estimates(base, base_reg)
-    tested, findings = [], []
-    cands = list(effects.CANDIDATES)  # read when called: the model room's entries
-    n_tests = len(cands)
-    reg_now, score_now = base_reg, base
-    excluded: set[str] = set()  # look-alikes already named as a finding's alternatives
     fitter = oe.Fitter(log, p, law, check=seed)  # output-error fits of candidates (oe.py), judged against the
     floors = dict(fitter.noise), dict(fitter.floor_used)  # floors the seed check says the log measures
+    n_tests = len(effects.CANDIDATES)  # the family: the model room's entries
+    return (_Run(log, p, law, a, ids, cache, seed, start, estimated, block, fitter, floors, n_tests, [], progress),
+            base_reg, base)
+
+
+def _search(run: _Run, base_reg, base) -> _Found:
+    """The rounds (at most MAX_FINDINGS): every hypothesis of the library not yet in the model is tested by the
+    equation error (_try: held-out blocks, family-wise level); the output-error fit judges what the equation
+    error passes (_oe_confirm), rescues when it passes nothing (_oe_rescue) and decides between close rivals;
+    the best that passes becomes a finding, its look-alikes its alternatives.  The rounds stop when nothing
+    passes or the findings reach the floor (_reaches_floor)."""
+    log, p, law, a, ids, cache, fitter, n_tests, oe_tested, progress = (
+        run.log, run.p, run.law, run.a, run.ids, run.cache, run.fitter, run.n_tests, run.oe_tested, run.progress)
+    current = Model()
+    tested, findings = [], []
+    cands = list(effects.CANDIDATES)  # read when called: the model room's entries
+    reg_now, score_now = base_reg, base
+    excluded: set[str] = set()  # look-alikes already named as a finding's alternatives
     oe_values: dict = {}  # findings the output-error test decided: key -> its fitted value
-    oe_tested: list = []
     refused: list = []  # findings refused, first those the output-error test turned down in the rounds
     stopped = None  # the round after which the findings reached the noise floor, when they did
     for round_i in range(MAX_FINDINGS):
@@ -204,6 +242,19 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         if _reaches_floor(fitter, current, reg_now, score_now, oe_values, p):
             stopped = round_i + 1
             break  # the findings reach the floor (STOP_OE_OVER_NOISE): a further round could only add parameters
+    return _Found(current, reg_now, score_now, findings, oe_values, refused, tested, stopped)
+
+
+def _accept(run: _Run, found: _Found, nominal: dict) -> _Kept:
+    """The findings kept (``found`` updated in place): the last is refused while it lowers the prediction fit of
+    an axis it acts on or leaves J/B not physical (unless the output-error fit carries it and its held-out test
+    passes); input modifications' values profiled again given the others (_polish); each earlier finding
+    re-judged given the later ones (_backward)."""
+    log, p, law, a, ids, cache, fitter, n_tests, oe_tested, seed, progress = (
+        run.log, run.p, run.law, run.a, run.ids, run.cache, run.fitter, run.n_tests, run.oe_tested, run.seed,
+        run.progress)
+    current, reg_now, score_now, findings, oe_values, refused = (
+        found.current, found.reg, found.score, found.findings, found.oe_values, found.refused)
     drop_search_columns(cache)
     progress("prediction fits", _SEED_SHARE + _ROUNDS_SHARE)
     fit_before, over_before = prediction_fits(log, p, law, Model(), {}, nominal, start=seed.get("start_states"))
@@ -250,6 +301,25 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
             augmented, values, fit_after, over_after = _model_fits(log, p, law, current, reg_now, score_now,
                                                                    oe_values, seed.get("start_states"),
                                                                    _last_oe(findings))
+    found.current, found.reg, found.score = current, reg_now, score_now
+    return _Kept(augmented, values, fit_before, over_before, fit_after, over_after)
+
+
+def _report(run: _Run, found: _Found, kept: _Kept, base_reg, base, nominal: dict) -> Diagnosis:
+    """The Diagnosis: each model's motor start states and predictions, the output-error check the verdict rests
+    on, per finding its own step's fits, evidence and figures, where the seed model's residual sits, the verdict
+    (_verdict, _credible) and, when the findings leave an axis off, the data-driven corrections."""
+    log, p, law, a, ids, cache, fitter, n_tests, oe_tested, seed, start, floors, progress = (
+        run.log, run.p, run.law, run.a, run.ids, run.cache, run.fitter, run.n_tests, run.oe_tested, run.seed,
+        run.start, run.floors, run.progress)
+    estimated, block = run.estimated, run.block
+    current, reg_now, score_now, findings, refused, tested, stopped = (
+        found.current, found.reg, found.score, found.findings, found.refused, found.tested, found.stopped)
+    augmented, values, fit_before, over_before, fit_after, over_after = (
+        kept.augmented, kept.values, kept.fit_before, kept.over_before, kept.fit_after, kept.over_after)
+    dt = log.sample_time_s
+    axes = ("pitch", "yaw")
+    cands = effects.CANDIDATES
     # the motors' start states are unknowns of each model: each model the report predicts with picks its own
     # among the estimates at hand (fits.best_start), the findings' output-error fits' among them
     starts = [start]
@@ -281,6 +351,7 @@ def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None,
         if not worse:
             fit_after, over_after, augmented, from_check = fits2, over2, checked[1], True
     del fitter  # its cached fits are not needed any more (memory on long logs)
+    run.fitter = None
     # (model, regression, score) before each finding (they are added in order), then the final one
     states = [f[0]["before"] for f in findings] + [(current, reg_now, score_now)]
     fits = _step_fits(log, p, law, states, {0: (fit_before, over_before), len(findings): (fit_after, over_after)},
@@ -578,10 +649,6 @@ def _polish(findings, current, values, oe_values, fitter, log, p, theta0) -> Mod
     return model
 
 
-#: a motor time constant found off the table that, given the later findings, comes back within this fraction of
-#: the table's value stood in for them (measured: a 0.25 s second-order yaw motor first named as a yaw motor time
-#: constant, which went back to 1.0001 s once the further lag was in)
-MOTOR_LAG_NEUTRAL = 0.01
 
 
 def _negligible(c: Candidate, value: float, found: float, log: Log, p: dict, law: str) -> str | None:
@@ -659,7 +726,6 @@ def _unphysical(c: Candidate, augmented: dict) -> str | None:
     if bad:
         return "refitting with it makes " + ", ".join(f"{k} = {augmented[k]:.3g}" for k in bad) + " (not physical)"
     return None
-
 
 
 def _choose_start(log: Log, p: dict, law: str, a: float, estimated: dict | None, ids: np.ndarray) -> dict | None:
@@ -768,310 +834,3 @@ def _credible(verdict: str, sentence: str, augmented: dict) -> tuple[str, str]:
                        "findings and their values as leads to check, not measurements.")
 
 
-def _params_of(axes) -> list[str]:
-    return [k for axis in axes for k in (("J1", "B1") if axis == "pitch" else ("J2", "B2"))]
-
-
-def _try(c, log, p, law, a, current, cache, ids, score_now, n_tests):
-    axes_c = _axes_of(c)
-    if c.kind == "linear":
-        model = current.with_linear(c.key)
-        reg = regression(log, p, law, a, model, cache)
-        sc = score(reg, ids, ("pitch", "yaw"))
-        value = float(sc.theta[c.axis][reg.names[c.axis].index(c.key)])
-    else:
-        grid = _grid(c, log, p)
-        if not grid:
-            return None
-        gains = []
-        for v in grid:
-            model = current.with_mod(c.key, v)
-            reg = sc = None  # the last grid point's columns go before the next are built (memory on long logs)
-            reg = regression(log, p, law, a, model, cache)
-            sc = score(reg, ids, axes_c)  # the gain reads the candidate's axes only (_at_value scores both)
-            gains.append(compare(score_now, sc, reg, axes_c, n_tests).gain)
-        i = int(np.argmax(gains))
-        reg = sc = None
-        return _at_value(c, _refine(grid, gains, i), log, p, law, a, current, cache, ids, score_now, n_tests)
-    if c.effect in EXACT_OFFSETS and value != 0.0:
-        reg = sc = None
-        model, reg, sc, value = _exact_offset(c, value, log, p, law, a, current, cache, ids, score_now, n_tests)
-    test = compare(score_now, sc, reg, axes_c, n_tests)
-    return {"c": c, "model": model, "reg": reg, "score": sc, "test": test, "value": value}
-
-
-def _at_value(c, value, log, p, law, a, current, cache, ids, score_now, n_tests):
-    """A grid candidate (an input modification) at ``value``: its model, regression and held-out test."""
-    model = current.with_mod(c.key, value)
-    reg = regression(log, p, law, a, model, cache)
-    sc = score(reg, ids, ("pitch", "yaw"))
-    return {"c": c, "model": model, "reg": reg, "score": sc, "test": compare(score_now, sc, reg, _axes_of(c), n_tests),
-            "value": value}
-
-
-#: offsets fitted linearly first, then exactly (sin(alpha + delta), or the whole pitch equation at
-#: alpha - delta): at delta ~ 0.01 rad the second-order terms decide between the two look-alikes
-EXACT_OFFSETS = ("com_offset", "sensor_offset")
-
-
-def _exact_offset(c, delta0, log, p, law, a, current, cache, ids, score_now, n_tests):
-    grid = [delta0 * f for f in (0.85, 0.95, 1.0, 1.05, 1.15)]
-    gains = []
-    for d in grid:
-        model = current.with_mod(c.key, d)
-        reg = sc = None  # as in _try: one grid point's columns at a time
-        reg = regression(log, p, law, a, model, cache)
-        sc = score(reg, ids, ("pitch", "yaw"))
-        gains.append(compare(score_now, sc, reg, ("pitch",), n_tests).gain)
-    best = _refine(grid, gains, int(np.argmax(gains)), log_space=False)  # offsets take either sign
-    model = current.with_mod(c.key, best)
-    reg = sc = None
-    reg = regression(log, p, law, a, model, cache)
-    return model, reg, score(reg, ids, ("pitch", "yaw")), best
-
-
-def _offsets_by_output_error(best, alts, ok, log, p, law, current):
-    """The two offsets look alike in the equation error; the output-error fit may still tell them apart
-    (diagnose/discriminate.py).  Only for models the fit can carry: input modifications, no extra torques."""
-    other = next(r for r in ok if r["c"].key in PAIR and r["c"].key != best["c"].key)
-    theta0 = _estimates(best["score"], best["reg"])
-    if current.linear or not all(v > 0 for v in theta0.values()) or best["value"] == 0 or other["value"] == 0:
-        return best, alts, None
-    u1, u2, changes = modified_inputs(log, dict(current.mods))
-    verdict = tell_offsets_apart(log, u1, u2, {**p, **changes}, law, theta0,
-                                 {best["c"].key: best["value"], other["c"].key: other["value"]})
-    if verdict.winner is None:
-        return best, alts, None
-    winner = best if verdict.winner == best["c"].key else other
-    return winner, [k for k in alts if k not in PAIR], verdict.reason
-
-
-def _alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests,
-                                  fitter, tested):
-    """The equation error's best candidate has rivals: passing candidates whose held-out gain comes within
-    ALIAS_GAIN_RATIO of its gain (``alts``, its look-alikes, among them).  The equation error only orders them
-    (measured: a yaw motor time constant 2-3 % off its table value named before a 0.01 N m/rad yaw cable, with
-    gains 0.62 and 0.60).  When the output-error fit can carry the current model and the best with at least one
-    rival, the best and its OE_TOP_K closest rivals are each fitted by output error.  Those whose test passes
-    leaving at most 1 / ALIAS_GAIN_RATIO times the least angle-error excess over the noise floor are close: the
-    equation error's best stays the finding if it is among them, else the one that leaves the least; the other
-    close ones become alternatives (beside look-alikes the fit cannot carry), the rest are told apart.  (best,
-    alternatives, what told them apart or None); unchanged when no rival passes or the fit cannot decide."""
-    rivals = sorted((r for r in ok if r is not best and oe.fittable(r["c"].key) and
-                     r["test"].gain >= ALIAS_GAIN_RATIO * best["test"].gain), key=lambda r: -r["test"].gain)
-    if not oe.fittable(best["c"].key) or not rivals or not oe.representable(current):
-        return best, alts, None
-    pool = [best] + rivals[:OE_TOP_K]
-    theta0 = _oe_start(score_now, reg_now, p)
-    values = _effect_values(current, score_now, reg_now)
-    fits, fitted = {}, []
-    for r in pool:
-        f, short = _oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested)
-        if f is None and r is best:  # the best cannot be fitted (a torque needs a converged current model, a
-            return best, alts, None  # profile does not): nothing to compare the rivals with
-        if f is not None:
-            fitted.append(r)
-        if not short:
-            fits[r["c"].key] = f
-    if not fits:
-        return best, alts, None
-    pool = fitted  # a rival that cannot be fitted is neither close nor told apart
-    # what each leaves of the current model's misfit above the noise floor: when all of them remove nearly all of
-    # it (99.8 % each, measured) their drops look alike, while what they leave differs by a factor 1.7
-    left = {k: max(1.0 - f.excess_share, 1e-12) for k, f in fits.items()}
-    least = min(left.values())
-    close = [r for r in pool if r["c"].key in left and left[r["c"].key] * ALIAS_GAIN_RATIO <= least]
-    apart = [r["c"].key for r in pool if r not in close]
-    if not apart:  # the output-error fit cannot tell them apart either
-        return best, list(dict.fromkeys(alts + [r["c"].key for r in close if r is not best])), None
-    r = best if best in close else min(close, key=lambda q: left[q["c"].key])  # the equation error's, if it holds
-    f = fits[r["c"].key]
-    if oe.profiled(r["c"].key):  # the model at the output error's value, with its regression
-        res = _at_value(r["c"], f.value, log, p, law, a, current, cache, ids, score_now, n_tests)
-    else:
-        res = dict(r)
-    res["oe"], res["value"] = f, f.value
-    told = (f"the output-error fit told it apart from {', '.join(apart)} (it leaves {100 * left[r['c'].key]:.2g} % "
-            "of the angle-error excess over the noise floor; they leave " + ", ".join(
-                f"{100 * left[k]:.2g} %" if k in left else "- (their test does not pass)" for k in apart) + ")")
-    keep = [k for k in alts + [q["c"].key for q in close] if k not in apart and k != r["c"].key]
-    return res, list(dict.fromkeys(keep)), told
-
-
-#: per round, this many candidates (the equation error's best first) are fitted by output error when the
-#: equation error passes none; the equation error only orders them
-OE_TOP_K = 3
-
-
-def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests, fitter, tested,
-               oe_values: dict):
-    """The equation-error test passed no candidate: fit its best OE_TOP_K output-error candidates by output
-    error (oe.py) and return the one that passes there with the largest drop in angle error (its regression
-    and value, as _try returns them, with "oe": the fit), or None."""
-    if not oe.representable(current):
-        return None
-    theta0 = _oe_start(score_now, reg_now, p)
-    values = _effect_values(current, score_now, reg_now)
-    off = _misfit_axes(fitter, current, {**values, **{k: v for k, v in oe_values.items() if k in current.keys}},
-                       theta0)
-    order = _rescue_order((r for r in results if oe.fittable(r["c"].key) and r["c"].key not in current.keys), off)
-    good = []
-    for r in order:
-        f, short = _oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested)
-        if not short:
-            good.append((r, f))
-    if not good:
-        return None
-    r, f = max(good, key=lambda rf: rf[1].cost_drop)
-    if oe.profiled(r["c"].key):  # the model at the output error's value, with its regression
-        res = _at_value(r["c"], f.value, log, p, law, a, current, cache, ids, score_now, n_tests)
-    else:
-        res = _try(r["c"], log, p, law, a, current, cache, ids, score_now, n_tests)  # its regression (dropped before)
-    res["oe"], res["value"] = f, f.value
-    return res
-
-
-def _rescue_order(results, off: set) -> list:
-    """The OE_TOP_K candidates the rescue fits: the equation error's best by held-out gain; when the current
-    model leaves one axis above its floor (``off``) and fits the other, first those that act on that axis
-    (directly, or through the reaction torque a pitch input modification changes on yaw: _axes_of) and whose
-    held-out blocks improve on the whole (t > 0).  Measured: on a log whose pitch fitted at 1.00x and yaw at
-    1.89x, two pitch motor lags with gains 0.16-0.18 at t = -262 and -38 took two of the three places and the
-    0.1 V yaw dead zone (gain 0.0036, t = 2.7) was never fitted; a pitch saturation that left the pitch at its
-    floor and the yaw at 3.7x (gain 0.90, t = 2.5) acts on yaw through the reaction torque and stays first.  With
-    both axes off, gain alone (t > 0 first there let a 1.07 s yaw motor lag stand in for a halved kc)."""
-    if len(off) != 1:
-        return sorted(results, key=lambda r: -r["test"].gain)[:OE_TOP_K]
-    return sorted(results, key=lambda r: (not _acts_on(r["c"], off), not r["test"].t > 0,
-                                          -r["test"].gain))[:OE_TOP_K]
-
-
-def _misfit_axes(fitter, model: Model, values: dict, theta0: dict) -> set:
-    """The axes ("pitch", "yaw") the model, fitted by output error (oe.Fitter.check), leaves above
-    RMS_OVER_NOISE times their noise floors; both when the fit cannot say."""
-    over = fitter.check(model, values, theta0)
-    if over is None:
-        return {"pitch", "yaw"}
-    return {axis for axis, angle in (("pitch", "alpha"), ("yaw", "beta")) if not over[angle] <= RMS_OVER_NOISE}
-
-
-def _acts_on(c: Candidate, axes: set) -> bool:
-    """Does candidate c act on one of ``axes`` (_axes_of: an input delay on both, a pitch input modification on
-    yaw too)?"""
-    return bool(set(_axes_of(c)) & axes)
-
-
-def _oe_start(sc, reg, p: dict) -> dict:
-    """J/B the output-error fits start from: the equation error's, or the table's when those are not physical."""
-    est = _estimates(sc, reg)
-    return est if all(math.isfinite(v) and v > 0 for v in est.values()) else {k: p[k] for k in est}
-
-
-def _oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested, torque_floor: bool = True):
-    """Candidate c fitted by output error on top of ``current`` (an input modification by a profile over its
-    value, from the equation error's ``value0``); the fit (or None) and what keeps it from passing, in words
-    (oe.shortfall, with or without the torque-share floor, and the value's plausibility; empty: it passes).
-    Recorded in ``tested``."""
-    if oe.profiled(c.key):
-        f = fitter.profile(current, values, theta0, c.key, _grid(c, log, p), value0)
-    else:
-        f = fitter.candidate(current, values, theta0, c.key)
-    if f is None:
-        return None, ["the output-error fit failed"]
-    why = oe.shortfall(f, n_tests, FAMILY_ALPHA, torque_floor)
-    if not c.plausible(f.value):
-        why.append(f"its fitted value {f.value:.4g} is not plausible")
-    tested.append({"effect": c.effect, "axis": c.axis, "after": list(current.keys), "parameter": f.value,
-                   "se": f.se, "t": f.t, "p": f.p, "cost_drop": f.cost_drop, "excess_share": f.excess_share,
-                   "torque_share": f.torque_share, "passed": not why,
-                   **({} if torque_floor else {"torque_floor": False})})
-    return f, why
-
-
-def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested, gate: bool = False):
-    """A finding the equation error passed, judged by the output-error fit when that fit can carry it (with its
-    held-out test; for step modifications, Candidate.step, its profile sets the value): (the finding as
-    _oe_rescue returns one, None) when the test passes; (None, why not) when the fit carries it and the test
-    does not pass; (None, None) when the fit cannot judge it (the equation error's finding then stands).
-    ``gate``: the test only decides; a finding it passes keeps the equation error's value, model and J/B (fitted
-    together), with the output-error fit under "oe_gate" for its evidence.  The gate asks the output-error test
-    for significance, not for the torque-share floor (oe.MIN_TORQUE_SHARE, made for the candidates that test
-    decides alone): the equation-error test's own practical size passed the candidate (measured: a right 0.03
-    pitch drag on a 100 Hz multisine, 0.48 % of the thrust torque, was refused by the floor)."""
-    c = best["c"]
-    before, reg_b, sc_b = best["before"]
-    if not oe.fittable(c.key) or not oe.representable(before):
-        return None, None
-    # gate: the equation error's practical size (a 5 % held-out drop) passed it, so no torque-share floor here
-    f, why = _oe_fit(c, best["value"], fitter, before, _effect_values(before, sc_b, reg_b),
-                     _oe_start(sc_b, reg_b, p), log, p, n_tests, tested, torque_floor=not gate)
-    if f is None:
-        return None, None
-    if why:
-        return None, ("the equation-error test passed it, the output-error test that decides does not: "
-                      + "; ".join(why))
-    if gate:
-        return {**best, "oe_gate": f}, None
-    res = (_at_value(c, f.value, log, p, law, a, before, cache, ids, sc_b, n_tests) if oe.profiled(c.key)
-           else dict(best))
-    res.update(oe=f, value=f.value, before=best["before"], told_apart=best.get("told_apart"))
-    return res, None
-
-
-#: the pitch offsets, found by the equation error (which fits them exactly, EXACT_OFFSETS), are held to the floor
-#: oe.passes asks of every candidate the output-error fit judges (oe.MIN_TORQUE_SHARE of the thrust torque) before
-#: that fit judges them: on a noise-free log any consistent residual passes the
-#: held-out test (measured: a 2.6e-5 rad encoder offset, 0.004 % of the thrust torque, named beside a 10 ms
-#: input delay on a noise-free 100 Hz log, and once that was refused a centre-of-mass offset of the same size;
-#: the smallest offsets of the diagnose benchmark, 0.005 rad, are 0.77-1.2 %)
-SIZE_FLOORED = ("com_offset:pitch", "sensor_offset:pitch")
-
-
-def _practical(c: Candidate, v: float, log: Log, p: dict, law: str) -> bool:
-    """Is the candidate's value of practical size?  SIZE_FLOORED candidates by their torque share; a motor time
-    constant must differ from the table's by MOTOR_LAG_NEUTRAL (measured: the equation error passed a yaw
-    motor time constant of 1.0001 s, the table's 1.0 s, with an 8.5 % held-out drop beside a second-order yaw
-    motor's further lag: a modification that changes nothing)."""
-    if c.effect == "motor_lag":
-        return abs(v / p["T11" if c.axis == "pitch" else "T21"] - 1.0) >= MOTOR_LAG_NEUTRAL
-    return c.key not in SIZE_FLOORED or oe.torque_share(c.key, v, log, p, law) >= oe.MIN_TORQUE_SHARE
-
-
-def _residual(reg, sc, axis: str) -> np.ndarray:
-    """The axis' equation error [N m] of a fitted regression: g - X theta."""
-    return reg.g[axis] - reg.x[axis] @ sc.theta[axis]
-
-
-def _alias(a: dict, b: dict) -> bool:
-    """Do two fitted candidates change the residual in the same way?"""
-    corr = []
-    for axis in ("pitch", "yaw"):
-        ra = _residual(a["reg"], a["score"], axis)
-        rb = _residual(b["reg"], b["score"], axis)
-        if np.std(ra) > 0 and np.std(rb) > 0:
-            corr.append(float(np.corrcoef(ra, rb)[0, 1]))
-    return bool(corr) and min(corr) >= ALIAS_CORRELATION
-
-
-#: the better of two look-alike candidates must explain this much more of the residual to be told apart
-SEPARATION_MARGIN = 0.05
-
-
-def _separable(best: dict, other: dict) -> bool:
-    """Is ``best`` better than ``other`` block by block, beyond chance (one-sided 5 %) and by a margin?"""
-    axes = sorted(set(_axes_of(best["c"])) | set(_axes_of(other["c"])))
-    test = compare(other["score"], best["score"], best["reg"], axes, 1, alpha=0.05)
-    return test.p < 0.05 and best["test"].gain - other["test"].gain >= SEPARATION_MARGIN * best["test"].gain
-
-
-def _estimates(sc, reg) -> dict:
-    return {"J1": float(sc.theta["pitch"][0]), "B1": float(sc.theta["pitch"][1]),
-            "J2": float(sc.theta["yaw"][0]), "B2": float(sc.theta["yaw"][1])}
-
-
-def _effect_values(model: Model, sc, reg) -> dict:
-    vals = dict(model.mods)
-    for key in model.linear:
-        axis = key.split(":")[1]
-        vals[key] = float(sc.theta[axis][reg.names[axis].index(key)])
-    return vals
