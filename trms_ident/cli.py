@@ -792,4 +792,7 @@ def export(
 
 
 def run() -> None:
+    from ._memory import map_large_blocks
+
+    map_large_blocks()  # the command's own process: long logs' columns mapped, returned when freed (_memory.py)
     app()

@@ -288,11 +288,13 @@ def drop_search_columns(cache: dict) -> None:
 
 
 def _bound(cache: dict, keep: tuple) -> None:
-    """Drop the oldest filtered targets and extra-regressor columns beyond CACHE_BYTES (both recomputable)."""
+    """Drop the oldest filtered targets and extra-regressor columns beyond CACHE_BYTES, or the cache's own bound
+    under the key ("bytes",) (both recomputable)."""
     targets = [k for k in cache if k[0] in ("g", "phi")]
     total = sum(cache[k].nbytes for k in targets)
+    limit = cache.get(("bytes",), CACHE_BYTES)
     for k in targets:  # insertion order: oldest first
-        if total <= CACHE_BYTES:
+        if total <= limit:
             break
         if k not in keep:
             total -= cache.pop(k).nbytes

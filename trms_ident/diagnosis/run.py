@@ -27,7 +27,7 @@ from .judge import (_alternatives_by_output_error, _offsets_by_output_error, _oe
 from .select import FAMILY_ALPHA, block_ids, score
 from .shapes import declared_shape, term_shape, thin
 from .trials import (ALIAS_GAIN_RATIO, EXACT_OFFSETS, MOTOR_LAG_NEUTRAL, _alias, _axes_of, _effect_values,
-                     _estimates, _grid, _params_of, _practical, _residual, _separable, _try)
+                     _estimates, _grid, _params_of, _practical, _residual, _separable, _try, grid_span)
 
 MAX_FINDINGS = 3
 
@@ -174,15 +174,18 @@ def _search(run: _Run, base_reg, base) -> _Found:
     oe_values: dict = {}  # findings the output-error test decided: key -> its fitted value
     refused: list = []  # findings refused, first those the output-error test turned down in the rounds
     stopped = None  # the round after which the findings reached the noise floor, when they did
+    span = grid_span(log, run.block, run.start)  # a long log's grids are searched on its head
     for round_i in range(MAX_FINDINGS):
         results = []
+        if span is not None:  # the current model's score on the grids' samples
+            span.score_now = score(regression(span.log, p, law, a, current, span.cache), span.ids, ("pitch", "yaw"))
         for i, c in enumerate(cands):
             progress(f"testing {c.key} (round {round_i + 1})",
                      _SEED_SHARE + _ROUNDS_SHARE * (round_i + i / len(cands)) / MAX_FINDINGS)
             if c.key in current.keys or c.key in excluded or (c.effect in EXACT_OFFSETS and any(
                     k.split(":")[0] in EXACT_OFFSETS for k in current.keys)):  # one pitch offset explains both
                 continue
-            res = _try(c, log, p, law, a, current, cache, ids, score_now, n_tests)
+            res = _try(c, log, p, law, a, current, cache, ids, score_now, n_tests, span)
             if res is not None:
                 if not (res["test"].passed and c.plausible(res["value"])):
                     res["reg"] = None  # only the passing candidates' regressions are needed again (memory)
