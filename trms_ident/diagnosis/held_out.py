@@ -86,13 +86,30 @@ def sentence(h: dict | None, findings: bool) -> str:
         return ""
     if not findings or h["after"] is None:
         return ("Held-out simulation fit (fitted on one half, simulated on the other): "
-                + ", ".join(f"{a} {v:.1f} %" for a, v in h["before"].items()) + ".")
+                + ", ".join(f"{a} {v:.1f} %" for a, v in h["before"].items())
+                + ("" if not findings else " for the seed model; the findings' model could not be fitted by output "
+                   "error on the halves") + ".")
     return ("Held-out simulation fit (fitted on one half, simulated on the other), before -> after the findings: "
             + ", ".join(f"{a} {h['before'][a]:.1f} % -> {h['after'][a]:.1f} %" for a in h["before"]) + ".")
 
 
-def lowered(h: dict | None, axes=("pitch", "yaw"), margin_percent: float = 0.0) -> list[str]:
+#: a held-out fit lower than the seed model's by more than this [percentage points] is said (caution)
+LOWERED_BY_PERCENT = 0.1
+
+
+def lowered(h: dict | None, axes=("pitch", "yaw"), margin_percent: float = LOWERED_BY_PERCENT) -> list[str]:
     """The axes whose held-out fit the findings lower (by more than ``margin_percent``)."""
     if not h or h["after"] is None:
         return []
     return [a for a in axes if np.isfinite(h["before"][a]) and not h["after"][a] >= h["before"][a] - margin_percent]
+
+
+def caution(h: dict | None) -> str:
+    """The verdict's closing words when the findings simulate an axis worse on the samples they were not fitted
+    on than the seed model does; empty otherwise."""
+    worse = lowered(h)
+    if not worse:
+        return ""
+    told = ", ".join(f"{a} {h['before'][a]:.1f} % -> {h['after'][a]:.1f} %" for a in worse)
+    return (f" Caution: fitted on one half of the log and simulated on the other, the model with the findings does "
+            f"worse than the seed model ({told}): the findings may describe this recording rather than the bench.")

@@ -46,7 +46,7 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
     """Find what the seed model leaves out of this log, fit it, and give the verdict (VERDICTS).
 
     ``progress(stage, fraction done)``: called as the work advances (the CLI draws a bar with it)."""
-    from .held_out import held_out_fits
+    from .held_out import caution, held_out_fits
     from .weigh import weigh
 
     progress = progress or (lambda stage, done: None)
@@ -54,7 +54,8 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
     with np.errstate(all="ignore"):  # a model far off the log overflows its predictions: they score as misfits
         d = weigh(_diagnose(log, overrides, law, a_rad_s, progress), log, p, law, overrides)
         progress("held-out simulation fits", 0.97)
-        return replace(d, held_out=held_out_fits(d, log, p, law))
+        h = held_out_fits(d, log, p, law)
+        return replace(d, held_out=h, verdict_sentence=d.verdict_sentence + caution(h))
 
 
 #: the held-out tests need this many blocks (each five filter memories long)
