@@ -298,8 +298,9 @@ class Fitter:
         free, input modifications at their values) on one half of the fitted samples, then simulated on the
         other with those values held and only the start states fitted (the motors' and each WINDOW_S window's
         angles and rates), both ways round.  {"fit_percent": axis -> NRMSE fit [%] over both held-out halves,
-        "rms_rad": angle -> error RMS [rad], "prediction": (n, 2) the held-out simulated angles, "estimates":
-        per fold the fitted J/B}; None when a fit fails or the model holds an effect the fit cannot carry."""
+        "rms_rad": angle -> error RMS [rad], "prediction": (n, 2) the held-out simulated angles, "folds": per
+        fold the samples fitted on, the J/B and the torque effects' values fitted there}; None when a fit fails or
+        the model holds an effect the fit cannot carry."""
         if not all(carries(k) for k in model.linear):
             return None
         n = self.n
