@@ -730,6 +730,27 @@ def test_an_axis_the_findings_model_cannot_predict_is_never_explained():
     assert "nan" not in sentence
 
 
+def test_a_seed_model_as_good_as_the_black_box_on_a_smoothed_log_is_consistent_when_nothing_is_found():
+    # estimate says "not decided" (no noise floor to judge by, and the seed model simulates the angles as well as a
+    # flexible black box): diagnose, finding nothing, must not call that physics outside the library (measured
+    # on a real CE150 azimuth sweep: "unexplained" beside estimate's "not decided")
+    from types import SimpleNamespace
+
+    from trms_ident.diagnosis.run import _verdict
+
+    log = SimpleNamespace(alpha_rad=np.linspace(0, 0.3, 100), beta_rad=np.linspace(0, 0.2, 100))
+    undecided = {"adequate": None, "floor_used": "black_box"}
+    seed = {"adequate": None, "sentence": "Not decided: ...", "axes": {"pitch": dict(undecided), "yaw": dict(undecided)}}
+    verdict, sentence = _verdict(log, seed, [], {"pitch": 99.0, "yaw": 99.0}, {}, None)
+    assert verdict == "consistent" and sentence.startswith("the seed model simulates this log as well as a flexible")
+    assert sentence.endswith("Not decided: ...")
+    # an axis the black box beats does not fit; a fit that did not converge decides nothing: both stay unexplained
+    for axis in ({"adequate": False, "floor_used": "black_box"}, {"adequate": None, "floor_used": "noise"}):
+        seed["axes"]["yaw"] = axis
+        seed["adequate"] = axis["adequate"]
+        assert _verdict(log, seed, [], {"pitch": 99.0, "yaw": 99.0}, {}, None)[0] == "unexplained"
+
+
 def test_the_output_error_check_decides_the_verdict_when_it_can_carry_the_findings():
     """Explained rests on the findings' model simulated by output error, the test estimate applies to the seed
     model (within 1.2x the noise level), not on the 2 s predictions, which restart from measured angles and use

@@ -777,6 +777,11 @@ def _verdict(log: Log, seed: dict, findings: list, fit_after: dict, seg: dict, o
     floor (adequacy.judging_floors)."""
     if seed.get("adequate") and not findings:
         return "consistent", VERDICTS["consistent"] + "."
+    if not findings and _as_well_as_black_box(seed):  # estimate: not decided; no finding changes that
+        return "consistent", (
+            "the seed model simulates this log as well as a flexible black-box model does on held-out data, and "
+            "its angles carry no measurable noise: no misfit this log can show, and no finding. " + seed.get(
+                "sentence", ""))
     if findings and oe_check is not None:
         # the findings' model simulated by output error, judged as estimate judges the seed model: the one test
         # both commands share (the 2 s predictions restart from measured angles and use the equation error's
@@ -822,6 +827,15 @@ def _verdict(log: Log, seed: dict, findings: list, fit_after: dict, seg: dict, o
                              + (f" ({', '.join(g['context'])})" if g.get("context") else ""))
     return "unexplained", (VERDICTS["unexplained"] + ". " + seed.get("sentence", "") +
                            (" The residual is largest at " + "; ".join(where) + "." if where else ""))
+
+
+def _as_well_as_black_box(seed: dict) -> bool:
+    """Does the seed model's check leave every axis fitting or, where the log measures no noise floor, within
+    the black-box floor (adequate None for that reason alone: estimate's "not decided")?"""
+    axes = (seed.get("axes") or {}).values()
+    return bool(axes) and seed.get("adequate") is None and all(
+        ax.get("adequate") is True or (ax.get("adequate") is None and ax.get("floor_used") == "black_box")
+        for ax in axes)
 
 
 def _credible(verdict: str, sentence: str, augmented: dict) -> tuple[str, str]:
