@@ -292,7 +292,7 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
                f'{html.escape(doc["verdict_sentence"])} {len(doc["findings"])} finding(s)')
     check = doc["settings"].get("output_error_check")
     oe_line = html.escape("" if check is None else " Output-error check of the findings' model: error RMS over its "
-                          "floor (settings.floors) " + ", ".join(f"{ang} {r:.3g}x"
+                          "floor (settings.floors) " + ", ".join(f"{ang} {r:.2f}x" if r >= 0.01 else f"{ang} {r:.2g}x"
                                                                  for ang, r in check["rms_over_noise"].items())
                           + f" ({check['threshold']:g}x allowed for 'explained').")
     held = doc["held_out_fit"]
