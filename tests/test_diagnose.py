@@ -775,12 +775,10 @@ def test_the_rescue_fits_candidates_on_an_axis_left_above_its_floor_first():
     # two of the rescue's three places, and the dead zone (gain 0.0036) was never fitted by output error
     from trms_ident.diagnosis import judge
     from trms_ident.diagnosis.select import Test
-    from trms_ident.model.effects import CANDIDATES
-
-    by_key = {c.key: c for c in CANDIDATES}
+    from trms_ident.model.effects import by_key
 
     def res(key, gain, t):
-        return {"c": by_key[key], "test": Test(gain=gain, t=t, p=0.5, share=0.0, passed=False)}
+        return {"c": by_key(key), "test": Test(gain=gain, t=t, p=0.5, share=0.0, passed=False)}
 
     results = [res("motor_second_lag:pitch", 0.18, -262.0), res("motor_lag:pitch", 0.16, -38.0),
                res("cable_stiffness:yaw", 0.01, 3.0), res("thrust_asymmetry:pitch", 0.005, 3.7),

@@ -15,14 +15,13 @@ output-error fit cannot carry has no held-out fit (None), and the report says so
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..log import Log
 from ..model import effects
 from . import oe
 from .model import Model
+from .trials import jb_start
 
 #: the held-out fits use at most this many seconds of the output-error fit's samples (two halves): on an hour
 #: at 1 kHz the seed model's fit of a half that misses physics runs to its iteration limit, and 2 x 60 s of a
@@ -33,7 +32,6 @@ MAX_SPAN_S = 120.0
 def final_model(findings) -> tuple[Model, dict, dict]:
     """(the model, its effects' values, known values changed) the findings make: effects by key, known values
     (effect "known_value") as parameter changes."""
-    by_key = {c.key: c for c in effects.CANDIDATES}
     model, values, changes = Model(), {}, {}
     for f in findings:
         v = float(f.parameter["value"])
@@ -41,17 +39,9 @@ def final_model(findings) -> tuple[Model, dict, dict]:
             changes[f.parameter["name"]] = v
             continue
         key = f"{f.effect}:{f.axis}"
-        c = by_key[key]
-        model = model.with_mod(key, v) if c.kind == "grid" else model.with_linear(key)
+        model = model.with_mod(key, v) if effects.by_key(key).kind == "grid" else model.with_linear(key)
         values[key] = v
     return model, values, changes
-
-
-def _start(est: dict, p: dict) -> dict:
-    """J/B a fit starts from: ``est`` when physical, else the table's."""
-    jb = ("J1", "B1", "J2", "B2")
-    ok = all(math.isfinite(est.get(k, math.nan)) and est[k] > 0 for k in jb)
-    return {k: float(est[k] if ok else p[k]) for k in jb}
 
 
 def held_out_fits(d, log: Log, p: dict, law: str) -> dict | None:
@@ -62,13 +52,13 @@ def held_out_fits(d, log: Log, p: dict, law: str) -> dict | None:
     most = int(MAX_SPAN_S / log.sample_time_s)
     fitter = oe.Fitter(log, p, law, most, d.seed_check)
     n = fitter.n
-    before = fitter.held_out(Model(), {}, _start(d.nominal, p))
+    before = fitter.held_out(Model(), {}, jb_start(d.nominal, p))
     if before is None:
         return None
     after = None
     if d.findings:
         f_after = fitter if not changes else oe.Fitter(log, {**p, **changes}, law, most, d.seed_check)
-        after = f_after.held_out(model, values, _start(d.augmented, p))
+        after = f_after.held_out(model, values, jb_start(d.augmented, p))
     t = log.t_s[:n]
     return {"before": before["fit_percent"], "after": after["fit_percent"] if after else None,
             "rms_rad": {"before": before["rms_rad"], "after": after["rms_rad"] if after else None},

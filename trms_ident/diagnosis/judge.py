@@ -5,15 +5,14 @@ close rivals told apart by the misfit each leaves (_alternatives_by_output_error
 (_offsets_by_output_error).  diagnosis/run.py's rounds call these."""
 from __future__ import annotations
 
-import math
-
 from ..model.effects import Candidate
-from ..numerics.adequacy import RMS_OVER_NOISE
+from ..numerics.adequacy import AXIS_OF, RMS_OVER_NOISE
 from . import oe
 from .discriminate import PAIR, tell_offsets_apart
 from .model import Model, modified_inputs
 from .select import FAMILY_ALPHA
-from .trials import ALIAS_GAIN_RATIO, _at_value, _axes_of, _effect_values, _estimates, _grid, _try
+from .trials import (ALIAS_GAIN_RATIO, _at_value, _axes_of, _effect_values, _estimates, _grid, _try,
+                     jb_start)
 
 def _offsets_by_output_error(best, alts, ok, log, p, law, current):
     """The two offsets look alike in the equation error; the output-error fit may still tell them apart
@@ -97,8 +96,7 @@ def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now,
         return None
     theta0 = _oe_start(score_now, reg_now, p)
     values = _effect_values(current, score_now, reg_now)
-    off = _misfit_axes(fitter, current, {**values, **{k: v for k, v in oe_values.items() if k in current.keys}},
-                       theta0)
+    off = _misfit_axes(fitter, current, _effect_values(current, score_now, reg_now, oe_values), theta0)
     order = _rescue_order((r for r in results if oe.fittable(r["c"].key) and r["c"].key not in current.keys), off)
     good = []
     for r in order:
@@ -137,7 +135,7 @@ def _misfit_axes(fitter, model: Model, values: dict, theta0: dict) -> set:
     over = fitter.check(model, values, theta0)
     if over is None:
         return {"pitch", "yaw"}
-    return {axis for axis, angle in (("pitch", "alpha"), ("yaw", "beta")) if not over[angle] <= RMS_OVER_NOISE}
+    return {AXIS_OF[angle] for angle, r in over.items() if not r <= RMS_OVER_NOISE}
 
 
 def _acts_on(c: Candidate, axes: set) -> bool:
@@ -148,8 +146,7 @@ def _acts_on(c: Candidate, axes: set) -> bool:
 
 def _oe_start(sc, reg, p: dict) -> dict:
     """J/B the output-error fits start from: the equation error's, or the table's when those are not physical."""
-    est = _estimates(sc, reg)
-    return est if all(math.isfinite(v) and v > 0 for v in est.values()) else {k: p[k] for k in est}
+    return jb_start(_estimates(sc, reg), p)
 
 
 def _oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested, torque_floor: bool = True):

@@ -624,8 +624,7 @@ def _reaches_floor(fitter, model: Model, reg, sc, oe_values: dict, p: dict) -> b
     Then a further round could only add parameters to a model that already fits (measured on an hour at 1 kHz
     with a yaw cable: 1.002x and 0.999x after the cable; the second round tested 18 candidates for 27 s of 90 s
     and found nothing)."""
-    values = _effect_values(model, sc, reg)
-    values.update({k: v for k, v in oe_values.items() if k in model.keys})
+    values = _effect_values(model, sc, reg, oe_values)
     checked = fitter.check_fit(model, values, _oe_start(sc, reg, p))
     return bool(checked) and max(checked[0].values()) <= STOP_OE_OVER_NOISE and _physical(checked[1])
 
@@ -698,8 +697,7 @@ def _model_fits(log: Log, p: dict, law: str, model: Model, reg, sc, oe_values: d
     est = _estimates(sc, reg)
     if last_oe is not None and not _physical(est) and _physical(last_oe.estimates):
         est = {k: float(last_oe.estimates[k]) for k in est}
-    values = _effect_values(model, sc, reg)
-    values.update({k: v for k, v in oe_values.items() if k in model.keys})  # the output-error fit's value
+    values = _effect_values(model, sc, reg, oe_values)  # the output-error fits' values where they decided
     return (est, values, *prediction_fits(log, p, law, model, values, est, start=start))
 
 

@@ -4,6 +4,7 @@ search grids of the input modifications, the exact pitch offsets, the practical 
 measure).  diagnosis/run.py's rounds call _try for each candidate; judge.py asks the output-error fit."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -208,9 +209,21 @@ def _estimates(sc, reg) -> dict:
             "J2": float(sc.theta["yaw"][0]), "B2": float(sc.theta["yaw"][1])}
 
 
-def _effect_values(model: Model, sc, reg) -> dict:
+def _effect_values(model: Model, sc, reg, decided: dict | None = None) -> dict:
+    """The model's findings' values: input modifications at theirs, torque terms as the regression fits them;
+    ``decided`` (key -> value): the values the output-error fits decided, which replace those of the model's
+    findings."""
     vals = dict(model.mods)
     for key in model.linear:
         axis = key.split(":")[1]
         vals[key] = float(sc.theta[axis][reg.names[axis].index(key)])
+    vals.update({k: v for k, v in (decided or {}).items() if k in model.keys})
     return vals
+
+
+def jb_start(est: dict, p: dict) -> dict:
+    """J/B an output-error fit starts from: ``est``'s when all are finite and positive, else the table's
+    (``p``)."""
+    jb = ("J1", "B1", "J2", "B2")
+    ok = all(math.isfinite(est.get(k, math.nan)) and est[k] > 0 for k in jb)
+    return {k: float(est[k] if ok else p[k]) for k in jb}

@@ -4,6 +4,7 @@ from __future__ import annotations
 import html
 
 from ..model.effects import with_unit
+from ..diagnosis.held_out import sentence as held_out_sentence
 from ..diagnosis.predict import fit_change, fit_text
 from ..diagnosis.result import Diagnosis
 from ..log import Log
@@ -295,12 +296,8 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
                           "floor (settings.floors) " + ", ".join(f"{ang} {r:.2f}x" if r >= 0.01 else f"{ang} {r:.2g}x"
                                                                  for ang, r in check["rms_over_noise"].items())
                           + f" ({check['threshold']:g}x allowed for 'explained').")
-    held = doc["held_out_fit"]
-    if held is not None:
-        oe_line += " Held-out simulation fit (fitted on one half, simulated on the other): " + ", ".join(
-            f"{ax} {fit_text(held['before'][ax])}" + ("" if held["after"] is None else
-                                                     f" &rarr; {fit_text(held['after'][ax])}")
-            for ax in ("pitch", "yaw")) + "."
+    if d.held_out is not None:  # in the words the terminal shows
+        oe_line += " " + html.escape(held_out_sentence(d.held_out, bool(d.findings)))
     units = units_text(doc["input"])
     units = html.escape(units) + "<br>" if units else ""
     return f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident diagnose</title>
