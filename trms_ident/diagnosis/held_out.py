@@ -21,7 +21,7 @@ from ..log import Log
 from ..model import effects
 from . import oe
 from .model import Model
-from .trials import jb_start
+from .trials import _axes_of, jb_start
 
 #: the held-out fits use at most this many seconds of the output-error fit's samples (two halves): on an hour
 #: at 1 kHz the seed model's fit of a half that misses physics runs to its iteration limit, and 2 x 60 s of a
@@ -92,6 +92,35 @@ def lowered(h: dict | None, axes=("pitch", "yaw"), margin_percent: float = LOWER
     if not h or h["after"] is None:
         return []
     return [a for a in axes if np.isfinite(h["before"][a]) and not h["after"][a] >= h["before"][a] - margin_percent]
+
+
+def lowering(findings, h: dict | None) -> list[dict]:
+    """The effect findings that act on an axis whose held-out fit the findings lower (lowered): each as a refusal
+    {"key", "effect", "axis", "parameter", "reason"}.  Known values are left to the caution: they are eq. (1)'s
+    own terms, weighed by their own rule (weigh.py)."""
+    worse = set(lowered(h))
+    if not worse:
+        return []
+    told = ", ".join(f"{a} {h['before'][a]:.1f} % -> {h['after'][a]:.1f} %" for a in sorted(worse))
+    out = []
+    for f in findings:
+        if f.effect == "known_value" or not set(_axes_of(effects.by_key(f"{f.effect}:{f.axis}"))) & worse:
+            continue
+        out.append({"key": f"{f.effect}:{f.axis}", "effect": f.effect, "axis": f.axis,
+                    "parameter": float(f.parameter["value"]),
+                    "reason": ("held-out simulation: fitted on one half of the log and simulated on the other, the "
+                               f"model with the findings did worse than the seed model ({told}); searched again "
+                               "without it")})
+    return out
+
+
+def gate_sentence(refused: list[dict]) -> str:
+    """The verdict's words for the findings the held-out gate refused; empty when none."""
+    if not refused:
+        return ""
+    names = ", ".join(f"{g['effect'].replace('_', ' ')} on {g['axis']} ({g['parameter']:.3g})" for g in refused)
+    return (f" Refused: {names}, which fitted this recording but simulated it worse on the half they were not "
+            "fitted on (the findings may describe the recording rather than the bench).")
 
 
 def caution(h: dict | None) -> str:

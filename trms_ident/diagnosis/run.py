@@ -46,16 +46,30 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
     """Find what the seed model leaves out of this log, fit it, and give the verdict (VERDICTS).
 
     ``progress(stage, fraction done)``: called as the work advances (the CLI draws a bar with it)."""
-    from .held_out import caution, held_out_fits
+    from .held_out import caution, gate_sentence, held_out_fits, lowering
     from .weigh import weigh
 
     progress = progress or (lambda stage, done: None)
     p = merge(overrides or {}, source="parameter overrides")
+    gated: list = []  # findings refused because they simulate an axis worse on samples they were not fitted on
     with np.errstate(all="ignore"):  # a model far off the log overflows its predictions: they score as misfits
-        d = weigh(_diagnose(log, overrides, law, a_rad_s, progress), log, p, law, overrides)
-        progress("held-out simulation fits", 0.97)
-        h = held_out_fits(d, log, p, law)
-        return replace(d, held_out=h, verdict_sentence=d.verdict_sentence + caution(h))
+        for attempt in range(HELD_OUT_RERUNS + 1):
+            d = weigh(_diagnose(log, overrides, law, a_rad_s, progress, tuple(g["key"] for g in gated)), log, p,
+                      law, overrides)
+            progress("held-out simulation fits", 0.97)
+            h = held_out_fits(d, log, p, law)
+            refuse = lowering(d.findings, h)
+            if not refuse or attempt == HELD_OUT_RERUNS:
+                break
+            gated += refuse  # the search again without them: a rival they hid may hold on held-out samples
+        refused = [{k: v for k, v in g.items() if k != "key"} for g in gated]
+        return replace(d, held_out=h, refused=d.refused + refused,
+                       verdict_sentence=d.verdict_sentence + gate_sentence(refused) + caution(h))
+
+
+#: diagnose runs its search again without the effects whose model simulated an axis worse on held-out samples
+#: than the seed model (held_out.lowering) at most this many times; after that the verdict only cautions
+HELD_OUT_RERUNS = 2
 
 
 #: the held-out tests need this many blocks (each five filter memories long)
@@ -116,15 +130,17 @@ class _Kept:
     over_after: dict
 
 
-def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None, progress) -> Diagnosis:
+def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None, progress,
+              exclude: tuple = ()) -> Diagnosis:
     """The diagnosis in four rooms: _prepare (the seed model's check, the filter, the blocks, the start states),
     _search (each round tests every hypothesis of the library by the equation error, the output-error fit judges,
     the best passing one becomes a finding), _accept (the findings kept: each must raise the fit of its axes
     with J/B physical, values profiled again given the others, earlier ones re-judged given the later) and
-    _report (predictions, per-finding evidence, where the residual sits, the verdict, corrections)."""
+    _report (predictions, per-finding evidence, where the residual sits, the verdict, corrections).  ``exclude``:
+    library keys the search leaves out (refused by the held-out gate of an earlier run)."""
     run, base_reg, base = _prepare(log, overrides, law, a_rad_s, progress)
     nominal = _estimates(base, base_reg)
-    found = _search(run, base_reg, base)
+    found = _search(run, base_reg, base, exclude)
     kept = _accept(run, found, nominal)
     return _report(run, found, kept, base_reg, base, nominal)
 
@@ -159,19 +175,19 @@ def _prepare(log: Log, overrides: dict | None, law: str, a_rad_s: float | None, 
             base_reg, base)
 
 
-def _search(run: _Run, base_reg, base) -> _Found:
+def _search(run: _Run, base_reg, base, exclude: tuple = ()) -> _Found:
     """The rounds (at most MAX_FINDINGS): every hypothesis of the library not yet in the model is tested by the
     equation error (_try: held-out blocks, family-wise level); the output-error fit judges what the equation
     error passes (_oe_confirm), rescues when it passes nothing (_oe_rescue) and decides between close rivals;
     the best that passes becomes a finding, its look-alikes its alternatives.  The rounds stop when nothing
-    passes or the findings reach the floor (_reaches_floor)."""
+    passes or the findings reach the floor (_reaches_floor).  The keys in ``exclude`` are never tested."""
     log, p, law, a, ids, cache, fitter, n_tests, oe_tested, progress = (
         run.log, run.p, run.law, run.a, run.ids, run.cache, run.fitter, run.n_tests, run.oe_tested, run.progress)
     current = Model()
     tested, findings = [], []
     cands = list(effects.CANDIDATES)  # read when called: the model room's entries
     reg_now, score_now = base_reg, base
-    excluded: set[str] = set()  # look-alikes already named as a finding's alternatives
+    excluded: set[str] = set(exclude)  # look-alikes already named as a finding's alternatives, and the gated
     oe_values: dict = {}  # findings the output-error test decided: key -> its fitted value
     refused: list = []  # findings refused, first those the output-error test turned down in the rounds
     stopped = None  # the round after which the findings reached the noise floor, when they did
