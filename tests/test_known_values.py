@@ -195,6 +195,57 @@ def test_refits_that_all_wander_off_say_the_bench_is_far_from_the_table():
     assert known_values.far_from_table(sane) is None
 
 
+def test_the_far_sentence_says_which_values_the_log_determines():
+    wild = [{"name": "a1", "value": 1.04, "table": 0.0135, "cost": 2.0,
+             "estimates": {"J1": 5.0e7, "B1": 1.5e7, "J2": 46.0, "B2": 83.0}}]
+    precision = {"alone": {"T11": 0.001, "Mg": 0.04, "a1": 0.2, "kc": None},
+                 "together": {"T11": 0.008, "Mg": None, "a1": None, "kc": None}, "at": known_values.AT_TABLE_JB}
+    said = known_values.far_from_table(wild, precision)
+    assert ("What this log can determine (the Fisher information at the values given and the table's J/B, as the "
+            "fit's J/B ran off, J/B free): one at a time, T11, Mg to within 10 % each; all freed together, only T11 "
+            "(the others stand in for one another); it carries too little on a1, kc to determine them.") in said
+    assert "this log cannot say which" not in said
+    none = {"alone": {"a1": 0.2}, "together": {"a1": None}, "at": known_values.AT_FIT}
+    assert "determine none of the known values to within 10 %, even one at a time" in known_values.far_from_table(
+        wild, none)
+    assert known_values.determined_sentence({}) == ""
+
+
+def test_relative_half_widths_follow_the_schur_complement_and_refuse_stand_ins():
+    from trms_ident.numerics.refine import relative_half_widths
+
+    rng = np.random.default_rng(1)
+    g = rng.normal(size=(400, 2))  # the globals' sensitivities
+    x = rng.normal(size=400)
+    cols = np.column_stack([g, x, 2.0 * x])  # two candidates, the second a multiple of the first
+    s_mat = cols.T @ cols
+    alone = relative_half_widths(s_mat, 2, np.array([0.5, 0.5]), together=False)
+    gg = s_mat[:2, :2]
+    comp = s_mat[2, 2] - s_mat[2, :2] @ np.linalg.solve(gg, s_mat[:2, 2])
+    assert alone[0] == pytest.approx(1.96 / math.sqrt(comp) / 0.5, rel=1e-9)
+    assert alone[1] == pytest.approx(alone[0] / 2.0, rel=1e-9)  # twice the sensitivity: half the width
+    assert np.all(np.isinf(relative_half_widths(s_mat, 2, np.array([0.5, 0.5]), together=True)))
+    assert np.isinf(relative_half_widths(s_mat, 2, np.array([0.0, 0.5]), together=False)[0])
+
+
+def test_the_precision_of_a_value_freed_alone_matches_its_refit_interval():
+    from trms_ident.identify import known_value_fit
+    from trms_ident.numerics.refine import known_value_scores
+
+    log = as_log(_sim({}, rate=200.0, duration=40.0, seed=3))
+    fit, _, _ = known_value_fit(log, Settings(), None)
+    p = defaults()
+    base = fit((), {k: p[k] for k in ("J1", "B1", "J2", "B2")}, p, window_s=known_values.SHOOTING_WINDOW_S)
+    _, precision = known_value_scores(base, known_values.HYPOTHESES, p)
+    for name in ("a1", "Mg"):
+        freed = fit((name,), base.estimate, p, window_s=known_values.SHOOTING_WINDOW_S).freed[name]
+        rel = (freed["ci95"][1] - freed["ci95"][0]) / 2 / p[name]
+        assert precision["alone"][name] == pytest.approx(rel, rel=0.5)  # Fisher vs the fit's batch means
+    # a1 and b1 set the same thrust: freed together with J1 (which scales every pitch torque) they stand in for
+    # one another, and the log cannot determine them
+    assert math.isinf(precision["together"]["a1"]) and math.isinf(precision["together"]["b1"])
+
+
 def test_the_rule_orders_look_alikes_by_how_near_the_floor_each_leaves_the_angles():
     assert weigh._closer({"rms_over_noise": {"alpha": 1.0, "beta": 1.0}}, {"alpha": 1.1, "beta": 1.0})
     assert not weigh._closer({"rms_over_noise": {"alpha": 1.1, "beta": 1.1}}, {"alpha": 1.0, "beta": 1.05})

@@ -36,7 +36,7 @@ from typing import Callable
 import numpy as np
 
 from .numerics.adequacy import RMS_OVER_NOISE
-from .numerics.refine import Refined, suspect_known_values
+from .numerics.refine import Refined, known_value_scores, suspect_known_values
 from .params import BY_NAME, ESTIMATED, KNOWN, not_credible
 
 #: every known value of eq. (1) (Table 1's "known" rows), each a hypothesis
@@ -85,11 +85,16 @@ class KnownValueSearch:
     best: KnownValueFit | None  # the value named (explains the log, lowest cost), or None
     look_alikes: list = field(default_factory=list)  # other values that explain the log as well
     base_over_noise: dict = field(default_factory=dict)  # the shooting fit without a value free
+    #: how precisely the log's sensitivities could fix each value at the values given (refine.known_value_scores):
+    #: {"alone": {name: 95 % half-width / |value|}, "together": {...}}
+    precision: dict = field(default_factory=dict)
 
     def to_json(self) -> dict:
         return {"samples": self.samples, "scores": self.scores, "fits": [f.to_json() for f in self.fits],
                 "named": self.best.name if self.best else None, "look_alikes": list(self.look_alikes),
-                "shooting_over_noise": self.base_over_noise}
+                "shooting_over_noise": self.base_over_noise,
+                "precision": {**{k: ({n: _finite(v) for n, v in d.items()} if isinstance(d, dict) else d)
+                                 for k, d in self.precision.items()}, "method": PRECISION_METHOD}}
 
 
 #: fit(free, theta0, params, **options) -> Refined: the output-error fit of the log's first samples (identify's)
@@ -118,7 +123,17 @@ def search(fit: Fit, params: dict, noise: dict, samples: int, candidates: tuple 
     candidates = tuple(k for k in candidates if k not in free)
     with np.errstate(all="ignore"):
         base = fit(tuple(free), table_jb, params, window_s=SHOOTING_WINDOW_S)
-        scores = suspect_known_values(base, candidates)
+        scores, precision = known_value_scores(base, candidates, params)
+        if not _usable(base.estimate) or not_credible(base.estimate):
+            # J/B ran off to numbers no bench has: sensitivities there describe no bench either; take them at
+            # the table's J/B (only the start states fitted), along the same measured 1 s windows
+            try:
+                at = fit(tuple(free), table_jb, params, window_s=SHOOTING_WINDOW_S, hold=True)
+                precision = {**known_value_scores(at, candidates, params)[1], "at": AT_TABLE_JB}
+            except _FAILED:
+                precision = {}
+        else:
+            precision["at"] = AT_FIT
     base_ratio = over_noise(base, noise)
     fits = []
     for name in list(scores)[:TOP]:
@@ -127,7 +142,57 @@ def search(fit: Fit, params: dict, noise: dict, samples: int, candidates: tuple 
     fits.sort(key=lambda f: (not f.explains, f.cost))
     explaining = [f for f in fits if f.explains]
     best = explaining[0] if explaining else None
-    return KnownValueSearch(samples, scores, fits, best, [f.name for f in explaining[1:]], base_ratio)
+    return KnownValueSearch(samples, scores, fits, best, [f.name for f in explaining[1:]], base_ratio, precision)
+
+
+#: where KnownValueSearch.precision was taken ("at"): the shooting fit, or the table's J/B when the fit's ran off
+AT_FIT = "the values given, J/B fitted"
+AT_TABLE_JB = "the values given and the table's J/B (the fit's were not credible)"
+#: what KnownValueSearch.precision is, for the JSON
+PRECISION_METHOD = ("95 % half-width over |value| from the Fisher information of the multiple-shooting fit at the "
+                    "values given, the angles weighted by their judging floors (white errors assumed: the most the "
+                    "log could tell); alone: each value freed by itself with J/B and the start states; together: all "
+                    "freed at once; null: the others can stand in for it")
+
+
+def _finite(v: float) -> float | None:
+    return float(v) if math.isfinite(v) else None
+
+
+def determined(precision: dict | None) -> tuple[list, list, list]:
+    """(values the log determines alone to DETERMINED_REL, those it determines freed all together, those it cannot
+    determine even alone) from a KnownValueSearch's precision (or its JSON: null for inf)."""
+    if not precision or "alone" not in precision:
+        return [], [], []
+    rel = {w: {k: (math.inf if v is None else v) for k, v in precision[w].items()} for w in ("alone", "together")}
+    alone = sorted((k for k, v in rel["alone"].items() if v <= DETERMINED_REL), key=lambda k: rel["alone"][k])
+    together = sorted((k for k, v in rel["together"].items() if v <= DETERMINED_REL), key=lambda k: rel["together"][k])
+    never = [k for k in rel["alone"] if k not in alone]
+    return alone, together, never
+
+
+def determined_sentence(precision: dict | None) -> str:
+    """Which known values this log can determine, in words (empty when the search gave no precision)."""
+    alone, together, never = determined(precision)
+    if not alone and not never:
+        return ""
+    pct = f"{100 * DETERMINED_REL:g} %"
+    if not alone:
+        return (f" At the values given, this log's sensitivities determine none of the known values to within {pct}, "
+                "even one at a time: it cannot tell which are off; the bench's own values are needed.")
+    where = ("at the values given and the table's J/B, as the fit's J/B ran off"
+             if precision.get("at") == AT_TABLE_JB else "at its fit to the values given")
+    out = (f" What this log can determine (the Fisher information {where}, J/B free): one at a time, "
+           f"{', '.join(alone)} to within {pct} each")
+    if together and set(together) == set(alone):
+        out += ", and all of them together too"
+    elif together:
+        out += f"; all freed together, only {', '.join(together)} (the others stand in for one another)"
+    else:
+        out += "; freed together, none of them (they stand in for one another and for J/B)"
+    if never:
+        out += f"; it carries too little on {', '.join(never)} to determine them"
+    return out + "."
 
 
 _FAILED = (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError, ValueError)
@@ -323,9 +388,10 @@ def joint_sentence(j: KnownValueSet, base_over_noise: float | None = None) -> st
             "or further values).")
 
 
-def far_from_table(fits: list) -> str | None:
+def far_from_table(fits: list, precision: dict | None = None) -> str | None:
     """When every refit drove its value or J/B to implausible numbers (PLAUSIBLE_VALUE_FACTOR, params.implausible):
-    the sentence that says the bench is far from the values given; else None.  ``fits``: KnownValueFit or JSON."""
+    the sentence that says the bench is far from the values given, and which values the log could determine
+    (``precision``: KnownValueSearch.precision or its JSON); else None.  ``fits``: KnownValueFit or JSON."""
     fits = [f if isinstance(f, dict) else f.to_json() for f in fits]
     if not fits or any(_plausible_value(f["value"], f["table"]) and not not_credible(f.get("estimates") or {})
                        for f in fits):
@@ -336,13 +402,13 @@ def far_from_table(fits: list) -> str | None:
     example = f"{worst['name']} {worst['value']:.3g} instead of {worst['table']:.3g}" + (f" with {jb}" if bad else "")
     return (f" Refitted alone, every known value the data rank first ({', '.join(f['name'] for f in fits)}) goes to "
             f"implausible numbers (e.g. {example}): the bench is far from the values the model was given in more "
-            "than one of them, and this log cannot say which. Give the bench's own values (--params; a Humusoft "
-            "CE150 ships as --params humusoft_ce150).")
+            "than one of them." + determined_sentence(precision) + " Give the bench's own values (--params; a "
+            "Humusoft CE150 ships as --params humusoft_ce150).")
 
 
 def sentence(s: KnownValueSearch) -> str:
     """What the search found, for estimate's adequacy sentence and diagnose's verdict."""
-    far = far_from_table(s.fits) if s.best is None else None
+    far = far_from_table(s.fits, s.precision) if s.best is None else None
     if far is not None:
         return far
     if s.best is None:

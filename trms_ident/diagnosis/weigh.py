@@ -65,7 +65,7 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
     named = kv.get("named")
     if named is None:
         if d.verdict in ("partly_explained", "unexplained"):
-            far = known_values.far_from_table(kv["fits"])
+            far = known_values.far_from_table(kv["fits"], kv.get("precision"))
             if far is not None:  # every refit wandered off: nothing to refit jointly from
                 d.verdict_sentence += far
                 return d

@@ -854,6 +854,17 @@ def suspect_known_values(r: Refined, candidates: tuple[str, ...] = SUSPECTS) -> 
     Gauss-Newton step with that value set free would remove, J/B, start states and window starts re-fitted.
     Returns name -> fraction of the excess (0..1), largest first.  Linear in the freed value: a guide to
     which known value the data blame, not an estimate of it."""
+    return known_value_scores(r, candidates)[0]
+
+
+def known_value_scores(r: Refined, candidates: tuple[str, ...] = SUSPECTS, values: dict | None = None
+                       ) -> tuple[dict, dict]:
+    """(suspect_known_values' scores, the precision the log's sensitivities allow each value): one pass of the
+    fit's model with the candidates' sensitivities.  The precision is the 95 % half-width over |value| (``values``:
+    the values the fit used) from the Fisher information at the fit, the angles weighted by the floors it was
+    given: "alone" each value freed by itself with J/B, the start states and the window starts, "together" all the
+    candidates freed at once (inf where the others can stand in for it).  White errors at the floors are assumed:
+    it is the most the log could tell, not an interval."""
     fit = r.fit
     prob = fit.problem
     n = prob.y.shape[0]
@@ -869,7 +880,35 @@ def suspect_known_values(r: Refined, candidates: tuple[str, ...] = SUSPECTS) -> 
         idx = np.r_[0:ng, ng + j]
         gain = s_rhs[idx] @ _scaled_inverse(s_mat[np.ix_(idx, idx)]) @ s_rhs[idx] - base
         out[k] = float(min(max(gain / excess, 0.0), 1.0))
-    return dict(sorted(out.items(), key=lambda kv: -kv[1]))
+    scores = dict(sorted(out.items(), key=lambda kv: -kv[1]))
+    values = values or {}
+    scale = np.array([abs(values.get(k, math.nan)) for k in cand])
+    alone = relative_half_widths(s_mat, ng, scale, together=False)
+    together = relative_half_widths(s_mat, ng, scale, together=True)
+    return scores, {"alone": dict(zip(cand, map(float, alone))), "together": dict(zip(cand, map(float, together)))}
+
+
+#: the share of a value's information the others may explain before it counts as not determined at all
+#: (relative_half_widths: the Schur complement's round-off floor)
+UNDETERMINED_SHARE = 1e-9
+
+
+def relative_half_widths(s_mat: np.ndarray, ng: int, scale: np.ndarray, together: bool) -> np.ndarray:
+    """The Fisher-information 95 % half-width of each parameter after the first ``ng`` of the information matrix
+    ``s_mat``, over ``scale`` (its magnitude): 1.96 / sqrt(the Schur complement of its diagonal entry given the
+    first ``ng`` and, ``together``, every other parameter).  inf where the others explain all but
+    UNDETERMINED_SHARE of its information (they can stand in for it) or scale is not positive."""
+    m = s_mat.shape[0] - ng
+    out = np.full(m, math.inf)
+    for j in range(m):
+        others = np.r_[0:ng, ng:ng + m] if together else np.r_[0:ng]
+        others = others[others != ng + j]
+        s_jj = s_mat[ng + j, ng + j]
+        s_jo = s_mat[ng + j, others]
+        comp = s_jj - s_jo @ (_scaled_inverse(s_mat[np.ix_(others, others)]) @ s_jo)
+        if s_jj > 0 and comp > UNDETERMINED_SHARE * s_jj and scale[j] > 0:
+            out[j] = 1.96 / math.sqrt(comp) / scale[j]
+    return out
 
 
 def _rms(y, pred) -> dict:
