@@ -186,6 +186,7 @@ def test_real_ce150_recordings_get_an_honest_verdict(tmp_path, name):
         for sentence in (estimate_sentence, doc["verdict_sentence"]):
             assert "the bench is far from the values the model was given" in sentence
             assert "What this log can determine (the Fisher information" in sentence
+        assert doc["verdict_sentence"].count("Refitted alone, every known value") == 1  # said once, not twice
         precision = doc["seed_model_check"]["known_values"]["precision"]
         assert precision["alone"]["T11"] <= 0.1 and precision["together"]["a1"] is None
     assert "Traceback" not in dia.output and "Warning" not in dia.stderr

@@ -406,6 +406,11 @@ def far_from_table(fits: list, precision: dict | None = None) -> str | None:
             "Humusoft CE150 ships as --params humusoft_ce150).")
 
 
+#: how sentence() begins when no value explains the log (far from the table, or none reaching the floor): a
+#: verdict that already carries it does not say it again (weigh.py)
+SEARCH_SAID = (" Refitted alone, every known value the data rank first", " No single known value explains the misfit")
+
+
 def sentence(s: KnownValueSearch) -> str:
     """What the search found, for estimate's adequacy sentence and diagnose's verdict."""
     far = far_from_table(s.fits, s.precision) if s.best is None else None

@@ -65,13 +65,18 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
     named = kv.get("named")
     if named is None:
         if d.verdict in ("partly_explained", "unexplained"):
+            # an "unexplained" verdict already carries the seed check's sentence, which says what the single
+            # refits found (known_values.sentence): said once
+            said = any(words in d.verdict_sentence for words in known_values.SEARCH_SAID)
             far = known_values.far_from_table(kv["fits"], kv.get("precision"))
             if far is not None:  # every refit wandered off: nothing to refit jointly from
-                d.verdict_sentence += far
+                d.verdict_sentence += "" if said else far
                 return d
             tried = ", ".join(f"{f['name']} {max(f['over_noise'].values()):.3g}x" for f in kv["fits"])
-            d.verdict_sentence += (" No known value explains the log alone (each refitted by output error, the most "
-                                   f"likely leave the angles above their noise floors: {tried or 'none could be fitted'}).")
+            if not said:
+                d.verdict_sentence += (" No known value explains the log alone (each refitted by output error, the "
+                                       "most likely leave the angles above their noise floors: "
+                                       f"{tried or 'none could be fitted'}).")
             j = _joint(log, law, overrides, p, kv, d.seed_check)
             if j is not None:
                 d.known_values_joint = j.to_json()
