@@ -34,6 +34,9 @@ EFFECTS: dict[str, Effect] = {
         Effect("motor_second_lag", ("pitch", "yaw"), "T2", "s",
                "a second-order motor: the motor's drive follows the voltage through a further lag 1/(T2 s + 1) "
                "(the cascade of two first-order lags; the CE150's motors are second order)"),
+        Effect("sensor_lag", ("both",), "T", "s",
+               "the acquisition chain's filter: both logged angles (which the controller reads too) follow the true "
+               "ones through a first-order lag 1/(T s + 1), discretized at the sample rate (a digital filter)"),
         Effect("yaw_inertia_pitch", ("yaw",), "dJ", "kg m^2",
                "yaw inertia J2 - dJ sin^2(alpha): the beam's inertia about the vertical falls as it tilts "
                "(with its centrifugal and Coriolis terms)"),
@@ -52,7 +55,8 @@ I_DELAY = 12
 I_ASYM = (13, 14)
 I_YAW_INERTIA = 15
 I_LAG2 = (16, 17)
-N_EFFECT_SLOTS = 18
+I_SENSOR_LAG = 18
+N_EFFECT_SLOTS = 19
 AXIS_INDEX = {"pitch": 0, "yaw": 1}
 
 
@@ -91,6 +95,10 @@ def pack(effects: list[dict]) -> list[float]:
             vec[I_COM] = value
         elif name == "yaw_inertia_pitch":
             vec[I_YAW_INERTIA] = value
+        elif name == "sensor_lag":
+            if not value > 0:
+                raise ValueError("sensor_lag must be > 0 s")
+            vec[I_SENSOR_LAG] = value
         elif name == "input_delay":
             if value < 0:
                 raise ValueError("input_delay must be >= 0 s")

@@ -141,9 +141,20 @@ def closed_loop(dts, aref, bref, p, law, gains, u_lim, fx, noise_a, noise_b, q, 
     delay = fx[12]
     m_del = int(math.floor(delay / dt + 1e-12))
     r_del = delay - m_del * dt
+    lag = fx[18] if fx.size > 18 else 0.0  # the acquisition chain's first-order lag [s] (sensor_lag)
+    fa = x[0]
+    fb = x[2]
     for k in range(n):
-        a_meas = _quantize(x[0] + fx[6] + noise_a[k], q)
-        b_meas = _quantize(x[2] + fx[7] + noise_b[k], q)
+        if lag > 0.0:  # a digital first-order lag of the sampled angles, at rest on the first ones
+            if k > 0:
+                c = math.exp(-dts[k - 1] / lag)
+                fa = c * fa + (1.0 - c) * x[0]
+                fb = c * fb + (1.0 - c) * x[2]
+        else:
+            fa = x[0]
+            fb = x[2]
+        a_meas = _quantize(fa + fx[6] + noise_a[k], q)
+        b_meas = _quantize(fb + fx[7] + noise_b[k], q)
         a_log[k] = a_meas
         b_log[k] = b_meas
         true_state[k, 0] = x[0]

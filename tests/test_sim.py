@@ -62,3 +62,21 @@ def test_truth_records_parameters_and_settings():
 def test_bad_settings_are_refused(bad, message):
     with pytest.raises(ValueError, match=message):
         simulate(SimSettings(**{"duration_s": 1.0, **bad}))
+
+
+def test_an_acquisition_lag_filters_the_logged_angles_by_its_difference_equation():
+    # sensor_lag: each logged angle is the previous one moved (1 - c) of the way to the true angle, c = e^(-dt/T),
+    # from the true angle at the first sample; the controller reads the lagged angles, so the run changes too
+    lag = 0.05
+    r = simulate(SimSettings(ref="square", sample_rate_hz=200.0, duration_s=10.0, seed=2,
+                             effects=[{"effect": "sensor_lag", "axis": "both", "value": lag}]))
+    c = np.exp(-(1 / 200.0) / lag)
+    for col, logged in ((0, r.alpha_rad), (2, r.beta_rad)):
+        true = r.true_state[:, col]
+        assert logged[0] == true[0]
+        np.testing.assert_allclose(logged[1:], c * logged[:-1] + (1 - c) * true[1:], rtol=0, atol=1e-15)
+    plain = simulate(SimSettings(ref="square", sample_rate_hz=200.0, duration_s=10.0, seed=2))
+    assert np.max(np.abs(plain.alpha_rad - plain.true_state[:, 0])) == 0.0
+    assert np.max(np.abs(r.alpha_rad - plain.alpha_rad)) > 1e-3  # a 50 ms lag shows, and the loop reacts to it
+    with pytest.raises(ValueError, match="sensor_lag must be > 0 s"):
+        simulate(SimSettings(ref="square", effects=[{"effect": "sensor_lag", "axis": "both", "value": 0.0}]))
