@@ -64,6 +64,7 @@ def held_out_fits(d, log: Log, p: dict, law: str) -> dict | None:
             "rms_rad": {"before": before["rms_rad"], "after": after["rms_rad"] if after else None},
             "span_s": float(t[-1] - t[0]), "samples": n,
             "folds": {"before": before["folds"], "after": after["folds"] if after else None},
+            "converged": {"before": before["converged"], "after": after["converged"] if after else None},
             "prediction": {"t_s": t, "before": before["prediction"],
                            "after": after["prediction"] if after else None},
             "method": "output error fitted on one half of the samples, simulated on the other with J/B and the "
@@ -79,8 +80,11 @@ def sentence(h: dict | None, findings: bool) -> str:
                 + ", ".join(f"{a} {v:.1f} %" for a, v in h["before"].items())
                 + ("" if not findings else " for the seed model; the findings' model could not be fitted by output "
                    "error on the halves") + ".")
+    loose = [w for w in ("before", "after") if h.get("converged", {}).get(w) is False]
     return ("Held-out simulation fit (fitted on one half, simulated on the other), before -> after the findings: "
-            + ", ".join(f"{a} {h['before'][a]:.1f} % -> {h['after'][a]:.1f} %" for a in h["before"]) + ".")
+            + ", ".join(f"{a} {h['before'][a]:.1f} % -> {h['after'][a]:.1f} %" for a in h["before"])
+            + (f" (the fit on a half did not converge {' or '.join(loose)} the findings: that figure is no measure "
+               "of the model, and the findings are not judged by it)" if loose else "") + ".")
 
 
 #: a held-out fit lower than the seed model's by more than this [percentage points] is said (caution)
@@ -88,8 +92,10 @@ LOWERED_BY_PERCENT = 0.1
 
 
 def lowered(h: dict | None, axes=("pitch", "yaw"), margin_percent: float = LOWERED_BY_PERCENT) -> list[str]:
-    """The axes whose held-out fit the findings lower (by more than ``margin_percent``)."""
-    if not h or h["after"] is None:
+    """The axes whose held-out fit the findings lower (by more than ``margin_percent``); none when the findings'
+    model's fit on a half did not converge (its held-out simulation is then no measure of the model: measured,
+    a true 0.1 s acquisition lag whose fit on the second half of a mid-run steps log ran off to J1 2.6x)."""
+    if not h or h["after"] is None or h.get("converged", {}).get("after") is False:
         return []
     return [a for a in axes if np.isfinite(h["before"][a]) and not h["after"][a] >= h["before"][a] - margin_percent]
 

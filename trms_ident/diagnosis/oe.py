@@ -42,7 +42,7 @@ finding is judged again given the later ones.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.special import stdtr
@@ -55,7 +55,7 @@ from ..numerics.adequacy import judging_floors
 from ..numerics.design import angle_noise_rad
 from ..numerics.refine import BLOCK_S, substeps
 from ..numerics.refine import refine as oe_refine
-from .model import Model, modified_inputs, smoothed_velocity, state_signals
+from .model import Model, delag_noise_gain, modified_inputs, observed_log, smoothed_velocity, state_signals
 from .select import MIN_SIGNAL_SHARE
 
 #: candidates the output-error fit carries compiled into its kernel (others: carries())
@@ -73,7 +73,7 @@ MAX_STEPS = 250_000
 
 #: input modifications fitted by a profile over their value (module docstring)
 PROFILE_KEYS = ("dead_zone:pitch", "dead_zone:yaw", "input_saturation:pitch", "input_saturation:yaw",
-                "input_delay:both", "motor_lag:pitch", "motor_lag:yaw")
+                "input_delay:both", "motor_lag:pitch", "motor_lag:yaw", room.SENSOR_LAG)
 #: a profile tries the equation error's value and this many steps of the search grid's spacing either side, then
 #: halves the (geometric) spacing around the best PROFILE_BISECTIONS times and takes the parabola's vertex: a
 #: dead zone's cost is sharply peaked (3 % off its width gave back 3 % of an 80 % drop in angle error)
@@ -228,6 +228,14 @@ def _motor_lag_share(log: Log, p: dict, pp: dict, law: str, pitch: bool) -> floa
 def modification_torque_share(key: str, value: float, log: Log, p: dict, law: str) -> float:
     """RMS of the change in thrust torque that input modification ``key`` at ``value`` makes (tau at the steady
     state of the voltages) over the RMS of the thrust torque, the larger of the axes it touches."""
+    if key == room.SENSOR_LAG:  # the thrust torques as late as the lag makes the angles look (a delay's share)
+        shares = []
+        for u, pitch in ((log.u1_v, True), (log.u2_v, False)):
+            m = _steady_thrust(u, pitch, p, law)[1]
+            scale = float(np.sqrt(np.mean(m * m)))
+            dm = room.angle_lag(m, value, log.sample_time_s) - m
+            shares.append(float(np.sqrt(np.mean(dm * dm))) / scale if scale > 0 else 0.0)
+        return max(shares)
     u1, u2, changes = modified_inputs(log, {key: value})
     pp = {**p, **changes}
     if changes:  # a motor's time constant: the voltages stay, the motor states' dynamics change
@@ -277,6 +285,12 @@ class Fitter:
         part = log.head(n) if span is None else log.span(*span)
         u1, u2, p = part.u1_v, part.u2_v, self.p
         mods = {**{k: v for k, v in model.mods if k not in OFFSETS}, **(mods or {})}
+        lag = mods.pop(room.SENSOR_LAG, None)
+        measured, noise = part, self.noise
+        if lag is not None:  # fitted to the de-lagged angles, their noise raised as de-lagging raises it
+            part = observed_log(part, lag)
+            gain = delag_noise_gain(log.sample_time_s, lag)
+            noise = {k: v * gain for k, v in noise.items()}
         if mods:
             u1, u2, changes = modified_inputs(part, mods)
             p = {**p, **changes}
@@ -290,8 +304,22 @@ class Fitter:
             if ck not in self._torques:
                 self._torques[ck] = unit_torques(part, p, self.law, (k,), u1, u2, self._signals)[k]
             torques[k] = self._torques[ck]
-        return oe_refine(u1, u2, part.alpha_rad, part.beta_rad, log.sample_time_s, p, self.law, theta0,
-                         self.noise, free=free, effects=effects, torques=torques or None, hold=hold, **kw)
+        r = oe_refine(u1, u2, part.alpha_rad, part.beta_rad, log.sample_time_s, p, self.law, theta0,
+                      noise, free=free, effects=effects, torques=torques or None, hold=hold, **kw)
+        return r if lag is None else self._lagged(r, measured, lag)
+
+    def _lagged(self, r, measured: Log, lag: float):
+        """A fit to the de-lagged angles scored as the log records them: its simulated angles through the
+        acquisition lag (effects.angle_lag), error RMS and noise-weighted cost against the logged angles at the
+        log's floors, as every other model's fit is scored."""
+        steps = measured.sample_time_s if measured.uniform else np.diff(measured.t_s)
+        y = np.column_stack([measured.alpha_rad, measured.beta_rad])
+        pred = room.angle_lag(r.prediction, lag, steps, first=y[0])  # the filter's state: the first logged angles
+        e = y - pred
+        floor = self.noise_floor
+        rms = {a: float(np.sqrt(np.mean(e[:, j] ** 2))) for j, a in enumerate(("alpha", "beta"))}
+        cost = float(np.sum((e[:, 0] / floor["alpha"]) ** 2) + np.sum((e[:, 1] / floor["beta"]) ** 2))
+        return replace(r, prediction=pred, rms_rad=rms, cost=cost)
 
     def held_out(self, model: Model, values: dict, theta0: dict) -> dict | None:
         """The model's held-out simulation fit: fitted (J/B, its torque effects' parameters and the start states
@@ -314,7 +342,8 @@ class Fitter:
                 t = self._fit(model, fitted, dict(r.estimate), None, span=test_span, hold=True)
                 pred[test_span[0]:test_span[1]] = t.prediction
                 folds.append({"fitted_on": list(fit_span), "estimates": dict(r.estimate),
-                              "values": {k: v["estimate"] for k, v in r.freed.items()}})
+                              "values": {k: v["estimate"] for k, v in r.freed.items()},
+                              "converged": bool(r.converged)})
         except _FAILED:
             return None
         if not np.all(np.isfinite(pred)):
@@ -322,7 +351,8 @@ class Fitter:
         rms = {a: float(np.sqrt(np.mean((getattr(self.log, f"{a}_rad")[:n] - pred[:, j]) ** 2)))
                for j, a in enumerate(("alpha", "beta"))}
         return {"fit_percent": {axis: fit for axis, (fit, _) in self._simulation_fits(rms, rms).items()},
-                "rms_rad": rms, "prediction": pred, "folds": folds}
+                "rms_rad": rms, "prediction": pred, "folds": folds,
+                "converged": all(f["converged"] for f in folds)}
 
     def _blocks(self, v: np.ndarray) -> np.ndarray:
         """Per-sample values summed over BLOCK_S blocks (a last partial block left out)."""

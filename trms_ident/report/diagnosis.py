@@ -33,8 +33,8 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                            "no restoring force)",
                 "before": d.fit_before, "after": d.fit_after},
         "held_out_fit": (None if d.held_out is None else
-                         {k: d.held_out[k] for k in ("before", "after", "rms_rad", "span_s", "samples", "folds",
-                                                     "method")}),
+                         {k: d.held_out.get(k) for k in ("before", "after", "rms_rad", "span_s", "samples", "folds",
+                                                         "converged", "method")}),
         "located": {"segments": d.segments, "regimes": d.regimes, "lag": d.lag},
         "tested": d.tested,
         "output_error_tested": d.oe_tested,
