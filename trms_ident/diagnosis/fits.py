@@ -15,7 +15,8 @@ import numpy as np
 
 from ..log import Log
 from . import oe
-from .model import AXIS_ANGLE, Model, modified_inputs, restart_velocity, smoothed_velocity
+from ..model.effects import SENSOR_LAG
+from .model import AXIS_ANGLE, Model, modified_inputs, observed_log, restart_velocity, smoothed_velocity
 from .predict import HORIZON_S, nrmse_fit, predict_fitted_start
 
 
@@ -93,9 +94,14 @@ PARALLEL_FITS_SAMPLES = 200_000
 def prediction_fits(log: Log, p: dict, law: str, model: Model, values: dict, est: dict, extra: dict | None = None,
                     start: dict | None = None):
     """Prediction fit [%] and predictions per axis; ``extra``: axis -> extra torque [N m] per sample; ``start``:
-    the motors' states at the first sample (plant_signals)."""
+    the motors' states at the first sample (plant_signals).  A model with an acquisition lag (effects.SENSOR_LAG)
+    predicts the true angles and is scored against the de-lagged log (model.observed_log), restarting from it."""
     from ..numerics.fused import plant_signals
 
+    lag = dict(model.mods).get(SENSOR_LAG)
+    if lag is not None:
+        log = observed_log(log, lag)
+        model = Model(tuple((k, v) for k, v in model.mods if k != SENSOR_LAG), model.linear)
     dt = log.sample_time_s
     u1, u2, changes = modified_inputs(log, dict(model.mods))
     pp = {**p, **changes}

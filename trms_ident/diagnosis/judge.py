@@ -30,8 +30,15 @@ def _offsets_by_output_error(best, alts, ok, log, p, law, current):
     return winner, [k for k in alts if k not in PAIR], verdict.reason
 
 
+#: candidates that shift the log in time alike: an input delay, and a lag of the logged angles (the acquisition
+#: chain's filter).  The equation error cannot weigh them fairly (de-lagging the angles raises their noise in its
+#: filtered derivatives), so when one is its best the other is fitted by output error beside it whatever its
+#: equation-error gain: the output-error fit tells them apart where the log can, else they are look-alikes
+TIMING_PAIR = {"input_delay:both": "sensor_lag:both", "sensor_lag:both": "input_delay:both"}
+
+
 def _alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests,
-                                  fitter, tested):
+                                  fitter, tested, partners=()):
     """The equation error's best candidate has rivals: passing candidates whose held-out gain comes within
     ALIAS_GAIN_RATIO of its gain (``alts``, its look-alikes, among them).  The equation error only orders them
     (measured: a yaw motor time constant 2-3 % off its table value named before a 0.01 N m/rad yaw cable, with
@@ -39,10 +46,15 @@ def _alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache
     rival, the best and its OE_TOP_K closest rivals are each fitted by output error.  Those whose test passes
     leaving at most 1 / ALIAS_GAIN_RATIO times the least angle-error excess over the noise floor are close: the
     equation error's best stays the finding if it is among them, else the one that leaves the least; the other
-    close ones become alternatives (beside look-alikes the fit cannot carry), the rest are told apart.  (best,
+    close ones become alternatives (beside look-alikes the fit cannot carry), the rest are told apart.
+    ``partners``: equation-error results fitted as rivals whatever their gain (TIMING_PAIR).  (best,
     alternatives, what told them apart or None); unchanged when no rival passes or the fit cannot decide."""
-    rivals = sorted((r for r in ok if r is not best and oe.fittable(r["c"].key) and
-                     r["test"].gain >= ALIAS_GAIN_RATIO * best["test"].gain), key=lambda r: -r["test"].gain)
+    pool_in = list(ok) + [r for r in partners if all(r is not q for q in ok)]
+    rivals = sorted((r for r in pool_in if r is not best and oe.fittable(r["c"].key) and
+                     (r["test"].gain >= ALIAS_GAIN_RATIO * best["test"].gain or any(r is q for q in partners))),
+                    key=lambda r: -r["test"].gain)
+    forced = [r for r in rivals if any(r is q for q in partners)]
+    rivals = forced + [r for r in rivals if r not in forced]  # a partner is always among those fitted
     if not oe.fittable(best["c"].key) or not rivals or not oe.representable(current):
         return best, alts, None
     pool = [best] + rivals[:OE_TOP_K]

@@ -22,8 +22,8 @@ from .model import AXIS_ANGLE, Model, drop_search_columns, modified_inputs, regr
 from .fits import REST, best_start, prediction_fits, start_cost, start_samples
 from .predict import HORIZON_S, fit_text
 from .result import VERDICTS, Diagnosis, Finding
-from .judge import (_alternatives_by_output_error, _offsets_by_output_error, _oe_confirm, _oe_fit, _oe_rescue,
-                    _oe_start)
+from .judge import (TIMING_PAIR, _alternatives_by_output_error, _offsets_by_output_error, _oe_confirm, _oe_fit,
+                    _oe_rescue, _oe_start)
 from .select import FAMILY_ALPHA, block_ids, score
 from .shapes import declared_shape, term_shape, thin
 from .trials import (ALIAS_GAIN_RATIO, EXACT_OFFSETS, MOTOR_LAG_NEUTRAL, _alias, _axes_of, _effect_values,
@@ -232,8 +232,11 @@ def _search(run: _Run, base_reg, base, exclude: tuple = ()) -> _Found:
             if best["c"].key in PAIR and any(k in PAIR for k in alts):
                 best, alts, told = _offsets_by_output_error(best, alts, ok, log, p, law, current)
             else:  # close rivals in the equation error: the output-error fit decides when it can carry them
+                partners = [r for r in results if r["c"].key == TIMING_PAIR.get(best["c"].key) and
+                            r["c"].plausible(r["value"]) and r["c"].key not in excluded]
                 best, alts, told = _alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache, ids,
-                                                                 score_now, reg_now, n_tests, fitter, oe_tested)
+                                                                 score_now, reg_now, n_tests, fitter, oe_tested,
+                                                                 partners)
                 if "oe" in best:
                     oe_values[best["c"].key] = best["value"]
             if "oe" not in best:  # the equation error only orders: the output-error test decides when it can

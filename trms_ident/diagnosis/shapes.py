@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model.effects import Candidate, with_unit
+from ..model.effects import Candidate, angle_lag, with_unit
 from ..model.plant import thrust_law
 from .model import _delay
 
@@ -109,6 +109,11 @@ def term_shape(c: Candidate, value: float, p: dict, law: str, velocity: np.ndarr
             second = 1.0 - (1.0 + t / tm) * np.exp(-t / tm)
         return Shape("t after a voltage step [s]", t, "motor state / steady state", second, first,
                      f"second-order motor: a further lag of {value:.3g} s after the given {tm:.3g} s")
+    if e == "sensor_lag":  # a step of the true angle as the acquisition chain logs it, and as the seed model does
+        t = np.arange(0.0, 5.0 * value + 2.0 * dt_s, dt_s)
+        true = np.ones_like(t)
+        return Shape("t after a step of the true angle [s]", t, "logged angle / step", angle_lag(true * (t > 0), value,
+                     dt_s), (t > 0).astype(float), f"acquisition lag: 1/(T s + 1), T = {1e3 * value:.3g} ms")
     if c.modify is not None:  # a voltage transform declared in the model room (model/effects.py)
         u = _span(u_v)
         return Shape(f"logged {'u1' if ax != 'yaw' else 'u2'} [V]", u, "voltage the motor sees [V]",

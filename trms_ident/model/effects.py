@@ -102,6 +102,38 @@ def second_lag(u: np.ndarray, t2_s: float, dt_s: float) -> np.ndarray:
     return u + (y - u) * (t2_s / dt_s) * (1.0 - a)  # its mean over the interval that follows
 
 
+def angle_lag(y: np.ndarray, t_s: float, dt_s: float | np.ndarray, first=None) -> np.ndarray:
+    """The angles y [rad] (n, or n x k) as an acquisition chain with a first-order lag 1/(T s + 1) logs them,
+    discretized at the sample rate: y_log[k] = c y_log[k-1] + (1 - c) y[k], c = e^(-dt/T).  ``first``: the
+    logged angle(s) at the first sample, the filter's state there (default y[0]: at rest on the first sample; a
+    log that begins mid-run gives its own first sample).  ``dt_s``: the step [s], or the n - 1 steps of jittered
+    stamps."""
+    from scipy.signal import lfilter
+
+    y = np.asarray(y, dtype=float)
+    y0 = y[0] if first is None else np.asarray(first, dtype=float)
+    if not t_s > 0 or y.shape[0] < 2:
+        return y.copy()
+    if np.ndim(dt_s) == 0:
+        c = math.exp(-float(dt_s) / t_s)
+        out = np.empty_like(y)
+        out[0] = y0
+        zi = (c * y0)[None] if y.ndim > 1 else [c * y0]
+        out[1:] = lfilter([1.0 - c], [1.0, -c], y[1:], axis=0, zi=zi)[0]
+        return out
+    c = np.exp(-np.asarray(dt_s, dtype=float) / t_s)
+    out = np.empty_like(y)
+    out[0] = y0
+    for k in range(1, y.shape[0]):  # jittered stamps: each step its own c
+        out[k] = c[k - 1] * out[k - 1] + (1.0 - c[k - 1]) * y[k]
+    return out
+
+
+#: the acquisition chain's lag of the logged angles: an output modification (diagnosis.model.observed_log); the
+#: equation error and the output-error fit see the angles de-lagged, the output-error score lags the simulation
+SENSOR_LAG = "sensor_lag:both"
+
+
 CANDIDATES: tuple[Candidate, ...] = (
     Candidate("coulomb_friction", "pitch", "Fc", "N m", "linear",
               sentence="a constant friction torque of {value:.3g} {unit} opposes the pitch motion and flips sign "
@@ -135,6 +167,9 @@ CANDIDATES: tuple[Candidate, ...] = (
               sentence="the yaw inertia depends on the pitch angle: J2 - {value:.3g} {unit} x sin^2(alpha) (the "
                        "beam's inertia about the vertical falls as it tilts)", regime="pitch_angle",
               bounds=POSITIVE),  # a tilted beam's inertia about the vertical can only fall
+    Candidate("sensor_lag", "both", "T", "s", "grid", _geom(0.005, 0.25, 16),
+              sentence="the logged angles lag the true ones: the acquisition chain filters both through a "
+                       "first-order lag of {value:.3g} {unit}", regime="velocity", bounds=POSITIVE),
     Candidate("dead_zone", "pitch", "w", "V", "grid", _geom(0.02, 0.6, 16),
               sentence="main-motor voltages below {value:.3g} {unit} in magnitude move nothing (dead zone)",
               bounds=POSITIVE, modify=_dead_zone, step=True),
