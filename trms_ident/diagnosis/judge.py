@@ -54,7 +54,7 @@ def _alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache
                      (r["test"].gain >= ALIAS_GAIN_RATIO * best["test"].gain or any(r is q for q in partners))),
                     key=lambda r: -r["test"].gain)
     forced = [r for r in rivals if any(r is q for q in partners)]
-    rivals = forced + [r for r in rivals if r not in forced]  # a partner is always among those fitted
+    rivals = forced + [r for r in rivals if all(r is not q for q in forced)]  # a partner is always fitted
     if not oe.fittable(best["c"].key) or not rivals or not oe.representable(current):
         return best, alts, None
     pool = [best] + rivals[:OE_TOP_K]

@@ -300,9 +300,10 @@ class Fitter:
             if span is not None:  # a part of the samples: its own torques (not cached)
                 torques[k] = unit_torques(part, p, self.law, (k,), u1, u2, {})[k]
                 continue
-            ck = (k, tuple(sorted(mods.items())))
+            ck = (k, tuple(sorted(mods.items())), lag)  # de-lagged angles make other torques
             if ck not in self._torques:
-                self._torques[ck] = unit_torques(part, p, self.law, (k,), u1, u2, self._signals)[k]
+                self._torques[ck] = unit_torques(part, p, self.law, (k,), u1, u2,
+                                                 self._signals if lag is None else {})[k]
             torques[k] = self._torques[ck]
         r = oe_refine(u1, u2, part.alpha_rad, part.beta_rad, log.sample_time_s, p, self.law, theta0,
                       noise, free=free, effects=effects, torques=torques or None, hold=hold, **kw)
