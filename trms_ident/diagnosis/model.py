@@ -174,8 +174,8 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
         if sub is None:
             for k in [k for k in cache if k[0] == "observed"]:  # one lag's columns at a time (memory)
                 del cache[k]
-            sub = cache[sub_key] = {("start_states",): cache.get(("start_states",)),
-                                    ("bytes",): cache.get(("bytes",), CACHE_BYTES)}
+            # its targets for the current model only (a lag's columns sit beside the log's own: memory on long logs)
+            sub = cache[sub_key] = {("start_states",): cache.get(("start_states",)), ("bytes",): 0}
         rest = Model(tuple((k, v) for k, v in model.mods if k != effects.SENSOR_LAG), model.linear)
         return regression(observed_log(log, lag, cache), p, law, a_rad_s, rest, sub)
     dt = log.sample_time_s
@@ -348,7 +348,7 @@ def drop_search_columns(cache: dict) -> None:
     """After the search: forget the cached filtered targets, extra-regressor columns and sin, cos of the pitch
     (recomputed if regression() is called again; the regressions kept for the findings hold their own
     references).  On four hours at 1 kHz these were five columns of 115 MB at the prediction fits' peak."""
-    for k in [k for k in cache if k[0] in ("g", "phi", "trig", "observed")]:
+    for k in [k for k in cache if k[0] in ("g", "phi", "trig", "observed", "smoothed_angle")]:
         del cache[k]
 
 
