@@ -72,3 +72,14 @@ def test_the_gate_does_not_judge_a_findings_model_whose_fit_on_a_half_ran_off():
         held_out.sentence(h, True)
     assert "did not converge" not in held_out.sentence({**h, "converged": {"before": False, "after": True}}, True)
     assert held_out.lowered({**h, "converged": {"before": False, "after": True}}) == ["pitch", "yaw"]
+
+
+def test_on_a_long_log_the_lag_is_tested_on_the_head_first(monkeypatch):
+    # logs longer than GRID_SPAN_S search their grids on the head; the lag's regression of the whole log is only
+    # built once the head passes it (memory): the finding and its value are the same
+    from trms_ident.diagnosis import trials
+
+    monkeypatch.setattr(trials, "GRID_SPAN_S", 30.0)
+    d = diagnose(as_log(_lagged(0.05, ref="square", rate=500.0, seed=13)))
+    assert [(f.effect, f.axis) for f in d.findings] == [("sensor_lag", "both")]
+    assert d.findings[0].parameter["value"] == pytest.approx(0.05, rel=0.02)

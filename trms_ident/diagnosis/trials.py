@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..log import Log
-from ..model.effects import Candidate
+from ..model.effects import SENSOR_LAG, Candidate
 from ..numerics import safe
 from . import oe
 from .model import Model, regression
@@ -112,7 +112,15 @@ def _try(c, log, p, law, a, current, cache, ids, score_now, n_tests, span: GridS
             gains.append(compare(on.score_now, sc, reg, axes_c, n_tests).gain)
         i = int(np.argmax(gains))
         reg = sc = None
-        return _at_value(c, _refine(grid, gains, i), log, p, law, a, current, cache, ids, score_now, n_tests)
+        value = _refine(grid, gains, i)
+        if span is not None and c.key == SENSOR_LAG:  # tested on the head first: a lag's regression of the whole
+            # log is the de-lagged log's own columns beside the log's (measured: +440 MB on an hour at 1 kHz)
+            res = _at_value(c, value, span.log, p, law, a, current, span.cache, span.ids, span.score_now, n_tests)
+            if not res["test"].passed:
+                res["reg"] = None  # the head's columns: never mixed with the whole log's
+                return res
+            res = None
+        return _at_value(c, value, log, p, law, a, current, cache, ids, score_now, n_tests)
     if c.effect in EXACT_OFFSETS and value != 0.0:
         reg = sc = None
         model, reg, sc, value = _exact_offset(c, value, log, p, law, a, current, cache, ids, score_now, n_tests)
