@@ -91,11 +91,13 @@ def sentence(h: dict | None, findings: bool) -> str:
 LOWERED_BY_PERCENT = 0.1
 
 
-def lowered(h: dict | None, axes=("pitch", "yaw"), margin_percent: float = LOWERED_BY_PERCENT) -> list[str]:
-    """The axes whose held-out fit the findings lower (by more than ``margin_percent``); none when the findings'
-    model's fit on a half did not converge (its held-out simulation is then no measure of the model: measured,
-    a true 0.1 s acquisition lag whose fit on the second half of a mid-run steps log ran off to J1 2.6x)."""
-    if not h or h["after"] is None or h.get("converged", {}).get("after") is False:
+def lowered(h: dict | None, axes=("pitch", "yaw"), margin_percent: float = LOWERED_BY_PERCENT,
+            converged_only: bool = False) -> list[str]:
+    """The axes whose held-out fit the findings lower (by more than ``margin_percent``); with ``converged_only``
+    none when the findings' model's fit on a half did not converge (the gate: its held-out simulation is then no
+    measure of the model to refuse it by; measured, a true 0.1 s acquisition lag whose fit on the second half of a
+    mid-run steps log ran off to J1 2.6x).  The caution says it either way."""
+    if not h or h["after"] is None or (converged_only and h.get("converged", {}).get("after") is False):
         return []
     return [a for a in axes if np.isfinite(h["before"][a]) and not h["after"][a] >= h["before"][a] - margin_percent]
 
@@ -104,7 +106,7 @@ def lowering(findings, h: dict | None) -> list[dict]:
     """The effect findings that act on an axis whose held-out fit the findings lower (lowered): each as a refusal
     {"key", "effect", "axis", "parameter", "reason"}.  Known values are left to the caution: they are eq. (1)'s
     own terms, weighed by their own rule (weigh.py)."""
-    worse = set(lowered(h))
+    worse = set(lowered(h, converged_only=True))
     if not worse:
         return []
     told = ", ".join(f"{a} {h['before'][a]:.1f} % -> {h['after'][a]:.1f} %" for a in sorted(worse))
