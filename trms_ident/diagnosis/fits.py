@@ -15,7 +15,7 @@ import numpy as np
 
 from ..log import Log
 from . import oe
-from ..model.effects import SENSOR_LAG
+from ..model.effects import SENSOR_LAG, angle_lag
 from .model import AXIS_ANGLE, Model, modified_inputs, observed_log, restart_velocity, smoothed_velocity
 from .predict import HORIZON_S, nrmse_fit, predict_fitted_start
 
@@ -99,6 +99,7 @@ def prediction_fits(log: Log, p: dict, law: str, model: Model, values: dict, est
     from ..numerics.fused import plant_signals
 
     lag = dict(model.mods).get(SENSOR_LAG)
+    logged = log
     if lag is not None:
         log = observed_log(log, lag)
         model = Model(tuple((k, v) for k, v in model.mods if k != SENSOR_LAG), model.linear)
@@ -147,5 +148,7 @@ def prediction_fits(log: Log, p: dict, law: str, model: Model, values: dict, est
         ys = [predicted(axis) for axis in axes]
     preds = dict(zip(axes, ys))
     fits = {axis: nrmse_fit(getattr(log, AXIS_ANGLE[axis]), preds[axis]) for axis in axes}
+    if lag is not None:  # drawn beside the logged angles: as the acquisition chain logs them
+        preds = {axis: angle_lag(preds[axis], lag, dt, first=getattr(logged, AXIS_ANGLE[axis])[0]) for axis in axes}
     return fits, preds
 
