@@ -49,12 +49,10 @@ def _alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache
     close ones become alternatives (beside look-alikes the fit cannot carry), the rest are told apart.
     ``partners``: equation-error results fitted as rivals whatever their gain (TIMING_PAIR).  (best,
     alternatives, what told them apart or None); unchanged when no rival passes or the fit cannot decide."""
-    pool_in = list(ok) + [r for r in partners if all(r is not q for q in ok)]
-    rivals = sorted((r for r in pool_in if r is not best and oe.fittable(r["c"].key) and
-                     (r["test"].gain >= ALIAS_GAIN_RATIO * best["test"].gain or any(r is q for q in partners))),
-                    key=lambda r: -r["test"].gain)
-    forced = [r for r in rivals if any(r is q for q in partners)]
-    rivals = forced + [r for r in rivals if all(r is not q for q in forced)]  # a partner is always fitted
+    forced = [r for r in partners if r is not best and oe.fittable(r["c"].key)]  # always among those fitted
+    rivals = forced + sorted((r for r in ok if r is not best and all(r is not q for q in forced) and
+                              oe.fittable(r["c"].key) and r["test"].gain >= ALIAS_GAIN_RATIO * best["test"].gain),
+                             key=lambda r: -r["test"].gain)
     if not oe.fittable(best["c"].key) or not rivals or not oe.representable(current):
         return best, alts, None
     pool = [best] + rivals[:OE_TOP_K]

@@ -49,12 +49,19 @@ class Regression:
     names: dict[str, list[str]] = field(default_factory=dict)
 
 
-def smoothed_velocity(x: np.ndarray, dt: float) -> np.ndarray:
-    """Zero-phase low-passed central difference [rad/s] (offline: the diagnosis may look ahead)."""
-    v = np.gradient(x, dt)
+def _low_passed(x: np.ndarray, dt: float) -> np.ndarray:
+    """x through the candidates' zero-phase low-pass (second-order Butterworth at min(8 Hz, 0.2 / dt), forwards
+    and back: offline, the diagnosis may look ahead); x itself when too short to filter."""
+    if x.size <= 12:
+        return x
     fc = min(8.0, 0.2 / dt)  # Hz
     b, a = signal.butter(2, fc * 2 * dt)
-    return signal.filtfilt(b, a, v) if x.size > 12 else v
+    return signal.filtfilt(b, a, x)
+
+
+def smoothed_velocity(x: np.ndarray, dt: float) -> np.ndarray:
+    """Zero-phase low-passed central difference [rad/s] (_low_passed)."""
+    return _low_passed(np.gradient(x, dt), dt)
 
 
 def restart_velocity(x: np.ndarray, dt: float, window_s: float = 0.25) -> np.ndarray:
@@ -92,10 +99,8 @@ def observed_log(log: Log, lag_s: float, cache: dict | None = None) -> Log:
 
 
 def smoothed_angle(x: np.ndarray, dt: float) -> np.ndarray:
-    """The angle low-passed zero-phase by smoothed_velocity's filter (offline)."""
-    fc = min(8.0, 0.2 / dt)  # Hz
-    b, a = signal.butter(2, fc * 2 * dt)
-    return signal.filtfilt(b, a, x) if x.size > 12 else np.asarray(x, dtype=float)
+    """The angle low-passed zero-phase by smoothed_velocity's filter (_low_passed)."""
+    return _low_passed(np.asarray(x, dtype=float), dt)
 
 
 def _delag_gain(lag_s: float, dt_s: float) -> float:

@@ -119,7 +119,7 @@ def _try(c, log, p, law, a, current, cache, ids, score_now, n_tests, span: GridS
             if not res["test"].passed:
                 res["reg"] = None  # the head's columns: never mixed with the whole log's
                 return res
-            res = None
+            res = None  # the head's columns go before the whole log's are built
         return _at_value(c, value, log, p, law, a, current, cache, ids, score_now, n_tests)
     if c.effect in EXACT_OFFSETS and value != 0.0:
         reg = sc = None
