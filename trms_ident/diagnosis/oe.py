@@ -272,12 +272,16 @@ class Fitter:
         self._answers: dict = {}
 
     def _fit(self, model: Model, values: dict, theta0: dict, extra_key: str | None, mods: dict | None = None,
-             max_iterations: int | None = None, span: tuple[int, int] | None = None, hold: bool = False):
+             max_iterations: int | None = None, span: tuple[int, int] | None = None, hold: bool = False,
+             start: dict | None = None):
         """The refinement of the log's first n samples with the model's torque effects (linear ones and the
         centre-of-mass offset, all free) and, when given, ``extra_key`` free from 0; the voltages go through the
         model's input modifications at their values, ``mods`` (key -> value) added or replacing them (fixed).
         ``span``: samples i0 to i1 - 1 of those instead; ``hold``: J/B and the torque effects stay at theta0 and
-        ``values`` (the offsets at ``values``' too, when there), only the start states are fitted."""
+        ``values`` (the offsets at ``values``' too, when there), only the start states are fitted.  ``start``: where
+        the start states begin (a fit's ``start_states``, e.g. the current model's when a candidate goes on from its
+        J/B; default: the motors' steady state for the first voltages, refine's, which a log cut mid-run can be far
+        from: measured, a 30 s cut steps log restarted from the current model's J/B there stayed at 180x its error)."""
         n, log = self.n, self.log
         effects = {k: values[k] for k in model.linear}
         effects.update({k: values.get(k, v) if hold else v for k, v in model.mods if k in OFFSETS})
@@ -306,7 +310,7 @@ class Fitter:
                                                  self._signals if lag is None else {})[k]
             torques[k] = self._torques[ck]
         r = oe_refine(u1, u2, part.alpha_rad, part.beta_rad, log.sample_time_s, p, self.law, theta0,
-                      noise, free=free, effects=effects, torques=torques or None, hold=hold, **kw)
+                      noise, free=free, effects=effects, torques=torques or None, hold=hold, start_states0=start, **kw)
         return r if lag is None else self._lagged(r, measured, lag)
 
     def _lagged(self, r, measured: Log, lag: float):
@@ -416,7 +420,7 @@ class Fitter:
         r = self.base(model, values, theta0)
         if r is not None and not r.converged:  # out of iterations (a crawl from far-off J/B): go on from there
             try:
-                again = self._fit(model, values, dict(r.estimate), None)
+                again = self._fit(model, values, dict(r.estimate), None, start=r.start_states)
                 r = again if again.cost < r.cost else r
             except _FAILED:
                 pass
@@ -441,7 +445,7 @@ class Fitter:
         if base is None or not base.converged:
             return None
         try:  # from the current model's fit: Gauss-Newton then starts next to the answer
-            r = self._fit(model, values, base.estimate, key)
+            r = self._fit(model, values, base.estimate, key, start=base.start_states)
         except _FAILED:
             return None
         if not r.converged:
@@ -483,7 +487,8 @@ class Fitter:
         def at(v: float):
             if v not in tried:
                 try:
-                    r = self._fit(model, values, base.estimate, None, {key: v}, PROFILE_ITERATIONS)
+                    r = self._fit(model, values, base.estimate, None, {key: v}, PROFILE_ITERATIONS,
+                                  start=base.start_states)
                     tried[v] = ((r.cost, self._block_costs(r.prediction, base.prediction), r.rms_rad, r.estimate,
                                  motor_start(r))
                                 if math.isfinite(r.cost) else None)  # not the fit itself (memory on long logs)
@@ -505,7 +510,8 @@ class Fitter:
             at(vs[0] / ratio if j == 0 else vs[-1] * ratio)
         if cost(min(tried, key=cost)) > PROFILE_SCAN_OVER_FLOOR * 2.0 * self.n:  # far from the noise: rugged?
             ratio = min(ratio, PROFILE_SCAN_RATIO)
-            for v in sorted(self._screen(model, values, base.estimate, key, g[0], g[-1], ratio))[:PROFILE_SCAN_KEEP]:
+            for v in sorted(self._screen(model, values, base.estimate, key, g[0], g[-1], ratio,
+                                         base.start_states))[:PROFILE_SCAN_KEEP]:
                 at(v[1])
         for _ in range(PROFILE_BISECTIONS):
             ratio = math.sqrt(ratio)
@@ -563,14 +569,14 @@ class Fitter:
             return math.inf
         return float(above.min() - below.max()) / math.sqrt(12.0)
 
-    def _screen(self, model: Model, values: dict, theta0: dict, key: str, lo: float, hi: float, ratio: float
-                ) -> list[tuple[float, float]]:
+    def _screen(self, model: Model, values: dict, theta0: dict, key: str, lo: float, hi: float, ratio: float,
+                start: dict | None = None) -> list[tuple[float, float]]:
         """(cost after PROFILE_SCAN_ITERATIONS steps, value) for input modification ``key`` at values from lo to
         hi spaced by ``ratio`` (geometric); failed fits left out."""
         out = []
         for v in np.geomspace(lo, hi, int(math.ceil(math.log(hi / lo) / math.log(ratio))) + 1):
             try:
-                r = self._fit(model, values, theta0, None, {key: float(v)}, PROFILE_SCAN_ITERATIONS)
+                r = self._fit(model, values, theta0, None, {key: float(v)}, PROFILE_SCAN_ITERATIONS, start=start)
             except _FAILED:
                 continue
             if math.isfinite(r.cost):
