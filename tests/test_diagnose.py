@@ -805,3 +805,28 @@ def test_the_rescue_fits_candidates_on_an_axis_left_above_its_floor_first():
     assert judge._misfit_axes(Checked({"alpha": 1.3, "beta": 1.1}), None, {}, {}) == {"pitch"}
     assert judge._misfit_axes(Checked({"alpha": math.nan, "beta": 1.0}), None, {}, {}) == {"pitch"}
     assert judge._misfit_axes(Checked(None), None, {}, {}) == {"pitch", "yaw"}  # the fit cannot say
+
+
+def test_a_profile_on_a_log_cut_mid_run_starts_where_the_current_models_fit_did():
+    # the profile's fits go on from the current model's J/B and its start states: restarted at the motors'
+    # steady state, the fits of a steps log cut 30 s in stayed at ~1e6x the noise floor at every delay but one
+    # and the 0.08 s delay's profile ran off to 0.176 s (power benchmark, seed 5093)
+    from sim import SimSettings, simulate
+    from trms_ident.diagnosis.model import Model
+    from trms_ident.diagnosis.trials import _grid
+    from trms_ident.model.effects import BY_KEY
+    from trms_ident.params import defaults
+
+    p = defaults()
+    theta0 = {k: p[k] for k in ("J1", "B1", "J2", "B2")}
+    key = "input_delay:both"
+    log = as_log(simulate(SimSettings(ref="steps", sample_rate_hz=250.0, duration_s=90.0, noise_std_rad=1e-3,
+                                      seed=5093, start_s=30.0,
+                                      effects=[dict(effect="input_delay", axis="both", value=0.08)])))
+    fitter = oe.Fitter(log, p, "quadratic")
+    f = fitter.profile(Model(), {}, theta0, key, _grid(BY_KEY[key], log, p), 0.06)
+    assert f.value == pytest.approx(0.08, rel=0.02)
+    assert oe.passes(f, 24, 0.05) and f.excess_share > 0.99
+    base = fitter.base(Model(), {}, theta0)
+    at_truth = fitter._fit(Model(), {}, base.estimate, None, {key: 0.08}, start=base.start_states)
+    assert at_truth.cost < 1.1 * 2 * fitter.n  # the true delay fits to the noise floor from there
