@@ -8,6 +8,8 @@ from __future__ import annotations
 import numpy as np
 
 REFERENCES = ("square", "sine", "multisine", "steps", "chirp")
+#: the reference read from a table (a file: ``trms-ident simulate --ref-file``), not one of the built-in shapes
+TABLE = "file"
 
 
 def reference(name: str, t_s: np.ndarray, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -42,3 +44,15 @@ def reference(name: str, t_s: np.ndarray, seed: int = 0) -> tuple[np.ndarray, np
         phase = 2 * np.pi * f0 * (np.exp(k * tau) - 1) / k
         return 0.45 * ramp * np.sin(phase), 0.35 * ramp * np.sin(phase + 0.7)
     raise ValueError(f"unknown reference {name!r}; expected one of {', '.join(REFERENCES)}")
+
+
+def tabulated(table: tuple, t_s: np.ndarray, slack_s: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """(alpha_ref, beta_ref) in rad at times ``t_s`` from ``table`` = (times [s], alpha_ref [rad], beta_ref [rad]),
+    linear between its rows; a time more than ``slack_s`` past its end (jittered stamps) is an error, never an
+    extrapolation (within the slack the last row holds)."""
+    tt, a, b = (np.asarray(x, dtype=float) for x in table)
+    t = np.asarray(t_s, dtype=float)
+    if t.size and (t[0] < tt[0] or t[-1] > tt[-1] + slack_s + 1e-9 * max(1.0, abs(tt[-1]))):
+        raise ValueError(f"the reference table covers {tt[0]:.6g} to {tt[-1]:.6g} s; the run needs "
+                         f"{t[0]:.6g} to {t[-1]:.6g} s")
+    return np.interp(t, tt, a), np.interp(t, tt, b)

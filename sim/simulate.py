@@ -10,7 +10,7 @@ from trms_ident.params import THRUST_LAWS, merge
 
 from . import effects as fx
 from .plant import PARAM_ORDER, closed_loop
-from .references import REFERENCES, reference
+from .references import REFERENCES, TABLE, reference, tabulated
 
 #: PID (eq. 9) gains per axis [V/rad, V/(rad s), V s/rad] and derivative filter [s].
 #: The paper prints no usable values; these place the linearised closed-loop poles at
@@ -40,9 +40,16 @@ class SimSettings:
     overrides: dict = field(default_factory=dict)
     effects: list = field(default_factory=list)
     pid: dict = field(default_factory=lambda: dict(DEFAULT_PID))
+    #: with ref "file": (times [s] from 0, alpha_ref [rad], beta_ref [rad]), e.g. a design's references
+    ref_table: tuple | None = None
 
     def validate(self) -> None:
-        if self.ref not in REFERENCES:
+        if self.ref == TABLE:
+            if self.ref_table is None:
+                raise ValueError(f"reference {TABLE!r} needs ref_table (times, alpha_ref, beta_ref)")
+        elif self.ref_table is not None:
+            raise ValueError(f"ref_table is given, so the reference must be {TABLE!r}, not {self.ref!r}")
+        elif self.ref not in REFERENCES:
             raise ValueError(f"unknown reference {self.ref!r}; expected one of {', '.join(REFERENCES)}")
         if self.thrust_law not in THRUST_LAWS:
             raise ValueError(f"unknown thrust law {self.thrust_law!r}; expected one of {', '.join(THRUST_LAWS)}")
@@ -76,7 +83,12 @@ class SimResult:
 
 def simulate(settings: SimSettings) -> SimResult:
     settings.validate()
-    duration = settings.duration_s or DEFAULT_DURATION_S[settings.ref]
+    table = settings.ref_table
+    duration = settings.duration_s or (float(table[0][-1]) - settings.start_s if table is not None
+                                       else DEFAULT_DURATION_S[settings.ref])
+    if not duration > 0:
+        raise ValueError(f"the reference table ends at {float(table[0][-1]):.6g} s, before the log's start "
+                         f"{settings.start_s:.6g} s")
     fs = settings.sample_rate_hz
     skip = int(round(settings.start_s * fs))
     n = int(round(duration * fs)) + 1 + skip
@@ -88,7 +100,10 @@ def simulate(settings: SimSettings) -> SimResult:
         if spec["effect"] == "motor_lag":
             params["T11" if spec.get("axis", "pitch") == "pitch" else "T21"] = float(spec["value"])
     effect_vec = np.array(fx.pack(settings.effects), dtype=float)
-    aref, bref = reference(settings.ref, t, settings.seed)
+    if table is not None:  # jittered stamps may run past the table's end by at most jitter x the run's length
+        aref, bref = tabulated(table, t, settings.jitter * (duration + settings.start_s))
+    else:
+        aref, bref = reference(settings.ref, t, settings.seed)
     rng = np.random.default_rng(settings.seed)
     noise = rng.standard_normal((2, n)) * settings.noise_std_rad
     pid = {**DEFAULT_PID, **settings.pid}
@@ -106,7 +121,9 @@ def simulate(settings: SimSettings) -> SimResult:
         "generator": "trms-ident simulator (sim/)",
         "parameters": params,
         "estimated": {k: params[k] for k in ("J1", "B1", "J2", "B2")},
-        "settings": {**asdict(settings), "duration_s": duration, "pid": pid},
+        "settings": {**asdict(settings), "duration_s": duration, "pid": pid,
+                     "ref_table": None if table is None else {"rows": int(np.size(table[0])),
+                                                              "end_s": float(table[0][-1])}},
         "samples": n - skip,
     }
     cut = slice(skip, None)  # a log cut from the middle of a run keeps the run's own clock

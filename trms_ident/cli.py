@@ -550,7 +550,12 @@ def parse_effect(text: str) -> dict:
 @app.command(short_help="Simulate the bench in closed loop; write a log and its ground truth.")
 @handled
 def simulate(
-    ref: Annotated[str, typer.Option(help="Reference: square, sine (the paper's), multisine, steps, chirp.")] = "square",
+    ref: Annotated[Optional[str], typer.Option(help="Reference: square (default), sine (the paper's), multisine, "
+                                               "steps, chirp.")] = None,
+    ref_file: Annotated[Optional[Path], typer.Option("--ref-file", help="Reference from a CSV file with columns t, "
+                                                     "alpha_ref, beta_ref [s, rad], times from 0 (what trms-ident "
+                                                     "design writes); the run lasts as long as the file unless "
+                                                     "--duration is given.")] = None,
     output: Annotated[Optional[Path], typer.Option("--output", "-o", help="Log to write [default: sim_<ref>.csv or "
                                                    ".mcap]; the truth goes beside it as <name>.truth.json.")] = None,
     fmt: Annotated[str, typer.Option("--format", help="csv, mcap (ROS 2 CDR) or mcap-json.")] = "csv",
@@ -580,6 +585,16 @@ def simulate(
     from .io.csv_log import truth_path, write_csv_log
 
     formats = {"csv": ".csv", "mcap": ".mcap", "mcap-json": ".mcap"}
+    table = None
+    if ref_file is not None:
+        from .io.reference import read_reference
+        from sim.references import TABLE
+
+        if ref is not None:
+            raise SettingsError(f"--ref {ref} and --ref-file {ref_file}: give one reference, not both")
+        table = read_reference(ref_file)
+        ref = TABLE
+    ref = ref or "square"
     if fmt not in formats:
         raise SettingsError(f"--format {fmt!r}: expected one of {', '.join(formats)}")
     if encoder_bits is not None:
@@ -591,11 +606,16 @@ def simulate(
                    overrides=load_parameter_file(params, allow_estimated=True) if params else {},
                    effects=[parse_effect(e) for e in effect or []], jitter=jitter, start_s=start,
                    voltage_offset=voltage_offset)
+    if table is not None:
+        options["ref_table"] = (table.t_s, table.alpha_ref_rad, table.beta_ref_rad)
     try:
         result = run_sim(ref, **options)
     except ValueError as exc:
-        raise SettingsError(str(exc)) from None
-    path = output or Path(f"sim_{ref}{formats[fmt]}")
+        where = f"--ref-file {ref_file}: " if table is not None and "reference table" in str(exc) else ""
+        raise SettingsError(where + str(exc)) from None
+    if table is not None:  # the file itself is not copied into the truth: its name and checksum are
+        result.truth["reference_file"] = {"path": table.source, "sha256": table.sha256}
+    path = output or Path(f"sim_{ref_file.stem if table is not None else ref}{formats[fmt]}")
     if path.suffix.lower() != formats[fmt]:
         raise SettingsError(f"--output {path}: expected a {formats[fmt]} file name for --format {fmt}")
     columns = (result.t_s, result.u1_v, result.u2_v, result.alpha_rad, result.beta_rad)
