@@ -1,0 +1,41 @@
+"""Predicted precision of J1, B1, J2, B2 for a run that has not been recorded yet (the core of issue #35's
+experiment design).
+
+The output-error estimate (numerics/refine.py) fits J/B, the motors' start states and each window's angles and
+rates to the logged angles, given the logged voltages.  Given the voltages and angles a run would produce (the
+closed-loop simulator's, noise-free) and the angles' noise standard deviation, its Fisher information is the
+refinement's own normal matrix at the true values: the noise-weighted Gauss-Newton matrix with the windows'
+starts eliminated (refine._schur).  Its inverse is the covariance an unbiased estimate reaches when the errors
+are white at that standard deviation (Cramer-Rao); the closed loop enters through the voltages, which the
+estimate takes as given.  Pure numerics: no I/O.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .refine import NAMES, _scaled_inverse, _schur
+from .refine import refine as oe_refine
+
+#: two-sided 95 % normal quantile
+Z95 = 1.959963984540054
+
+
+def predicted_precision(u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_rad: np.ndarray,
+                        dt_s: float, params: dict, law: str, noise_rad: dict) -> dict:
+    """J1, B1, J2, B2 -> {"se", "half_width" (95 %), "relative" (half-width over the value)} for a run with these
+    voltages [V] and noise-free angles [rad] at uniform steps ``dt_s`` [s], the bench ``params`` (J/B and the
+    known values of eq. (1)), ``noise_rad`` = {"alpha": sd, "beta": sd} [rad] of the logged angles' white noise
+    (an encoder quantum q: q / sqrt(12))."""
+    theta = {k: float(params[k]) for k in NAMES}
+    r = oe_refine(u1_v, u2_v, alpha_rad, beta_rad, dt_s, params, law, theta, noise_rad, max_iterations=0)
+    fit = r.fit
+    ng = fit.a.shape[1] - 4  # the globals: J/B and the motors' start states (refine's NG)
+    s_mat, _, _ = _schur(fit.a, fit.b, ng)
+    cov = _scaled_inverse(s_mat)
+    out = {}
+    for i, k in enumerate(NAMES):
+        se = math.sqrt(max(float(cov[i, i]), 0.0))
+        out[k] = {"se": se, "half_width": Z95 * se, "relative": Z95 * se / abs(theta[k])}
+    return out
