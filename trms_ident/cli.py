@@ -631,6 +631,140 @@ def simulate(
         + (f", stamps from {t0:.6g} s into the run" if t0 else "") + f") and {truth_path(path)}")
 
 
+@app.command(short_help="Plan the next experiment: references that keep the bench within its limits and make "
+                        "J/B as precise as they can be.")
+@handled
+def design(
+    duration: Annotated[float, typer.Option(help="Length of the run [s].")] = 60.0,
+    rate: Annotated[float, typer.Option("--rate", help="Sample rate of the controller and the log [Hz].")] = 1000.0,
+    encoder_bits: Annotated[Optional[int], typer.Option(help="Encoder resolution: noise sd = (2 pi / 2^bits) / "
+                                                        "sqrt(12) [default: 12].")] = None,
+    noise_std: Annotated[Optional[float], typer.Option("--noise-std", help="Gaussian noise of the logged angles, "
+                                                       "standard deviation [rad] (instead of --encoder-bits).")] = None,
+    params: ParamsOpt = None,
+    controller: Annotated[Optional[Path], typer.Option("--controller", help="TOML file with a [controller] table: "
+                                                       "Kp1, Ki1, Kd1, Kp2, Ki2, Kd2, Tf and u_limit [V] (default: "
+                                                       "the simulator's PID, 2.5 V).")] = None,
+    pitch_limit: Annotated[float, typer.Option("--pitch-limit", help="Largest |pitch| the run may reach [rad].")] = 1.0,
+    yaw_limit: Annotated[float, typer.Option("--yaw-limit", help="Largest |yaw| the run may reach [rad] (the "
+                                             "cable).")] = 3.0,
+    max_saturated: Annotated[float, typer.Option("--max-saturated", help="Largest share of samples with a motor "
+                                                 "voltage at its limit (0..1).")] = 0.05,
+    max_ref_rate: Annotated[Optional[float], typer.Option("--max-ref-rate", help="Largest rate of either reference "
+                                                          "[rad/s] (default: none).")] = None,
+    objective: Annotated[str, typer.Option(help="worst: the largest relative 95 % half-width of J1, B1, J2, B2 "
+                                           "(E-optimal); d: the determinant of their relative covariance.")] = "worst",
+    thrust_law: LawOpt = "quadratic",
+    output: Annotated[Path, typer.Option("--output", "-o", help="References to write: CSV with t, alpha_ref, beta_ref "
+                                         "[s, rad] (run it first with simulate --ref-file).")] = Path("design.csv"),
+    json_path: Annotated[Optional[str], typer.Option("--json", help="Write the design's JSON here; '-' = "
+                                                     "stdout.")] = None,
+) -> None:
+    """Plan the next experiment: multisine references for the lab's closed loop that keep the limits and make
+    J1, B1, J2, B2 as precise as they can be, predicted from the model beside the paper's square reference."""
+    import dataclasses
+    import tomllib
+
+    from . import design as planner
+    from .io.atomic import write_text
+    from .params import merge
+
+    if not duration > 0 or not rate > 0:
+        raise SettingsError(f"--duration {duration:g} and --rate {rate:g}: both must be > 0")
+    if duration * rate < 100:
+        raise SettingsError(f"--duration {duration:g} s at --rate {rate:g} Hz is {duration * rate:.0f} samples; "
+                            "expected at least 100")
+    if output.suffix.lower() != ".csv":
+        raise SettingsError(f"--output {output}: expected a .csv file name (t, alpha_ref, beta_ref)")
+    if noise_std is not None and encoder_bits is not None:
+        raise SettingsError("--noise-std and --encoder-bits: give one noise, not both")
+    if noise_std is not None and not noise_std > 0:
+        raise SettingsError(f"--noise-std {noise_std:g}: expected > 0 [rad]")
+    if encoder_bits is not None and not 1 <= encoder_bits <= 32:
+        raise SettingsError(f"--encoder-bits {encoder_bits}: expected 1..32")
+    sd = noise_std if noise_std is not None else 2 * math.pi / 2 ** (encoder_bits or 12) / math.sqrt(12.0)
+    for name, v in (("--pitch-limit", pitch_limit), ("--yaw-limit", yaw_limit)):
+        if not v > 0:
+            raise SettingsError(f"{name} {v:g}: expected > 0 [rad] (a limit that excludes zero leaves no run)")
+    if not 0 <= max_saturated <= 1:
+        raise SettingsError(f"--max-saturated {max_saturated:g}: expected a share in 0..1")
+    if max_ref_rate is not None and not max_ref_rate > 0:
+        raise SettingsError(f"--max-ref-rate {max_ref_rate:g}: expected > 0 [rad/s]")
+    if objective not in planner.OBJECTIVES:
+        raise SettingsError(f"--objective {objective!r}: expected one of {', '.join(planner.OBJECTIVES)}")
+    if thrust_law not in THRUST_LAWS:
+        raise SettingsError(f"thrust law must be one of {tuple(THRUST_LAWS)}, got {thrust_law!r}")
+    from sim.simulate import DEFAULT_PID
+
+    pid, u_limit = dict(DEFAULT_PID), 2.5
+    if controller is not None:
+        from .errors import InputNotFoundError, ParameterFileError
+
+        if not controller.is_file():
+            raise InputNotFoundError(f"{controller}: no such file")
+        try:
+            pid, u_limit = planner.controller_from(tomllib.loads(controller.read_text(encoding="utf-8")),
+                                                   str(controller))
+        except tomllib.TOMLDecodeError as exc:
+            raise ParameterFileError(f"{controller}: not TOML ({exc})") from None
+        except ValueError as exc:
+            raise ParameterFileError(str(exc)) from None
+    p = merge(load_parameter_file(params, allow_estimated=True) if params else {}, source="parameter overrides")
+    limits = planner.Limits(pitch_limit, yaw_limit, max_saturated, max_ref_rate)
+    noise = {"alpha": sd, "beta": sd}
+    with progress_bar("design") as advance:
+        try:
+            d = planner.design(duration, rate, p, thrust_law, noise, pid, u_limit, limits, objective,
+                               progress=(lambda f: advance("simulating candidates", f)) if advance else None)
+        except ValueError as exc:
+            raise SettingsError(str(exc)) from None
+    r = d.run
+    csv = "t,alpha_ref,beta_ref\n" + "".join(f"{t!r},{a!r},{b!r}\n" for t, a, b in
+                                              zip(r.t_s.tolist(), r.alpha_ref_rad.tolist(), r.beta_ref_rad.tolist()))
+    write_text(output, csv)
+    doc = _design_doc(d, p, dict(duration_s=duration, rate_hz=rate, noise_std_rad=sd, encoder_bits=None
+                                 if noise_std is not None else (encoder_bits or 12), params=str(params) if params
+                                 else None, controller=str(controller) if controller else None, pid=pid,
+                                 u_limit_v=u_limit, limits=dataclasses.asdict(limits), objective=objective,
+                                 thrust_law=thrust_law, output=str(output)))
+    say(f"wrote {output} ({r.t_s.size} samples, {duration:g} s at {rate:g} Hz; run it first with trms-ident simulate "
+        f"--ref-file {output})")
+    say(f"  references: pitch multisine peak {d.pitch.peak_rad:.3g} rad up to {d.pitch.band_hz:g} Hz, yaw peak "
+        f"{d.yaw.peak_rad:.3g} rad up to {d.yaw.band_hz:g} Hz ({d.candidates} candidates simulated, {d.feasible} within "
+        "the limits)")
+    say("  predicted 95 % half-width      design      square (the paper's)")
+    for k in ESTIMATED:
+        say(f"    {k:<3}                       {100 * r.precision[k]['relative']:9.3g} %  "
+            f"{100 * d.square.precision[k]['relative']:9.3g} %")
+    e, s = r.envelope, d.square.envelope
+    say(f"  largest |pitch| {e['alpha_rad']:.3g} rad (square {s['alpha_rad']:.3g}), |yaw| {e['beta_rad']:.3g} rad "
+        f"(square {s['beta_rad']:.3g}), time at the voltage limit {100 * e['saturated_share']:.3g} % (square "
+        f"{100 * s['saturated_share']:.3g} %)")
+    if d.square.violations:
+        say("  the square reference breaks the limits: " + "; ".join(d.square.violations))
+    if json_path:
+        emit_json(doc, json_path)
+
+
+def _design_doc(d, p: dict, settings: dict) -> dict:
+    """design's JSON: the predicted precision of the design and of the square reference, their envelopes, the
+    references' multisines and every setting."""
+    import dataclasses
+
+    from .report.summary import versions
+
+    def run_doc(r) -> dict:
+        return {"predicted": {k: {"half_width": v["half_width"], "relative": v["relative"], "se": v["se"]}
+                              for k, v in r.precision.items()},
+                "envelope": r.envelope, "violations": list(r.violations)}
+
+    return {"kind": "trms-ident design", "design": {**run_doc(d.run), "pitch": dataclasses.asdict(d.pitch),
+                                                    "yaw": dataclasses.asdict(d.yaw)},
+            "square": run_doc(d.square), "candidates": d.candidates, "feasible": d.feasible,
+            "parameters": {k: float(v) for k, v in p.items() if isinstance(v, (int, float))},
+            "settings": settings, "versions": versions()}
+
+
 @app.command()
 @handled
 def inspect(

@@ -22,20 +22,32 @@ from .refine import refine as oe_refine
 Z95 = 1.959963984540054
 
 
-def predicted_precision(u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_rad: np.ndarray,
-                        dt_s: float, params: dict, law: str, noise_rad: dict) -> dict:
-    """J1, B1, J2, B2 -> {"se", "half_width" (95 %), "relative" (half-width over the value)} for a run with these
-    voltages [V] and noise-free angles [rad] at uniform steps ``dt_s`` [s], the bench ``params`` (J/B and the
-    known values of eq. (1)), ``noise_rad`` = {"alpha": sd, "beta": sd} [rad] of the logged angles' white noise
-    (an encoder quantum q: q / sqrt(12))."""
+def covariance(u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_rad: np.ndarray, dt_s: float,
+               params: dict, law: str, noise_rad: dict) -> np.ndarray:
+    """(4, 4) the Cramer-Rao covariance of J1, B1, J2, B2 (NAMES' order) for a run with these voltages [V] and
+    noise-free angles [rad] at uniform steps ``dt_s`` [s], the bench ``params`` (J/B and the known values of
+    eq. (1)) and ``noise_rad`` = {"alpha": sd, "beta": sd} [rad], the logged angles' white noise (an encoder
+    quantum q: q / sqrt(12)); the motors' start states and the windows' starts are unknowns beside J/B."""
     theta = {k: float(params[k]) for k in NAMES}
     r = oe_refine(u1_v, u2_v, alpha_rad, beta_rad, dt_s, params, law, theta, noise_rad, max_iterations=0)
     fit = r.fit
     ng = fit.a.shape[1] - 4  # the globals: J/B and the motors' start states (refine's NG)
     s_mat, _, _ = _schur(fit.a, fit.b, ng)
-    cov = _scaled_inverse(s_mat)
+    return _scaled_inverse(s_mat)[:4, :4]
+
+
+def predicted_precision(u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_rad: np.ndarray,
+                        dt_s: float, params: dict, law: str, noise_rad: dict) -> dict:
+    """J1, B1, J2, B2 -> {"se", "half_width" (95 %), "relative" (half-width over the value)}: covariance()'s
+    diagonal (same arguments)."""
+    cov = covariance(u1_v, u2_v, alpha_rad, beta_rad, dt_s, params, law, noise_rad)
+    return precision_of(cov, params)
+
+
+def precision_of(cov: np.ndarray, params: dict) -> dict:
+    """covariance()'s (4, 4) matrix as predicted_precision's dict, relative to ``params``' J/B."""
     out = {}
     for i, k in enumerate(NAMES):
         se = math.sqrt(max(float(cov[i, i]), 0.0))
-        out[k] = {"se": se, "half_width": Z95 * se, "relative": Z95 * se / abs(theta[k])}
+        out[k] = {"se": se, "half_width": Z95 * se, "relative": Z95 * se / abs(float(params[k]))}
     return out

@@ -1,0 +1,88 @@
+"""`trms-ident design` (issue #35, its precision objective): references that keep the bench within the limits,
+their predicted precision against what the simulator and estimate then achieve, and one-line errors."""
+import json
+import math
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from trms_ident import design as planner
+from trms_ident.cli import app
+from trms_ident.errors import EXIT_BAD_PARAMETERS, EXIT_USAGE
+
+runner = CliRunner()
+
+
+def test_multisine_peaks_where_asked_repeats_over_the_run_and_starts_at_rest():
+    t = np.arange(0, 6001) / 100.0
+    y = planner.multisine(t, 60.0, planner.Multisine(0.3, 0.8))
+    assert np.max(np.abs(y)) == pytest.approx(0.3)
+    assert y[0] == 0.0
+    f = planner.frequencies_hz(60.0, 0.8)
+    assert np.allclose(f * 60.0, np.round(f * 60.0)) and f[0] == pytest.approx(2 / 60.0) and f[-1] <= 0.8 + 1e-12
+
+
+def test_a_design_keeps_its_limits_and_estimate_achieves_its_predicted_precision(tmp_path):
+    ref, log, js = tmp_path / "d.csv", tmp_path / "run.csv", tmp_path / "d.json"
+    res = runner.invoke(app, ["design", "--duration", "20", "--rate", "100", "--yaw-limit", "1.0",
+                              "--max-saturated", "0.02", "-o", str(ref), "--json", str(js)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(js.read_text())
+    env = doc["design"]["envelope"]
+    assert env["alpha_rad"] <= 1.0 and env["beta_rad"] <= 1.0 and env["saturated_share"] <= 0.02
+    assert doc["design"]["violations"] == [] and doc["settings"]["limits"]["yaw_rad"] == 1.0
+    assert doc["square"]["violations"]  # the paper's square holds a voltage at its limit most of the time
+    # the design run through the simulator with 12-bit encoders keeps the limits and estimate's intervals are
+    # within 0.5-2x of the predicted ones
+    res = runner.invoke(app, ["simulate", "--ref-file", str(ref), "--rate", "100", "--encoder-bits", "12", "-o",
+                              str(log)])
+    assert res.exit_code == 0, res.output
+    got = np.genfromtxt(log, delimiter=",", names=True)
+    assert np.max(np.abs(got["beta"])) <= 1.0 + 2e-3 and np.max(np.abs(got["alpha"])) <= 1.0
+    res = runner.invoke(app, ["estimate", str(log), "--no-report", "--json", str(tmp_path / "e.json")])
+    assert res.exit_code == 0, res.output
+    est = json.loads((tmp_path / "e.json").read_text())
+    for k in ("J1", "B1", "J2", "B2"):
+        lo, hi = est["ci95"][k]
+        ratio = (hi - lo) / 2 / doc["design"]["predicted"][k]["half_width"]
+        assert 0.5 <= ratio <= 2.0, (k, ratio)
+
+
+@pytest.mark.parametrize("args, code, message", [
+    (["--duration", "-5"], EXIT_USAGE, "--duration -5 and --rate 100: both must be > 0"),
+    (["--pitch-limit", "0"], EXIT_USAGE, "--pitch-limit 0: expected > 0 [rad] (a limit that excludes zero"),
+    (["--max-saturated", "1.5"], EXIT_USAGE, "--max-saturated 1.5: expected a share in 0..1"),
+    (["--objective", "a"], EXIT_USAGE, "--objective 'a': expected one of worst, d"),
+    (["--noise-std", "1e-3", "--encoder-bits", "12"], EXIT_USAGE, "give one noise, not both"),
+    (["-o", "d.mat"], EXIT_USAGE, "expected a .csv file name"),
+])
+def test_bad_design_options_are_one_line_errors(tmp_path, args, code, message):
+    res = runner.invoke(app, ["design", "--duration", "10", "--rate", "100", "-o", str(tmp_path / "d.csv"), *args])
+    assert res.exit_code == code and message in res.output and "Traceback" not in res.output
+    assert len(res.output.strip().splitlines()) == 1
+
+
+def test_a_controller_file_without_a_gain_names_it(tmp_path):
+    c = tmp_path / "pid.toml"
+    c.write_text("[controller]\nKp1 = 1.0\nKi1 = 2.0\nKd1 = 4.0\nKp2 = 3.5\nKi2 = 1.25\nTf = 0.02\nu_limit = 2.5\n")
+    res = runner.invoke(app, ["design", "--duration", "10", "--rate", "100", "--controller", str(c), "-o",
+                              str(tmp_path / "d.csv")])
+    assert res.exit_code == EXIT_BAD_PARAMETERS
+    assert f"{c}: [controller] lacks Kd2" in res.output and not (tmp_path / "d.csv").exists()
+
+
+def test_limits_no_reference_can_keep_are_said_with_what_the_gentlest_breaks(tmp_path):
+    res = runner.invoke(app, ["design", "--duration", "10", "--rate", "100", "--max-ref-rate", "1e-4", "-o",
+                              str(tmp_path / "d.csv")])
+    assert res.exit_code == EXIT_USAGE
+    assert "no reference of the family keeps the limits" in res.output and "the reference moves at" in res.output
+    assert not (tmp_path / "d.csv").exists()
+
+
+def test_a_controller_is_read_from_its_table():
+    pid, u = planner.controller_from({"controller": {"Kp1": 1, "Ki1": 2, "Kd1": 4, "Kp2": 3.5, "Ki2": 1.25,
+                                                     "Kd2": 2.2, "Tf": 0.02, "u_limit": 2.0}}, "pid.toml")
+    assert u == 2.0 and pid["Kd2"] == 2.2 and math.isclose(pid["Tf"], 0.02)
+    with pytest.raises(ValueError, match="no \\[controller\\] table"):
+        planner.controller_from({}, "pid.toml")

@@ -1,0 +1,238 @@
+"""The next experiment, planned from the model (issue #35, precision objective): references for the lab's closed
+loop that keep the bench within its limits and make J1, B1, J2, B2 as precise as they can be.
+
+The family: one multisine per axis (numerics only, no I/O).  Each axis' reference is a sum of N_FREQUENCIES sines
+at frequencies that repeat exactly over the run (multiples of 1 / duration), log-spaced from the lowest that
+fits twice into the run up to the axis' band edge, amplitudes falling as 1 / sqrt(f) (as the simulator's
+multisine) and Schroeder phases (a low crest factor: the most excitation for a given peak), scaled to a chosen
+peak [rad] and faded in over RAMP_S.  The search: a grid over the two peaks and the two band edges, then the
+best feasible point's peaks refined; a candidate is judged by simulating the closed loop (sim/: eq. (1), the
+PID of eq. (9) with the lab's gains and voltage limit) noise-free and taking the Cramer-Rao covariance of the
+output-error estimate for that run (numerics/fisher.py).  A candidate that breaks a limit (an angle past its
+range, too much time at the voltage limit, a reference faster than allowed) is never chosen.
+
+Objectives: "worst" (E-optimal on the relative scale: the largest relative 95 % half-width of J1, B1, J2, B2)
+or "d" (D-optimal: the determinant of the relative covariance).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .numerics.fisher import covariance, precision_of
+from .numerics.refine import NAMES
+
+#: sines per axis
+N_FREQUENCIES = 8
+#: the references fade in over this long [s] (the run starts from rest)
+RAMP_S = 2.0
+#: band edges tried per axis [Hz] (the highest frequency of its multisine)
+BAND_EDGES_HZ = (0.3, 0.8, 2.0)
+#: peaks tried per axis: this many, log-spaced from LOWEST_PEAK of the axis' range up to its range
+PEAK_STEPS = 6
+LOWEST_PEAK = 0.05
+#: rounds of the peaks' refinement around the grid's best (each tries each peak times and over REFINE_RATIO)
+REFINE_ROUNDS = 3
+REFINE_RATIO = 1.15
+OBJECTIVES = ("worst", "d")
+
+
+@dataclass(frozen=True)
+class Limits:
+    """What the design must keep: the angles' ranges [rad] (yaw: the cable), the share of samples with a motor
+    voltage at the controller's limit, and the references' largest rate [rad/s] (None: no limit)."""
+
+    pitch_rad: float = 1.0
+    yaw_rad: float = 3.0
+    saturated_share: float = 0.05
+    ref_rate_rad_s: float | None = None
+
+
+@dataclass(frozen=True)
+class Multisine:
+    """One axis' reference: its peak [rad] and band edge [Hz]."""
+
+    peak_rad: float
+    band_hz: float
+
+
+@dataclass
+class Run:
+    """A reference pair simulated in the closed loop: what it would log and how precise J/B would be."""
+
+    t_s: np.ndarray
+    alpha_ref_rad: np.ndarray
+    beta_ref_rad: np.ndarray
+    u1_v: np.ndarray
+    u2_v: np.ndarray
+    alpha_rad: np.ndarray
+    beta_rad: np.ndarray
+    precision: dict  # NAMES -> {"se", "half_width", "relative"} (fisher.precision_of)
+    envelope: dict  # largest |alpha|, |beta| [rad], |u1|, |u2| [V], share of samples at the voltage limit
+    violations: list = field(default_factory=list)  # the limits it breaks, in words (empty: feasible)
+    score: float = math.inf  # the objective (lower is better; inf when it breaks a limit or cannot be evaluated)
+
+
+def frequencies_hz(duration_s: float, band_hz: float, n: int = N_FREQUENCIES) -> np.ndarray:
+    """n frequencies [Hz] that repeat over the run, log-spaced from 2 / duration up to ``band_hz`` (distinct
+    multiples of 1 / duration; fewer when the band holds fewer)."""
+    f0 = 1.0 / duration_s
+    lo = 2.0 * f0
+    hi = max(band_hz, lo * 2.0)
+    k = np.unique(np.round(np.geomspace(lo, hi, n) / f0).astype(int))
+    return k[k >= 2] * f0
+
+
+def multisine(t_s: np.ndarray, duration_s: float, m: Multisine, offset: int = 0) -> np.ndarray:
+    """The axis' reference [rad] at ``t_s``: Schroeder-phased sines (``offset`` shifts the phases so the two axes
+    differ), scaled so that its largest |value| over t_s is m.peak_rad, faded in over RAMP_S."""
+    f = frequencies_hz(duration_s, m.band_hz)
+    amp = 1.0 / np.sqrt(f / f[0])
+    amp /= np.sqrt(np.sum(amp ** 2))
+    k = np.arange(1, f.size + 1) + offset
+    phase = -np.pi * k * (k - 1) / f.size  # Schroeder (1970)
+    y = np.sin(2 * np.pi * f[:, None] * t_s[None, :] + phase[:, None]).T @ amp
+    y *= np.clip(t_s / RAMP_S, 0.0, 1.0)
+    top = float(np.max(np.abs(y))) if y.size else 0.0
+    return y * (m.peak_rad / top) if top > 0 else y
+
+
+def _objective(cov: np.ndarray, params: dict, objective: str) -> float:
+    scale = np.array([abs(float(params[k])) for k in NAMES])
+    rel = cov / np.outer(scale, scale)
+    if objective == "d":
+        sign, logdet = np.linalg.slogdet(rel)
+        return float(logdet) if sign > 0 else math.inf
+    return float(np.max(1.959963984540054 * np.sqrt(np.maximum(np.diag(rel), 0.0))))
+
+
+def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, rate_hz: float, params: dict,
+                 law: str, noise_rad: dict, pid: dict, u_limit_v: float, limits: Limits, objective: str = "worst"
+                 ) -> Run:
+    """The references (sampled at ``t_s`` [s], from 0, at ``rate_hz``) run through the closed loop noise-free,
+    judged against ``limits`` and scored by ``objective``."""
+    from sim import SimSettings, simulate
+
+    table = (t_s, alpha_ref, beta_ref)
+    s = SimSettings(ref="file", ref_table=table, duration_s=float(t_s[-1]), sample_rate_hz=rate_hz,
+                    thrust_law=law, u_limit_v=u_limit_v, overrides=dict(params), pid=dict(pid))
+    r = simulate(s)
+    at_limit = (np.abs(r.u1_v) >= u_limit_v * (1 - 1e-9)) | (np.abs(r.u2_v) >= u_limit_v * (1 - 1e-9))
+    env = {"alpha_rad": float(np.max(np.abs(r.alpha_rad))), "beta_rad": float(np.max(np.abs(r.beta_rad))),
+           "u1_v": float(np.max(np.abs(r.u1_v))), "u2_v": float(np.max(np.abs(r.u2_v))),
+           "saturated_share": float(np.mean(at_limit))}
+    dt = 1.0 / rate_hz
+    rates = {"alpha": float(np.max(np.abs(np.diff(alpha_ref)))) / dt, "beta": float(np.max(np.abs(np.diff(beta_ref)))) / dt}
+    env["ref_rate_rad_s"] = max(rates.values())
+    bad = []
+    if not np.all(np.isfinite(r.alpha_rad)) or not np.all(np.isfinite(r.beta_rad)):
+        bad.append("the closed loop diverges")
+    else:
+        if env["alpha_rad"] > limits.pitch_rad:
+            bad.append(f"pitch reaches {env['alpha_rad']:.3g} rad (limit {limits.pitch_rad:g})")
+        if env["beta_rad"] > limits.yaw_rad:
+            bad.append(f"yaw reaches {env['beta_rad']:.3g} rad (limit {limits.yaw_rad:g})")
+        if env["saturated_share"] > limits.saturated_share:
+            bad.append(f"a motor voltage is at its {u_limit_v:g} V limit {100 * env['saturated_share']:.3g} % of the "
+                       f"time (limit {100 * limits.saturated_share:g} %)")
+    if limits.ref_rate_rad_s is not None and env["ref_rate_rad_s"] > limits.ref_rate_rad_s:
+        bad.append(f"the reference moves at {env['ref_rate_rad_s']:.3g} rad/s (limit {limits.ref_rate_rad_s:g})")
+    precision, score = {}, math.inf
+    if "the closed loop diverges" not in bad:
+        try:
+            cov = covariance(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, dt, params, law, noise_rad)
+            precision = precision_of(cov, params)
+            score = _objective(cov, params, objective) if not bad else math.inf
+        except (np.linalg.LinAlgError, FloatingPointError, ValueError):
+            bad.append("its information matrix cannot be evaluated")
+    return Run(r.t_s, alpha_ref, beta_ref, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, precision, env, bad, score)
+
+
+@dataclass
+class Design:
+    """design()'s answer: the chosen references' run, their multisines, the paper's square reference of the same
+    length in the same loop (for comparison), and how many candidates were simulated."""
+
+    run: Run
+    pitch: Multisine
+    yaw: Multisine
+    square: Run
+    candidates: int
+    feasible: int
+
+
+def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad: dict, pid: dict,
+           u_limit_v: float, limits: Limits, objective: str = "worst", progress=None) -> Design:
+    """References for ``duration_s`` [s] at ``rate_hz`` [Hz] that keep ``limits`` and minimise ``objective``
+    (OBJECTIVES) for the bench ``params`` under the PID ``pid`` (the simulator's names Kp1 ... Tf) limited to
+    ``u_limit_v`` [V], with the logged angles' noise ``noise_rad``.  Raises ValueError when no candidate keeps the
+    limits (the message says what the gentlest one breaks).  ``progress(fraction)`` is called as it goes."""
+    if objective not in OBJECTIVES:
+        raise ValueError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
+    n = int(round(duration_s * rate_hz)) + 1
+    t = np.arange(n) / rate_hz
+    say = progress or (lambda f: None)
+
+    def run(a: Multisine, b: Multisine) -> Run:
+        return simulate_run(t, multisine(t, duration_s, a), multisine(t, duration_s, b, offset=N_FREQUENCIES), rate_hz,
+                            params, law, noise_rad, pid, u_limit_v, limits, objective)
+
+    peaks_a = np.geomspace(LOWEST_PEAK * limits.pitch_rad, limits.pitch_rad, PEAK_STEPS)
+    peaks_b = np.geomspace(LOWEST_PEAK * limits.yaw_rad, limits.yaw_rad, PEAK_STEPS)
+    grid = [(Multisine(float(pa), fa), Multisine(float(pb), fb)) for fa in BAND_EDGES_HZ for fb in BAND_EDGES_HZ
+            for pa in peaks_a for pb in peaks_b]
+    total = len(grid) + REFINE_ROUNDS * 4
+    tried: dict = {}
+    for i, (a, b) in enumerate(grid):
+        tried[(a, b)] = run(a, b)
+        say((i + 1) / total)
+    best = min(tried, key=lambda k: tried[k].score)
+    if not math.isfinite(tried[best].score):
+        gentlest = tried[grid[0]]
+        raise ValueError("no reference of the family keeps the limits; the gentlest (peaks "
+                         f"{grid[0][0].peak_rad:.3g} and {grid[0][1].peak_rad:.3g} rad) breaks them: "
+                         + "; ".join(gentlest.violations or ["its information matrix cannot be evaluated"]))
+    for r in range(REFINE_ROUNDS):  # the peaks around the best: limits bind between grid points
+        a, b = best
+        for cand in ((Multisine(a.peak_rad * REFINE_RATIO, a.band_hz), b), (Multisine(a.peak_rad / REFINE_RATIO, a.band_hz), b),
+                     (a, Multisine(b.peak_rad * REFINE_RATIO, b.band_hz)), (a, Multisine(b.peak_rad / REFINE_RATIO, b.band_hz))):
+            if cand not in tried:
+                tried[cand] = run(*cand)
+        best = min(tried, key=lambda k: tried[k].score)
+        say((len(grid) + 4 * (r + 1)) / total)
+    from sim.references import reference
+
+    sa, sb = reference("square", t)
+    square = simulate_run(t, sa, sb, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective)
+    return Design(tried[best], best[0], best[1], square, len(tried),
+                  sum(math.isfinite(v.score) for v in tried.values()))
+
+
+
+#: the controller file's gains (the simulator's names, PID per axis with the derivative through 1/(Tf s + 1))
+GAINS = ("Kp1", "Ki1", "Kd1", "Kp2", "Ki2", "Kd2", "Tf")
+
+
+def controller_from(table: dict, source: str) -> tuple[dict, float]:
+    """(the PID gains, the voltage limit [V]) from a TOML file's ``[controller]`` table (already parsed); ValueError
+    naming ``source`` and what is missing or wrong."""
+    c = table.get("controller")
+    if not isinstance(c, dict):
+        raise ValueError(f"{source}: no [controller] table; expected one with {', '.join(GAINS)} and u_limit [V]")
+    missing = [k for k in (*GAINS, "u_limit") if k not in c]
+    if missing:
+        raise ValueError(f"{source}: [controller] lacks {', '.join(missing)}; expected {', '.join(GAINS)} and "
+                         "u_limit [V]")
+    unknown = sorted(set(c) - {*GAINS, "u_limit"})
+    if unknown:
+        raise ValueError(f"{source}: [controller] has {', '.join(unknown)}, which is not one of {', '.join(GAINS)}, "
+                         "u_limit")
+    for k in (*GAINS, "u_limit"):
+        v = c[k]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+            raise ValueError(f"{source}: [controller] {k} = {v!r}; expected a number >= 0")
+    if not c["u_limit"] > 0 or not c["Tf"] > 0:
+        raise ValueError(f"{source}: [controller] u_limit and Tf must be > 0")
+    return {k: float(c[k]) for k in GAINS}, float(c["u_limit"])
