@@ -21,6 +21,9 @@ def test_multisine_peaks_where_asked_repeats_over_the_run_and_starts_at_rest():
     assert y[0] == 0.0
     f = planner.frequencies_hz(60.0, 0.8)
     assert np.allclose(f * 60.0, np.round(f * 60.0)) and f[0] == pytest.approx(2 / 60.0) and f[-1] <= 0.8 + 1e-12
+    sq = planner.square(t, planner.Square(0.2, 4.0), lag_periods=0.25)
+    assert set(np.unique(sq)) == {-0.2, 0.0, 0.2} and np.all(sq[t < 1.0] == 0.0)  # yaw waits a quarter period
+    assert np.mean(sq[t > 1.0] > 0) == pytest.approx(0.5, abs=0.01)
 
 
 def test_a_design_keeps_its_limits_and_estimate_achieves_its_predicted_precision(tmp_path):

@@ -729,9 +729,8 @@ def design(
                                  thrust_law=thrust_law, output=str(output)))
     say(f"wrote {output} ({r.t_s.size} samples, {duration:g} s at {rate:g} Hz; run it first with trms-ident simulate "
         f"--ref-file {output})")
-    say(f"  references: pitch multisine peak {d.pitch.peak_rad:.3g} rad up to {d.pitch.band_hz:g} Hz, yaw peak "
-        f"{d.yaw.peak_rad:.3g} rad up to {d.yaw.band_hz:g} Hz ({d.candidates} candidates simulated, {d.feasible} within "
-        "the limits)")
+    say(f"  references: pitch {_shape_text(d.pitch)}, yaw {_shape_text(d.yaw)} ({d.candidates} candidates simulated, "
+        f"{d.feasible} within the limits)")
     say("  predicted 95 % half-width      design      square (the paper's)")
     for k in ESTIMATED:
         say(f"    {k:<3}                       {100 * r.precision[k]['relative']:9.3g} %  "
@@ -744,6 +743,13 @@ def design(
         say("  the square reference breaks the limits: " + "; ".join(d.square.violations))
     if json_path:
         emit_json(doc, json_path)
+
+
+def _shape_text(m) -> str:
+    """A design's axis reference in words."""
+    if m.kind == "square":
+        return f"square wave +-{m.peak_rad:.3g} rad, period {m.period_s:g} s"
+    return f"multisine, peak {m.peak_rad:.3g} rad, up to {m.band_hz:g} Hz"
 
 
 def _design_doc(d, p: dict, settings: dict) -> dict:

@@ -1,12 +1,13 @@
 """The next experiment, planned from the model (issue #35, precision objective): references for the lab's closed
 loop that keep the bench within its limits and make J1, B1, J2, B2 as precise as they can be.
 
-The family: one multisine per axis (numerics only, no I/O).  Each axis' reference is a sum of N_FREQUENCIES sines
-at frequencies that repeat exactly over the run (multiples of 1 / duration), log-spaced from the lowest that
-fits twice into the run up to the axis' band edge, amplitudes falling as 1 / sqrt(f) (as the simulator's
-multisine) and Schroeder phases (a low crest factor: the most excitation for a given peak), scaled to a chosen
-peak [rad] and faded in over RAMP_S.  The search: a grid over the two peaks and the two band edges, then the
-best feasible point's peaks refined; a candidate is judged by simulating the closed loop (sim/: eq. (1), the
+Two families (numerics only, no I/O).  A multisine per axis: N_FREQUENCIES sines at frequencies that repeat
+exactly over the run (multiples of 1 / duration), log-spaced from the lowest that fits twice into the run up to
+the axis' band edge, amplitudes falling as 1 / sqrt(f) (as the simulator's multisine) and Schroeder phases (a
+low crest factor: the most excitation for a given peak), scaled to a chosen peak [rad] and faded in over RAMP_S.
+A square wave per axis (the paper's shape at a chosen level and period; yaw a quarter period behind pitch).  The
+search: a grid over the two peaks and the two band edges (or the period), then the best feasible point's peaks
+refined; a candidate is judged by simulating the closed loop (sim/: eq. (1), the
 PID of eq. (9) with the lab's gains and voltage limit) noise-free and taking the Cramer-Rao covariance of the
 output-error estimate for that run (numerics/fisher.py).  A candidate that breaks a limit (an angle past its
 range, too much time at the voltage limit, a reference faster than allowed) is never chosen.
@@ -56,6 +57,26 @@ class Multisine:
 
     peak_rad: float
     band_hz: float
+    kind: str = "multisine"
+
+    def scaled(self, k: float) -> "Multisine":
+        return Multisine(self.peak_rad * k, self.band_hz)
+
+
+@dataclass(frozen=True)
+class Square:
+    """One axis' reference: a square wave of this level [rad] and period [s]."""
+
+    peak_rad: float
+    period_s: float
+    kind: str = "square"
+
+    def scaled(self, k: float) -> "Square":
+        return Square(self.peak_rad * k, self.period_s)
+
+
+#: square-wave periods tried [s]
+PERIODS_S = (1.0, 2.0, 4.0, 8.0)
 
 
 @dataclass
@@ -97,6 +118,21 @@ def multisine(t_s: np.ndarray, duration_s: float, m: Multisine, offset: int = 0)
     y *= np.clip(t_s / RAMP_S, 0.0, 1.0)
     top = float(np.max(np.abs(y))) if y.size else 0.0
     return y * (m.peak_rad / top) if top > 0 else y
+
+
+def square(t_s: np.ndarray, m: Square, lag_periods: float = 0.0) -> np.ndarray:
+    """The axis' square wave [rad] at ``t_s``: +-m.peak_rad switching every half period, starting at 0 (from rest)
+    and ``lag_periods`` periods behind."""
+    y = m.peak_rad * np.sign(np.sin(2 * np.pi * (t_s / m.period_s - lag_periods)))
+    y[t_s < lag_periods * m.period_s] = 0.0
+    return y
+
+
+def shaped(t_s: np.ndarray, duration_s: float, m, yaw: bool) -> np.ndarray:
+    """The reference [rad] of axis shape ``m`` (Multisine or Square) at ``t_s``."""
+    if isinstance(m, Square):
+        return square(t_s, m, 0.25 if yaw else 0.0)
+    return multisine(t_s, duration_s, m, offset=N_FREQUENCIES if yaw else 0)
 
 
 def _objective(cov: np.ndarray, params: dict, objective: str) -> float:
@@ -156,8 +192,8 @@ class Design:
     length in the same loop (for comparison), and how many candidates were simulated."""
 
     run: Run
-    pitch: Multisine
-    yaw: Multisine
+    pitch: Multisine | Square
+    yaw: Multisine | Square
     square: Run
     candidates: int
     feasible: int
@@ -175,14 +211,16 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     t = np.arange(n) / rate_hz
     say = progress or (lambda f: None)
 
-    def run(a: Multisine, b: Multisine) -> Run:
-        return simulate_run(t, multisine(t, duration_s, a), multisine(t, duration_s, b, offset=N_FREQUENCIES), rate_hz,
-                            params, law, noise_rad, pid, u_limit_v, limits, objective)
+    def run(a, b) -> Run:
+        return simulate_run(t, shaped(t, duration_s, a, False), shaped(t, duration_s, b, True), rate_hz, params, law,
+                            noise_rad, pid, u_limit_v, limits, objective)
 
     peaks_a = np.geomspace(LOWEST_PEAK * limits.pitch_rad, limits.pitch_rad, PEAK_STEPS)
     peaks_b = np.geomspace(LOWEST_PEAK * limits.yaw_rad, limits.yaw_rad, PEAK_STEPS)
     grid = [(Multisine(float(pa), fa), Multisine(float(pb), fb)) for fa in BAND_EDGES_HZ for fb in BAND_EDGES_HZ
             for pa in peaks_a for pb in peaks_b]
+    grid += [(Square(float(pa), per), Square(float(pb), per)) for per in PERIODS_S if per <= duration_s / 2
+             for pa in peaks_a for pb in peaks_b]
     total = len(grid) + REFINE_ROUNDS * 4
     tried: dict = {}
     for i, (a, b) in enumerate(grid):
@@ -196,15 +234,15 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
                          + "; ".join(gentlest.violations or ["its information matrix cannot be evaluated"]))
     for r in range(REFINE_ROUNDS):  # the peaks around the best: limits bind between grid points
         a, b = best
-        for cand in ((Multisine(a.peak_rad * REFINE_RATIO, a.band_hz), b), (Multisine(a.peak_rad / REFINE_RATIO, a.band_hz), b),
-                     (a, Multisine(b.peak_rad * REFINE_RATIO, b.band_hz)), (a, Multisine(b.peak_rad / REFINE_RATIO, b.band_hz))):
+        for cand in ((a.scaled(REFINE_RATIO), b), (a.scaled(1 / REFINE_RATIO), b), (a, b.scaled(REFINE_RATIO)),
+                     (a, b.scaled(1 / REFINE_RATIO))):
             if cand not in tried:
                 tried[cand] = run(*cand)
         best = min(tried, key=lambda k: tried[k].score)
         say((len(grid) + 4 * (r + 1)) / total)
     from sim.references import reference
 
-    sa, sb = reference("square", t)
+    sa, sb = reference("square", t)  # the paper's experiment 1
     square = simulate_run(t, sa, sb, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective)
     return Design(tried[best], best[0], best[1], square, len(tried),
                   sum(math.isfinite(v.score) for v in tried.values()))
