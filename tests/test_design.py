@@ -89,3 +89,22 @@ def test_a_controller_is_read_from_its_table():
     assert u == 2.0 and pid["Kd2"] == 2.2 and math.isclose(pid["Tf"], 0.02)
     with pytest.raises(ValueError, match="no \\[controller\\] table"):
         planner.controller_from({}, "pid.toml")
+
+
+def test_a_design_from_a_previous_estimate_takes_its_bench_and_its_measured_noise(tmp_path):
+    log, est = tmp_path / "run.csv", tmp_path / "est.json"
+    bench = tmp_path / "bench.toml"
+    bench.write_text("[parameters]\nJ1 = 0.08\nB2 = 0.09\n")
+    assert runner.invoke(app, ["simulate", "--ref", "square", "--duration", "20", "--rate", "100", "--noise", "1e-3",
+                               "--params", str(bench), "-o", str(log)]).exit_code == 0
+    assert runner.invoke(app, ["estimate", str(log), "--no-report", "--json", str(est)]).exit_code == 0
+    e = json.loads(est.read_text())
+    res = runner.invoke(app, ["design", "--duration", "10", "--rate", "100", "--from", str(est), "-o",
+                              str(tmp_path / "d.csv"), "--json", str(tmp_path / "d.json")])
+    assert res.exit_code == 0, res.output
+    d = json.loads((tmp_path / "d.json").read_text())
+    assert d["parameters"]["J1"] == e["estimates"]["J1"] == pytest.approx(0.08, rel=0.01)
+    floors = {a["angle"]: a["noise_floor_rad"] for a in e["model_check"]["axes"].values()}
+    assert d["settings"]["noise_std_rad"] == floors and floors["alpha"] == pytest.approx(1e-3, rel=0.2)
+    res = runner.invoke(app, ["design", "--from", str(est), "--params", str(bench)])
+    assert res.exit_code == EXIT_USAGE and "--from and --params: give one bench, not both" in res.output

@@ -642,6 +642,9 @@ def design(
     noise_std: Annotated[Optional[float], typer.Option("--noise-std", help="Gaussian noise of the logged angles, "
                                                        "standard deviation [rad] (instead of --encoder-bits).")] = None,
     params: ParamsOpt = None,
+    from_result: Annotated[Optional[Path], typer.Option("--from", help="A result.json of estimate: its known values, "
+                                                        "J/B and measured noise floors are the bench (instead of "
+                                                        "--params and the noise options).")] = None,
     controller: Annotated[Optional[Path], typer.Option("--controller", help="TOML file with a [controller] table: "
                                                        "Kp1, Ki1, Kd1, Kp2, Ki2, Kd2, Tf and u_limit [V] (default: "
                                                        "the simulator's PID, 2.5 V).")] = None,
@@ -678,6 +681,8 @@ def design(
         raise SettingsError(f"--output {output}: expected a .csv file name (t, alpha_ref, beta_ref)")
     if noise_std is not None and encoder_bits is not None:
         raise SettingsError("--noise-std and --encoder-bits: give one noise, not both")
+    if from_result is not None and params is not None:
+        raise SettingsError("--from and --params: give one bench, not both")
     if noise_std is not None and not noise_std > 0:
         raise SettingsError(f"--noise-std {noise_std:g}: expected > 0 [rad]")
     if encoder_bits is not None and not 1 <= encoder_bits <= 32:
@@ -709,9 +714,28 @@ def design(
             raise ParameterFileError(f"{controller}: not TOML ({exc})") from None
         except ValueError as exc:
             raise ParameterFileError(str(exc)) from None
-    p = merge(load_parameter_file(params, allow_estimated=True) if params else {}, source="parameter overrides")
-    limits = planner.Limits(pitch_limit, yaw_limit, max_saturated, max_ref_rate)
     noise = {"alpha": sd, "beta": sd}
+    if from_result is not None:  # the bench as estimate found it: known values, J/B, the noise it measured
+        from .errors import LogFormatError
+
+        doc_in, known, _, estimates = read_result(from_result)
+        missing = [k for k in ESTIMATED if estimates.get(k) is None]
+        if missing:
+            raise LogFormatError(f"{from_result}: {', '.join(missing)} not identified there; give the bench with "
+                                 "--params")
+        overrides = {**known, **{k: float(estimates[k]) for k in ESTIMATED}}
+        if noise_std is None and encoder_bits is None:
+            axes = doc_in["model_check"].get("axes") or {}
+            floors = {a["angle"]: a.get("noise_floor_rad") for a in axes.values()
+                      if a.get("noise_floor_measured") and a.get("noise_floor_rad")}
+            if set(floors) != {"alpha", "beta"}:
+                raise SettingsError(f"--from {from_result}: that log's noise floor was not measured on both angles; "
+                                    "give --encoder-bits or --noise-std")
+            noise, sd = {k: float(v) for k, v in floors.items()}, None
+    else:
+        overrides = load_parameter_file(params, allow_estimated=True) if params else {}
+    p = merge(overrides, source="parameter overrides")
+    limits = planner.Limits(pitch_limit, yaw_limit, max_saturated, max_ref_rate)
     with progress_bar("design") as advance:
         try:
             d = planner.design(duration, rate, p, thrust_law, noise, pid, u_limit, limits, objective,
@@ -722,9 +746,10 @@ def design(
     csv = "t,alpha_ref,beta_ref\n" + "".join(f"{t!r},{a!r},{b!r}\n" for t, a, b in
                                               zip(r.t_s.tolist(), r.alpha_ref_rad.tolist(), r.beta_ref_rad.tolist()))
     write_text(output, csv)
-    doc = _design_doc(d, p, dict(duration_s=duration, rate_hz=rate, noise_std_rad=sd, encoder_bits=None
-                                 if noise_std is not None else (encoder_bits or 12), params=str(params) if params
-                                 else None, controller=str(controller) if controller else None, pid=pid,
+    doc = _design_doc(d, p, dict(duration_s=duration, rate_hz=rate, noise_std_rad=noise, encoder_bits=None
+                                 if noise_std is not None or sd is None else (encoder_bits or 12), params=str(params)
+                                 if params else None, from_result=str(from_result) if from_result else None,
+                                 controller=str(controller) if controller else None, pid=pid,
                                  u_limit_v=u_limit, limits=dataclasses.asdict(limits), objective=objective,
                                  thrust_law=thrust_law, output=str(output)))
     say(f"wrote {output} ({r.t_s.size} samples, {duration:g} s at {rate:g} Hz; run it first with trms-ident simulate "
@@ -910,6 +935,24 @@ def mat_signal_line(s: dict) -> str:
     return line
 
 
+def read_result(result: Path) -> tuple[dict, dict, dict, dict]:
+    """(the document, its known values with any --free estimates, those --free estimates, J/B estimates) of a
+    result.json written by estimate; one-line errors naming the file."""
+    from .errors import InputNotFoundError, LogFormatError
+
+    try:
+        doc = json.loads(result.read_text(encoding="utf-8"))
+        known = {k: v["value"] for k, v in doc["parameters"].items()}
+        freed = ((doc.get("refined") or {}).get("known_values_estimated") or {})
+        known.update({k: v["estimate"] for k, v in freed.items()})
+        estimates, _ = doc["estimates"], doc["model_check"]["adequate"]
+    except FileNotFoundError:
+        raise InputNotFoundError(f"{result}: no such file") from None
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise LogFormatError(f"{result}: not a result.json of trms-ident estimate ({exc})") from None
+    return doc, known, freed, estimates
+
+
 @app.command()
 @handled
 def export(
@@ -919,20 +962,11 @@ def export(
 ) -> None:
     """Write the identified model as a TOML parameter file (known values + identified J/B) for simulate and
     --params."""
-    from .errors import InputNotFoundError, LogFormatError
     from .io.atomic import write_text
     from .params import to_toml
 
-    try:
-        doc = json.loads(result.read_text(encoding="utf-8"))
-        known = {k: v["value"] for k, v in doc["parameters"].items()}
-        freed = ((doc.get("refined") or {}).get("known_values_estimated") or {})
-        known.update({k: v["estimate"] for k, v in freed.items()})
-        estimates, check = doc["estimates"], doc["model_check"]
-    except FileNotFoundError:
-        raise InputNotFoundError(f"{result}: no such file") from None
-    except (ValueError, KeyError, TypeError, AttributeError) as exc:
-        raise LogFormatError(f"{result}: not a result.json of trms-ident estimate ({exc})") from None
+    doc, known, freed, estimates = read_result(result)
+    check = doc["model_check"]
     missing = [k for k in ESTIMATED if estimates.get(k) is None]
     header = [f"identified by trms-ident {doc.get('versions', {}).get('trms-ident', '?')} from "
               f"{doc.get('input', {}).get('path')} (sha256 {doc.get('input', {}).get('sha256')})",
