@@ -58,12 +58,25 @@ def test_a_design_keeps_its_limits_and_estimate_achieves_its_predicted_precision
     (["--max-saturated", "1.5"], EXIT_USAGE, "--max-saturated 1.5: expected a share in 0..1"),
     (["--objective", "a"], EXIT_USAGE, "--objective 'a': expected one of worst, d"),
     (["--noise-std", "1e-3", "--encoder-bits", "12"], EXIT_USAGE, "give one noise, not both"),
-    (["-o", "d.mat"], EXIT_USAGE, "expected a .csv file name"),
+    (["-o", "d.txt"], EXIT_USAGE, "expected a .csv (t, alpha_ref, beta_ref) or .mat"),
 ])
 def test_bad_design_options_are_one_line_errors(tmp_path, args, code, message):
     res = runner.invoke(app, ["design", "--duration", "10", "--rate", "100", "-o", str(tmp_path / "d.csv"), *args])
     assert res.exit_code == code and message in res.output and "Traceback" not in res.output
     assert len(res.output.strip().splitlines()) == 1
+
+
+def test_a_mat_design_is_a_simulink_structure_with_time_holding_the_csvs_references(tmp_path):
+    import scipy.io
+
+    for name in ("d.csv", "d.mat"):
+        res = runner.invoke(app, ["design", "--duration", "10", "--rate", "100", "-o", str(tmp_path / name)])
+        assert res.exit_code == 0, res.output
+    ref = scipy.io.loadmat(tmp_path / "d.mat", simplify_cells=True)["ref"]
+    csv = np.genfromtxt(tmp_path / "d.csv", delimiter=",", names=True)
+    assert ref["signals"]["dimensions"] == 2 and ref["signals"]["values"].shape == (1001, 2)
+    np.testing.assert_array_equal(ref["time"], csv["t"])
+    np.testing.assert_array_equal(ref["signals"]["values"][:, 1], csv["beta_ref"])
 
 
 def test_a_controller_file_without_a_gain_names_it(tmp_path):

@@ -658,8 +658,9 @@ def design(
     objective: Annotated[str, typer.Option(help="worst: the largest relative 95 % half-width of J1, B1, J2, B2 "
                                            "(E-optimal); d: the determinant of their relative covariance.")] = "worst",
     thrust_law: LawOpt = "quadratic",
-    output: Annotated[Path, typer.Option("--output", "-o", help="References to write: CSV with t, alpha_ref, beta_ref "
-                                         "[s, rad] (run it first with simulate --ref-file).")] = Path("design.csv"),
+    output: Annotated[Path, typer.Option("--output", "-o", help="References to write: .csv with t, alpha_ref, "
+                                         "beta_ref [s, rad] (run it first with simulate --ref-file), or .mat: "
+                                         "Simulink From Workspace, Structure With Time, variable ref.")] = Path("design.csv"),
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the design's JSON here; '-' = "
                                                      "stdout.")] = None,
 ) -> None:
@@ -669,7 +670,7 @@ def design(
     import tomllib
 
     from . import design as planner
-    from .io.atomic import write_text
+    from .io.reference import write_reference
     from .params import merge
 
     if not duration > 0 or not rate > 0:
@@ -677,8 +678,9 @@ def design(
     if duration * rate < 100:
         raise SettingsError(f"--duration {duration:g} s at --rate {rate:g} Hz is {duration * rate:.0f} samples; "
                             "expected at least 100")
-    if output.suffix.lower() != ".csv":
-        raise SettingsError(f"--output {output}: expected a .csv file name (t, alpha_ref, beta_ref)")
+    if output.suffix.lower() not in (".csv", ".mat"):
+        raise SettingsError(f"--output {output}: expected a .csv (t, alpha_ref, beta_ref) or .mat (Simulink From "
+                            "Workspace, Structure With Time) file name")
     if noise_std is not None and encoder_bits is not None:
         raise SettingsError("--noise-std and --encoder-bits: give one noise, not both")
     if from_result is not None and params is not None:
@@ -743,9 +745,7 @@ def design(
         except ValueError as exc:
             raise SettingsError(str(exc)) from None
     r = d.run
-    csv = "t,alpha_ref,beta_ref\n" + "".join(f"{t!r},{a!r},{b!r}\n" for t, a, b in
-                                              zip(r.t_s.tolist(), r.alpha_ref_rad.tolist(), r.beta_ref_rad.tolist()))
-    write_text(output, csv)
+    write_reference(output, r.t_s, r.alpha_ref_rad, r.beta_ref_rad)
     doc = _design_doc(d, p, dict(duration_s=duration, rate_hz=rate, noise_std_rad=noise, encoder_bits=None
                                  if noise_std is not None or sd is None else (encoder_bits or 12), params=str(params)
                                  if params else None, from_result=str(from_result) if from_result else None,

@@ -77,3 +77,24 @@ def read_reference(path: Path) -> ReferenceTable:
                              f"{t[j - 1]:.6g} s; expected strictly rising times")
     return ReferenceTable(t.copy(), rows[:, 1].copy(), rows[:, 2].copy(), str(path),
                           hashlib.sha256(raw).hexdigest())
+
+
+def write_reference(path: Path, t_s: np.ndarray, alpha_ref_rad: np.ndarray, beta_ref_rad: np.ndarray) -> None:
+    """Write references atomically: ``.csv`` as read_reference reads it; ``.mat`` as a Simulink "From Workspace"
+    Structure With Time in the variable ``ref`` (``ref.time`` [s], ``ref.signals.values`` (n, 2): alpha_ref,
+    beta_ref [rad], ``ref.signals.dimensions`` 2)."""
+    from .atomic import atomic_path, write_text
+
+    path = Path(path)
+    if path.suffix.lower() == ".mat":
+        import scipy.io
+
+        ref = {"time": np.asarray(t_s, dtype=float)[:, None],
+               "signals": {"values": np.column_stack([alpha_ref_rad, beta_ref_rad]).astype(float),
+                           "dimensions": 2.0}}
+        with atomic_path(path) as tmp:
+            scipy.io.savemat(tmp, {"ref": ref}, appendmat=False)
+        return
+    write_text(path, "t,alpha_ref,beta_ref\n" + "".join(
+        f"{t!r},{a!r},{b!r}\n" for t, a, b in zip(np.asarray(t_s, float).tolist(), np.asarray(alpha_ref_rad, float)
+                                                  .tolist(), np.asarray(beta_ref_rad, float).tolist())))
