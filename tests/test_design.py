@@ -36,6 +36,9 @@ def test_a_design_keeps_its_limits_and_estimate_achieves_its_predicted_precision
     assert env["alpha_rad"] <= 1.0 and env["beta_rad"] <= 1.0 and env["saturated_share"] <= 0.02
     assert doc["design"]["violations"] == [] and doc["settings"]["limits"]["yaw_rad"] == 1.0
     assert doc["square"]["violations"]  # the paper's square holds a voltage at its limit most of the time
+    page = (tmp_path / "d.html").read_text()  # the page beside the references
+    assert "The next experiment: 20 s at 100 Hz" in page and page.count("data:image/png;base64") == 2
+    assert doc["sentence"].startswith("Within the limits the design predicts") and "breaks the limits" in doc["sentence"]
     # the design run through the simulator with 12-bit encoders keeps the limits and estimate's intervals are
     # within 0.5-2x of the predicted ones
     res = runner.invoke(app, ["simulate", "--ref-file", str(ref), "--rate", "100", "--encoder-bits", "12", "-o",
@@ -86,6 +89,7 @@ def test_a_controller_file_without_a_gain_names_it(tmp_path):
                               str(tmp_path / "d.csv")])
     assert res.exit_code == EXIT_BAD_PARAMETERS
     assert f"{c}: [controller] lacks Kd2" in res.output and not (tmp_path / "d.csv").exists()
+    assert not (tmp_path / "d.html").exists()
 
 
 def test_limits_no_reference_can_keep_are_said_with_what_the_gentlest_breaks(tmp_path):

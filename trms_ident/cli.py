@@ -663,6 +663,8 @@ def design(
                                          "Simulink From Workspace, Structure With Time, variable ref.")] = Path("design.csv"),
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the design's JSON here; '-' = "
                                                      "stdout.")] = None,
+    no_report: Annotated[bool, typer.Option("--no-report", help="Do not write the HTML page (<output>.html: the "
+                                            "references, predicted angles and voltages, the intervals).")] = False,
 ) -> None:
     """Plan the next experiment: multisine references for the lab's closed loop that keep the limits and make
     J1, B1, J2, B2 as precise as they can be, predicted from the model beside the paper's square reference."""
@@ -752,8 +754,16 @@ def design(
                                  controller=str(controller) if controller else None, pid=pid,
                                  u_limit_v=u_limit, limits=dataclasses.asdict(limits), objective=objective,
                                  thrust_law=thrust_law, output=str(output)))
+    page = None
+    if not no_report:
+        from .io.atomic import write_text
+        from .report.design import render
+
+        page = output.with_suffix(".html")
+        write_text(page, render(doc, d, limits, u_limit))
     say(f"wrote {output} ({r.t_s.size} samples, {duration:g} s at {rate:g} Hz; run it first with trms-ident simulate "
-        f"--ref-file {output})")
+        f"--ref-file {output})" + (f" and {page}" if page else ""))
+    say(f"  {doc['sentence']}")
     say(f"  references: pitch {_shape_text(d.pitch)}, yaw {_shape_text(d.yaw)} ({d.candidates} candidates simulated, "
         f"{d.feasible} within the limits)")
     say("  predicted 95 % half-width      design      square (the paper's)")
@@ -764,8 +774,6 @@ def design(
     say(f"  largest |pitch| {e['alpha_rad']:.3g} rad (square {s['alpha_rad']:.3g}), |yaw| {e['beta_rad']:.3g} rad "
         f"(square {s['beta_rad']:.3g}), time at the voltage limit {100 * e['saturated_share']:.3g} % (square "
         f"{100 * s['saturated_share']:.3g} %)")
-    if d.square.violations:
-        say("  the square reference breaks the limits: " + "; ".join(d.square.violations))
     if json_path:
         emit_json(doc, json_path)
 
@@ -789,7 +797,14 @@ def _design_doc(d, p: dict, settings: dict) -> dict:
                               for k, v in r.precision.items()},
                 "envelope": r.envelope, "violations": list(r.violations)}
 
-    return {"kind": "trms-ident design", "design": {**run_doc(d.run), "pitch": dataclasses.asdict(d.pitch),
+    worst = max(ESTIMATED, key=lambda k: d.run.precision[k]["relative"])
+    sq_worst = max(ESTIMATED, key=lambda k: d.square.precision[k]["relative"])
+    sentence = (f"Within the limits the design predicts {worst} to +-{100 * d.run.precision[worst]['relative']:.3g} % "
+                f"(its widest interval); the paper's square reference, same length, {sq_worst} to "
+                f"+-{100 * d.square.precision[sq_worst]['relative']:.3g} %"
+                + (", but it breaks the limits: " + "; ".join(d.square.violations) if d.square.violations else "")
+                + ".")
+    return {"kind": "trms-ident design", "sentence": sentence, "design": {**run_doc(d.run), "pitch": dataclasses.asdict(d.pitch),
                                                     "yaw": dataclasses.asdict(d.yaw)},
             "square": run_doc(d.square), "candidates": d.candidates, "feasible": d.feasible,
             "parameters": {k: float(v) for k, v in p.items() if isinstance(v, (int, float))},

@@ -1,0 +1,102 @@
+"""design's page: the references, the angles and voltages the closed loop would produce with the limits drawn,
+and the predicted 95 % intervals beside the paper's square reference."""
+from __future__ import annotations
+
+import html
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ..params import ESTIMATED, UNITS  # noqa: E402
+from .figures import _stride, png_data_uri  # noqa: E402
+from .html import CSS  # noqa: E402
+
+
+def run_figure(run, square, limits, u_limit_v: float) -> str:
+    """Pitch and yaw (reference and predicted angle, with the range allowed) and both voltages (with the
+    controller's limit), the design's run beside the square reference's."""
+    s = _stride(run.t_s.size)
+    t = run.t_s[s]
+    fig, ax = plt.subplots(3, 1, figsize=(10, 7.5), sharex=True)
+    for a, ref, y, sq, lim, name in ((ax[0], run.alpha_ref_rad, run.alpha_rad, square.alpha_rad, limits.pitch_rad,
+                                      "pitch alpha [rad]"),
+                                     (ax[1], run.beta_ref_rad, run.beta_rad, square.beta_rad, limits.yaw_rad,
+                                      "yaw beta [rad]")):
+        a.plot(t, sq[s], color="0.75", lw=0.8, label="paper's square: predicted angle")
+        a.plot(t, ref[s], color="C1", lw=0.8, ls="--", label="design: reference")
+        a.plot(t, y[s], color="C0", lw=1.0, label="design: predicted angle")
+        for v in (-lim, lim):
+            a.axhline(v, color="C3", lw=0.8, ls=":")
+        a.set_ylabel(name)
+        a.grid(alpha=0.3)
+    ax[0].legend(loc="upper right", fontsize=8)
+    ax[2].plot(t, run.u1_v[s], lw=0.8, label="u1 (pitch motor)")
+    ax[2].plot(t, run.u2_v[s], lw=0.8, label="u2 (yaw motor)")
+    for v in (-u_limit_v, u_limit_v):
+        ax[2].axhline(v, color="C3", lw=0.8, ls=":")
+    ax[2].set_ylabel("design: voltage [V]")
+    ax[2].set_xlabel("t [s]")
+    ax[2].legend(loc="upper right", fontsize=8)
+    ax[2].grid(alpha=0.3)
+    fig.suptitle("The design in the closed loop (noise-free prediction); dotted: the limits")
+    return png_data_uri(fig)
+
+
+def precision_figure(doc: dict) -> str:
+    """Predicted relative 95 % half-widths [%] of J1, B1, J2, B2: the design beside the square reference."""
+    x = np.arange(len(ESTIMATED))
+    d = [100 * doc["design"]["predicted"][k]["relative"] for k in ESTIMATED]
+    q = [100 * doc["square"]["predicted"][k]["relative"] for k in ESTIMATED]
+    fig, ax = plt.subplots(figsize=(7, 3.2))
+    ax.bar(x - 0.2, d, 0.4, label="design (within the limits)")
+    ax.bar(x + 0.2, q, 0.4, color="0.6", label="paper's square" + (" (breaks the limits)" if doc["square"]["violations"]
+                                                                  else ""))
+    ax.set_xticks(x, ESTIMATED)
+    ax.set_yscale("log")
+    ax.set_ylabel("predicted 95 % half-width [% of value]")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, axis="y")
+    return png_data_uri(fig)
+
+
+def render(doc: dict, d, limits, u_limit_v: float) -> str:
+    """The page (self-contained HTML)."""
+    def env_row(name: str, r: dict) -> str:
+        e = r["envelope"]
+        return (f"<tr><td>{name}</td><td>{e['alpha_rad']:.3g}</td><td>{e['beta_rad']:.3g}</td><td>{e['u1_v']:.3g}</td>"
+                f"<td>{e['u2_v']:.3g}</td><td>{100 * e['saturated_share']:.3g} %</td><td>"
+                f"{html.escape('; '.join(r['violations']) or 'none')}</td></tr>")
+
+    rows = "".join(f"<tr><td>{k}</td><td>{html.escape(UNITS[k])}</td><td>{doc['design']['predicted'][k]['half_width']:.3g}</td>"
+                   f"<td>{100 * doc['design']['predicted'][k]['relative']:.3g} %</td>"
+                   f"<td>{100 * doc['square']['predicted'][k]['relative']:.3g} %</td></tr>" for k in ESTIMATED)
+    st = doc["settings"]
+    noise = ", ".join(f"{a} {v:.3g} rad" for a, v in st["noise_std_rad"].items())
+    return f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident design</title>
+<style>{CSS}</style></head><body>
+<h1>The next experiment: {st['duration_s']:g} s at {st['rate_hz']:g} Hz</h1>
+<p>{html.escape(doc['sentence'])}</p>
+<h2>Predicted precision</h2>
+<table><tr><th>parameter</th><th>unit</th><th>design: 95 % half-width</th><th>design: relative</th>
+<th>paper's square: relative</th></tr>{rows}</table>
+<img alt="predicted half-widths" src="{precision_figure(doc)}">
+<p class="note">Cramer-Rao bound of the output-error estimate for the run (numerics/fisher.py), white noise of
+the logged angles: {noise}; the estimate's own intervals on a recorded run are measured, not
+these.</p>
+<h2>What the bench would do</h2>
+<table><tr><th>run</th><th>largest |pitch| [rad]</th><th>largest |yaw| [rad]</th><th>largest |u1| [V]</th>
+<th>largest |u2| [V]</th><th>at the voltage limit</th><th>limits broken</th></tr>
+{env_row('design', doc['design'])}{env_row("paper's square", doc['square'])}</table>
+<p class="note">Limits: |pitch| &le; {limits.pitch_rad:g} rad, |yaw| &le; {limits.yaw_rad:g} rad, a voltage at its
+{u_limit_v:g} V limit at most {100 * limits.saturated_share:g} % of the time, reference rate
+{'unlimited' if limits.ref_rate_rad_s is None else f'&le; {limits.ref_rate_rad_s:g} rad/s'}.</p>
+<img alt="references, predicted angles and voltages" src="{run_figure(d.run, d.square, limits, u_limit_v)}">
+<h2>Settings and versions</h2>
+<p class="note">{html.escape(', '.join(f'{k} {v}' for k, v in st.items() if k not in ('pid', 'limits', 'noise_std_rad')))};
+noise {noise};
+PID {html.escape(', '.join(f'{k} {v:g}' for k, v in st['pid'].items()))}.</p>
+<p class="note">{html.escape(', '.join(f'{k} {v}' for k, v in doc['versions'].items()))}</p>
+</body></html>"""
