@@ -281,7 +281,8 @@ class Fitter:
         ``values`` (the offsets at ``values``' too, when there), only the start states are fitted.  ``start``: where
         the start states begin (a fit's ``start_states``, e.g. the current model's when a candidate goes on from its
         J/B; default: the motors' steady state for the first voltages, refine's, which a log cut mid-run can be far
-        from: measured, a 30 s cut steps log restarted from the current model's J/B there stayed at 180x its error)."""
+        from: measured, a steps log cut 30 s in, restarted there from the current model's J/B, stayed at ~1000x its
+        noise level in angle error)."""
         n, log = self.n, self.log
         effects = {k: values[k] for k in model.linear}
         effects.update({k: values.get(k, v) if hold else v for k, v in model.mods if k in OFFSETS})
