@@ -243,8 +243,8 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     from sim.references import reference
 
     sa, sb = reference("square", t)  # the paper's experiment 1
-    square = simulate_run(t, sa, sb, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective)
-    return Design(tried[best], best[0], best[1], square, len(tried),
+    paper = simulate_run(t, sa, sb, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective)
+    return Design(tried[best], best[0], best[1], paper, len(tried),
                   sum(math.isfinite(v.score) for v in tried.values()))
 
 
