@@ -62,6 +62,8 @@ def test_a_design_keeps_its_limits_and_estimate_achieves_its_predicted_precision
     (["--objective", "a"], EXIT_USAGE, "--objective 'a': expected one of worst, d"),
     (["--noise-std", "1e-3", "--encoder-bits", "12"], EXIT_USAGE, "give one noise, not both"),
     (["-o", "d.txt"], EXIT_USAGE, "expected a .csv (t, alpha_ref, beta_ref) or .mat"),
+    (["--effect", "coulomb_friction:pitch"], EXIT_USAGE, "--effect and --size go together"),
+    (["--effect", "dead_zone:yaw", "--size", "0.1"], EXIT_USAGE, "--effect dead_zone:yaw: expected one of"),
 ])
 def test_bad_design_options_are_one_line_errors(tmp_path, args, code, message):
     res = runner.invoke(app, ["design", "--duration", "10", "--rate", "100", "-o", str(tmp_path / "d.csv"), *args])
@@ -125,3 +127,17 @@ def test_a_design_from_a_previous_estimate_takes_its_bench_and_its_measured_nois
     assert d["settings"]["noise_std_rad"] == floors and floors["alpha"] == pytest.approx(1e-3, rel=0.2)
     res = runner.invoke(app, ["design", "--from", str(est), "--params", str(bench)])
     assert res.exit_code == EXIT_USAGE and "--from and --params: give one bench, not both" in res.output
+
+
+def test_a_design_to_find_an_effect_predicts_its_t_and_power_beside_the_square(tmp_path):
+    js = tmp_path / "d.json"
+    res = runner.invoke(app, ["design", "--duration", "20", "--rate", "100", "--noise-std", "1e-3", "--effect",
+                              "coulomb_friction:pitch", "--size", "0.001", "-o", str(tmp_path / "d.csv"), "--json",
+                              str(js)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(js.read_text())
+    e, q = doc["design"]["effect"], doc["square"]["effect"]
+    assert e["key"] == "coulomb_friction:pitch" and e["t"] == pytest.approx(0.001 / e["se"])
+    assert 0.0 <= q["power"] <= e["power"] <= 1.0 and e["t"] > q["t"]  # chosen for it, within the limits
+    assert doc["sentence"].startswith("Within the limits the design predicts coulomb_friction:pitch of 0.001 at t =")
+    assert doc["design"]["violations"] == []

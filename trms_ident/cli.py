@@ -657,6 +657,11 @@ def design(
                                                           "[rad/s] (default: none).")] = None,
     objective: Annotated[str, typer.Option(help="worst: the largest relative 95 % half-width of J1, B1, J2, B2 "
                                            "(E-optimal); d: the determinant of their relative covariance.")] = "worst",
+    effect: Annotated[Optional[str], typer.Option("--effect", help="Design to find this effect instead (NAME:AXIS, "
+                                                  "a torque effect: coulomb_friction:pitch, cable_stiffness:yaw, ...); "
+                                                  "needs --size.")] = None,
+    size: Annotated[Optional[float], typer.Option("--size", help="The effect's size to find, in its parameter's "
+                                                  "unit (e.g. 0.001 N m).")] = None,
     thrust_law: LawOpt = "quadratic",
     output: Annotated[Path, typer.Option("--output", "-o", help="References to write: .csv with t, alpha_ref, "
                                          "beta_ref [s, rad] (run it first with simulate --ref-file), or .mat: "
@@ -701,6 +706,12 @@ def design(
         raise SettingsError(f"--max-ref-rate {max_ref_rate:g}: expected > 0 [rad/s]")
     if objective not in planner.OBJECTIVES:
         raise SettingsError(f"--objective {objective!r}: expected one of {', '.join(planner.OBJECTIVES)}")
+    if (effect is None) != (size is None):
+        raise SettingsError("--effect and --size go together: the effect to find and its size")
+    if effect is not None and effect not in planner.EFFECTS:
+        raise SettingsError(f"--effect {effect}: expected one of {', '.join(planner.EFFECTS)}")
+    if size is not None and not (math.isfinite(size) and size != 0):
+        raise SettingsError(f"--size {size:g}: expected a nonzero number")
     if thrust_law not in THRUST_LAWS:
         raise SettingsError(f"thrust law must be one of {tuple(THRUST_LAWS)}, got {thrust_law!r}")
     from sim.simulate import DEFAULT_PID
@@ -743,7 +754,8 @@ def design(
     with progress_bar("design") as advance:
         try:
             d = planner.design(duration, rate, p, thrust_law, noise, pid, u_limit, limits, objective,
-                               progress=(lambda f: advance("simulating candidates", f)) if advance else None)
+                               progress=(lambda f: advance("simulating candidates", f)) if advance else None,
+                               effect=None if effect is None else (effect, size))
         except ValueError as exc:
             raise SettingsError(str(exc)) from None
     r = d.run
@@ -753,7 +765,7 @@ def design(
                                  if params else None, from_result=str(from_result) if from_result else None,
                                  controller=str(controller) if controller else None, pid=pid,
                                  u_limit_v=u_limit, limits=dataclasses.asdict(limits), objective=objective,
-                                 thrust_law=thrust_law, output=str(output)))
+                                 thrust_law=thrust_law, output=str(output), effect=effect, size=size))
     page = None
     if not no_report:
         from .io.atomic import write_text
@@ -770,6 +782,10 @@ def design(
     for k in ESTIMATED:
         say(f"    {k:<3}                       {100 * r.precision[k]['relative']:9.3g} %  "
             f"{100 * d.square.precision[k]['relative']:9.3g} %")
+    if r.effect is not None:
+        say(f"  {effect} of {size:g}: predicted t {r.effect['t']:.3g}, chance diagnose's output-error test finds it "
+            f"{100 * r.effect['power']:.3g} % (the square reference: t {d.square.effect['t']:.3g}, "
+            f"{100 * d.square.effect['power']:.3g} %)")
     e, s = r.envelope, d.square.envelope
     say(f"  largest |pitch| {e['alpha_rad']:.3g} rad (square {s['alpha_rad']:.3g}), |yaw| {e['beta_rad']:.3g} rad "
         f"(square {s['beta_rad']:.3g}), time at the voltage limit {100 * e['saturated_share']:.3g} % (square "
@@ -795,8 +811,16 @@ def _design_doc(d, p: dict, settings: dict) -> dict:
     def run_doc(r) -> dict:
         return {"predicted": {k: {"half_width": v["half_width"], "relative": v["relative"], "se": v["se"]}
                               for k, v in r.precision.items()},
-                "envelope": r.envelope, "violations": list(r.violations)}
+                "envelope": r.envelope, "violations": list(r.violations),
+                **({"effect": r.effect} if r.effect is not None else {})}
 
+    if d.run.effect is not None:
+        e, q = d.run.effect, d.square.effect
+        found = (f"Within the limits the design predicts {e['key']} of {e['size']:g} at t = {e['t']:.3g} (diagnose's "
+                 f"output-error test finds it with a chance of {100 * e['power']:.3g} %); the paper's square "
+                 f"reference, same length, t = {q['t']:.3g} ({100 * q['power']:.3g} %)"
+                 + (", but it breaks the limits: " + "; ".join(d.square.violations) if d.square.violations else "")
+                 + ".")
     worst = max(ESTIMATED, key=lambda k: d.run.precision[k]["relative"])
     sq_worst = max(ESTIMATED, key=lambda k: d.square.precision[k]["relative"])
     sentence = (f"Within the limits the design predicts {worst} to +-{100 * d.run.precision[worst]['relative']:.3g} % "
@@ -804,6 +828,8 @@ def _design_doc(d, p: dict, settings: dict) -> dict:
                 f"+-{100 * d.square.precision[sq_worst]['relative']:.3g} %"
                 + (", but it breaks the limits: " + "; ".join(d.square.violations) if d.square.violations else "")
                 + ".")
+    if d.run.effect is not None:
+        sentence = found
     return {"kind": "trms-ident design", "sentence": sentence, "design": {**run_doc(d.run), "pitch": dataclasses.asdict(d.pitch),
                                                     "yaw": dataclasses.asdict(d.yaw)},
             "square": run_doc(d.square), "candidates": d.candidates, "feasible": d.feasible,

@@ -13,7 +13,9 @@ output-error estimate for that run (numerics/fisher.py).  A candidate that break
 range, too much time at the voltage limit, a reference faster than allowed) is never chosen.
 
 Objectives: "worst" (E-optimal on the relative scale: the largest relative 95 % half-width of J1, B1, J2, B2)
-or "d" (D-optimal: the determinant of the relative covariance).
+or "d" (D-optimal: the determinant of the relative covariance); with an effect (a torque effect the refinement's
+kernel carries, at a given size, present in the simulated bench): the effect parameter's standard error over its
+size, so the design is the one under which diagnose's output-error test is most likely to find it.
 """
 from __future__ import annotations
 
@@ -22,7 +24,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .numerics.fisher import covariance, precision_of
+from .numerics.fisher import covariance, detection_power, precision_of
+from .diagnosis.select import FAMILY_ALPHA
+from .model import effects as room
+from .model.plant import EFFECT_SLOTS
 from .numerics.refine import NAMES
 
 #: sines per axis
@@ -38,6 +43,10 @@ LOWEST_PEAK = 0.05
 REFINE_ROUNDS = 3
 REFINE_RATIO = 1.15
 OBJECTIVES = ("worst", "d")
+#: the effects design can plan for: the torque effects the refinement's kernel carries with exact sensitivities
+EFFECTS = tuple(EFFECT_SLOTS)
+#: diagnose's family: its candidates and level (diagnosis/select.py), for the predicted power of an effect
+FAMILY_TESTS = len(room.CANDIDATES)
 
 
 @dataclass(frozen=True)
@@ -94,6 +103,7 @@ class Run:
     envelope: dict  # largest |alpha|, |beta| [rad], |u1|, |u2| [V], share of samples at the voltage limit
     violations: list = field(default_factory=list)  # the limits it breaks, in words (empty: feasible)
     score: float = math.inf  # the objective (lower is better; inf when it breaks a limit or cannot be evaluated)
+    effect: dict | None = None  # with an effect: {"key", "size", "se", "t" (size / se), "power"}
 
 
 def frequencies_hz(duration_s: float, band_hz: float, n: int = N_FREQUENCIES) -> np.ndarray:
@@ -145,15 +155,17 @@ def _objective(cov: np.ndarray, params: dict, objective: str) -> float:
 
 
 def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, rate_hz: float, params: dict,
-                 law: str, noise_rad: dict, pid: dict, u_limit_v: float, limits: Limits, objective: str = "worst"
-                 ) -> Run:
+                 law: str, noise_rad: dict, pid: dict, u_limit_v: float, limits: Limits, objective: str = "worst",
+                 effect: tuple[str, float] | None = None) -> Run:
     """The references (sampled at ``t_s`` [s], from 0, at ``rate_hz``) run through the closed loop noise-free,
-    judged against ``limits`` and scored by ``objective``."""
+    judged against ``limits`` and scored by ``objective``; ``effect`` = (key, size): the bench has that effect and
+    the score is its parameter's standard error over its size."""
     from sim import SimSettings, simulate
 
     table = (t_s, alpha_ref, beta_ref)
+    fx = [] if effect is None else [dict(zip(("effect", "axis"), effect[0].split(":")), value=float(effect[1]))]
     s = SimSettings(ref="file", ref_table=table, duration_s=float(t_s[-1]), sample_rate_hz=rate_hz,
-                    thrust_law=law, u_limit_v=u_limit_v, overrides=dict(params), pid=dict(pid))
+                    thrust_law=law, u_limit_v=u_limit_v, overrides=dict(params), pid=dict(pid), effects=fx)
     r = simulate(s)
     at_limit = (np.abs(r.u1_v) >= u_limit_v * (1 - 1e-9)) | (np.abs(r.u2_v) >= u_limit_v * (1 - 1e-9))
     env = {"alpha_rad": float(np.max(np.abs(r.alpha_rad))), "beta_rad": float(np.max(np.abs(r.beta_rad))),
@@ -175,15 +187,23 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
                        f"time (limit {100 * limits.saturated_share:g} %)")
     if limits.ref_rate_rad_s is not None and env["ref_rate_rad_s"] > limits.ref_rate_rad_s:
         bad.append(f"the reference moves at {env['ref_rate_rad_s']:.3g} rad/s (limit {limits.ref_rate_rad_s:g})")
-    precision, score = {}, math.inf
+    precision, score, found = {}, math.inf, None
     if "the closed loop diverges" not in bad:
         try:
-            cov = covariance(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, dt, params, law, noise_rad)
+            cov = covariance(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, dt, params, law, noise_rad, effect)
             precision = precision_of(cov, params)
-            score = _objective(cov, params, objective) if not bad else math.inf
+            if effect is not None:
+                se = math.sqrt(max(float(cov[4, 4]), 0.0))
+                found = {"key": effect[0], "size": float(effect[1]), "se": se,
+                         "t": abs(effect[1]) / se if se > 0 else math.inf,
+                         "power": detection_power(effect[1], se, FAMILY_TESTS, FAMILY_ALPHA)}
+                score = se / abs(effect[1])
+            else:
+                score = _objective(cov, params, objective)
+            score = score if not bad else math.inf
         except (np.linalg.LinAlgError, FloatingPointError, ValueError):
             bad.append("its information matrix cannot be evaluated")
-    return Run(r.t_s, alpha_ref, beta_ref, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, precision, env, bad, score)
+    return Run(r.t_s, alpha_ref, beta_ref, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, precision, env, bad, score, found)
 
 
 @dataclass
@@ -200,11 +220,17 @@ class Design:
 
 
 def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad: dict, pid: dict,
-           u_limit_v: float, limits: Limits, objective: str = "worst", progress=None) -> Design:
+           u_limit_v: float, limits: Limits, objective: str = "worst", progress=None,
+           effect: tuple[str, float] | None = None) -> Design:
     """References for ``duration_s`` [s] at ``rate_hz`` [Hz] that keep ``limits`` and minimise ``objective``
     (OBJECTIVES) for the bench ``params`` under the PID ``pid`` (the simulator's names Kp1 ... Tf) limited to
     ``u_limit_v`` [V], with the logged angles' noise ``noise_rad``.  Raises ValueError when no candidate keeps the
-    limits (the message says what the gentlest one breaks).  ``progress(fraction)`` is called as it goes."""
+    limits (the message says what the gentlest one breaks).  ``progress(fraction)`` is called as it goes.
+    ``effect`` = (key, size): design to find that effect (EFFECTS) instead, the bench simulated with it."""
+    if effect is not None and effect[0] not in EFFECTS:
+        raise ValueError(f"effect {effect[0]!r}: design can plan for {', '.join(EFFECTS)}")
+    if effect is not None and not effect[1] != 0:
+        raise ValueError("the effect's size must not be 0")
     if objective not in OBJECTIVES:
         raise ValueError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
     n = int(round(duration_s * rate_hz)) + 1
@@ -213,7 +239,7 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
 
     def run(a, b) -> Run:
         return simulate_run(t, shaped(t, duration_s, a, False), shaped(t, duration_s, b, True), rate_hz, params, law,
-                            noise_rad, pid, u_limit_v, limits, objective)
+                            noise_rad, pid, u_limit_v, limits, objective, effect)
 
     peaks_a = np.geomspace(LOWEST_PEAK * limits.pitch_rad, limits.pitch_rad, PEAK_STEPS)
     peaks_b = np.geomspace(LOWEST_PEAK * limits.yaw_rad, limits.yaw_rad, PEAK_STEPS)
@@ -243,7 +269,7 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     from sim.references import reference
 
     sa, sb = reference("square", t)  # the paper's experiment 1
-    paper = simulate_run(t, sa, sb, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective)
+    paper = simulate_run(t, sa, sb, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect)
     return Design(tried[best], best[0], best[1], paper, len(tried),
                   sum(math.isfinite(v.score) for v in tried.values()))
 

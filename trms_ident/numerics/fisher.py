@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.stats import norm
 
 from .refine import NAMES, _scaled_inverse, _schur
 from .refine import refine as oe_refine
@@ -23,17 +24,22 @@ Z95 = 1.959963984540054
 
 
 def covariance(u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_rad: np.ndarray, dt_s: float,
-               params: dict, law: str, noise_rad: dict) -> np.ndarray:
+               params: dict, law: str, noise_rad: dict, effect: tuple[str, float] | None = None) -> np.ndarray:
     """(4, 4) the Cramer-Rao covariance of J1, B1, J2, B2 (NAMES' order) for a run with these voltages [V] and
     noise-free angles [rad] at uniform steps ``dt_s`` [s], the bench ``params`` (J/B and the known values of
     eq. (1)) and ``noise_rad`` = {"alpha": sd, "beta": sd} [rad], the logged angles' white noise (an encoder
-    quantum q: q / sqrt(12)); the motors' start states and the windows' starts are unknowns beside J/B."""
+    quantum q: q / sqrt(12)); the motors' start states and the windows' starts are unknowns beside J/B.
+    ``effect`` = (key, value): a torque effect the refinement's kernel carries (model.plant.EFFECT_SLOTS) in the
+    model at that value with its parameter free; the matrix is then (5, 5), its last row and column the effect's."""
     theta = {k: float(params[k]) for k in NAMES}
-    r = oe_refine(u1_v, u2_v, alpha_rad, beta_rad, dt_s, params, law, theta, noise_rad, max_iterations=0)
+    kw = {} if effect is None else {"effects": {effect[0]: float(effect[1])}, "free": (effect[0],)}
+    r = oe_refine(u1_v, u2_v, alpha_rad, beta_rad, dt_s, params, law, theta, noise_rad, max_iterations=0, **kw)
     fit = r.fit
-    ng = fit.a.shape[1] - 4  # the globals: J/B and the motors' start states (refine's NG)
+    ng = fit.a.shape[1] - 4  # the globals: J/B, the motors' start states (refine's NG) and the freed effect
     s_mat, _, _ = _schur(fit.a, fit.b, ng)
-    return _scaled_inverse(s_mat)[:4, :4]
+    cov = _scaled_inverse(s_mat)
+    keep = [0, 1, 2, 3] + ([ng - 1] if effect is not None else [])
+    return cov[np.ix_(keep, keep)]
 
 
 def predicted_precision(u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_rad: np.ndarray,
@@ -44,10 +50,20 @@ def predicted_precision(u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarra
     return precision_of(cov, params)
 
 
+def detection_power(value: float, se: float, n_tests: int, alpha: float) -> float:
+    """The chance that a two-sided test of an effect's parameter at the family level ``alpha`` / ``n_tests``
+    (Bonferroni, as diagnose's) finds it, when the estimate is normal about ``value`` with standard error ``se``."""
+    if not se > 0:
+        return 1.0
+    z = float(norm.isf(alpha / n_tests / 2.0))
+    c = abs(value) / se
+    return float(norm.sf(z - c) + norm.cdf(-z - c))
+
+
 def precision_of(cov: np.ndarray, params: dict) -> dict:
     """covariance()'s (4, 4) matrix as predicted_precision's dict, relative to ``params``' J/B."""
     out = {}
-    for i, k in enumerate(NAMES):
+    for i, k in enumerate(NAMES):  # J/B: the first four rows whatever follows
         se = math.sqrt(max(float(cov[i, i]), 0.0))
         out[k] = {"se": se, "half_width": Z95 * se, "relative": Z95 * se / abs(float(params[k]))}
     return out
