@@ -85,7 +85,7 @@ def cell(args: tuple) -> dict:
                    "saturated": float(np.mean(at)), "predicted": {k: pred[k]["relative"] for k in JB}}
             try:
                 e = api.estimate(api.log_frame(r), params=known, angle_unit="rad")
-                ci, est = e.ci95, e.estimates
+                ci = e.ci95
                 row["achieved"] = {k: (ci[k][1] - ci[k][0]) / 2 / p[k] for k in JB}
                 row["covered"] = sum(ci[k][0] <= p[k] <= ci[k][1] for k in JB)
                 row["adequate"] = e.adequate

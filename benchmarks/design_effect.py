@@ -41,7 +41,7 @@ def _one(args) -> dict:
 
 def main() -> None:
     from sim.simulate import DEFAULT_PID
-    from trms_ident.design import Limits, design
+    from trms_ident.design import Limits, describe, design
     from trms_ident.params import defaults
 
     t0 = time.perf_counter()
@@ -59,7 +59,8 @@ def main() -> None:
                      f"{', '.join(sorted(set(r['first'] or '-' for r in rs if not r['found']))) or '-'} |")
     text = ("## Design for an effect (benchmarks/design_effect.py, blind, seeds from 12000)\n\n"
             f"`design --effect {KEY} --size {SIZE:g}` on Table 1's bench with that friction, {DURATION:g} s at "
-            f"{RATE:g} Hz, {1e3 * SIGMA:g} mrad noise; the designed run ({d.pitch}, {d.yaw}) and the paper's square, "
+            f"{RATE:g} Hz, {1e3 * SIGMA:g} mrad noise; the designed run (pitch {describe(d.pitch)}; yaw "
+            f"{describe(d.yaw)}) and the paper's square, "
             f"each diagnosed on {len(SEEDS)} noise seeds.\n\n"
             "| reference | predicted t | predicted power | diagnose found it | at the voltage limit | limits broken | "
             "first finding when missed |\n|---|---|---|---|---|---|---|\n" + "\n".join(lines)

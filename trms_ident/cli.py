@@ -665,7 +665,8 @@ def design(
     thrust_law: LawOpt = "quadratic",
     output: Annotated[Path, typer.Option("--output", "-o", help="References to write: .csv with t, alpha_ref, "
                                          "beta_ref [s, rad] (run it first with simulate --ref-file), or .mat: "
-                                         "Simulink From Workspace, Structure With Time, variable ref.")] = Path("design.csv"),
+                                         "Simulink From Workspace, Structure With Time, variable ref.")
+                  ] = Path("design.csv"),
     json_path: Annotated[Optional[str], typer.Option("--json", help="Write the design's JSON here; '-' = "
                                                      "stdout.")] = None,
     no_report: Annotated[bool, typer.Option("--no-report", help="Do not write the HTML page (<output>.html: the "
@@ -776,8 +777,8 @@ def design(
     say(f"wrote {output} ({r.t_s.size} samples, {duration:g} s at {rate:g} Hz; run it first with trms-ident simulate "
         f"--ref-file {output})" + (f" and {page}" if page else ""))
     say(f"  {doc['sentence']}")
-    say(f"  references: pitch {_shape_text(d.pitch)}, yaw {_shape_text(d.yaw)} ({d.candidates} candidates simulated, "
-        f"{d.feasible} within the limits)")
+    say(f"  references: pitch {planner.describe(d.pitch)}, yaw {planner.describe(d.yaw)} ({d.candidates} candidates "
+        f"simulated, {d.feasible} within the limits)")
     say("  predicted 95 % half-width      design      square (the paper's)")
     for k in ESTIMATED:
         say(f"    {k:<3}                       {100 * r.precision[k]['relative']:9.3g} %  "
@@ -792,13 +793,6 @@ def design(
         f"{100 * s['saturated_share']:.3g} %)")
     if json_path:
         emit_json(doc, json_path)
-
-
-def _shape_text(m) -> str:
-    """A design's axis reference in words."""
-    if m.kind == "square":
-        return f"square wave +-{m.peak_rad:.3g} rad, period {m.period_s:g} s"
-    return f"multisine, peak {m.peak_rad:.3g} rad, up to {m.band_hz:g} Hz"
 
 
 def _design_doc(d, p: dict, settings: dict) -> dict:
@@ -830,8 +824,8 @@ def _design_doc(d, p: dict, settings: dict) -> dict:
                 + ".")
     if d.run.effect is not None:
         sentence = found
-    return {"kind": "trms-ident design", "sentence": sentence, "design": {**run_doc(d.run), "pitch": dataclasses.asdict(d.pitch),
-                                                    "yaw": dataclasses.asdict(d.yaw)},
+    shapes = {"pitch": dataclasses.asdict(d.pitch), "yaw": dataclasses.asdict(d.yaw)}
+    return {"kind": "trms-ident design", "sentence": sentence, "design": {**run_doc(d.run), **shapes},
             "square": run_doc(d.square), "candidates": d.candidates, "feasible": d.feasible,
             "parameters": {k: float(v) for k, v in p.items() if isinstance(v, (int, float))},
             "settings": settings, "versions": versions()}

@@ -145,6 +145,13 @@ def shaped(t_s: np.ndarray, duration_s: float, m, yaw: bool) -> np.ndarray:
     return multisine(t_s, duration_s, m, offset=N_FREQUENCIES if yaw else 0)
 
 
+def describe(m) -> str:
+    """An axis' reference shape (Multisine or Square) in words."""
+    if isinstance(m, Square):
+        return f"square wave +-{m.peak_rad:.3g} rad, period {m.period_s:g} s"
+    return f"multisine, peak {m.peak_rad:.3g} rad, up to {m.band_hz:g} Hz"
+
+
 def _objective(cov: np.ndarray, params: dict, objective: str) -> float:
     scale = np.array([abs(float(params[k])) for k in NAMES])
     rel = cov / np.outer(scale, scale)
@@ -172,8 +179,7 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
            "u1_v": float(np.max(np.abs(r.u1_v))), "u2_v": float(np.max(np.abs(r.u2_v))),
            "saturated_share": float(np.mean(at_limit))}
     dt = 1.0 / rate_hz
-    rates = {"alpha": float(np.max(np.abs(np.diff(alpha_ref)))) / dt, "beta": float(np.max(np.abs(np.diff(beta_ref)))) / dt}
-    env["ref_rate_rad_s"] = max(rates.values())
+    env["ref_rate_rad_s"] = max(float(np.max(np.abs(np.diff(x)))) / dt for x in (alpha_ref, beta_ref))
     bad = []
     if not np.all(np.isfinite(r.alpha_rad)) or not np.all(np.isfinite(r.beta_rad)):
         bad.append("the closed loop diverges")

@@ -62,6 +62,10 @@ def precision_figure(doc: dict) -> str:
     return png_data_uri(fig)
 
 
+#: settings the page shows in their own words, not in the settings line
+SHOWN_APART = ("pid", "limits", "noise_std_rad")
+
+
 def render(doc: dict, d, limits, u_limit_v: float) -> str:
     """The page (self-contained HTML)."""
     def env_row(name: str, r: dict) -> str:
@@ -70,7 +74,8 @@ def render(doc: dict, d, limits, u_limit_v: float) -> str:
                 f"<td>{e['u2_v']:.3g}</td><td>{100 * e['saturated_share']:.3g} %</td><td>"
                 f"{html.escape('; '.join(r['violations']) or 'none')}</td></tr>")
 
-    rows = "".join(f"<tr><td>{k}</td><td>{html.escape(UNITS[k])}</td><td>{doc['design']['predicted'][k]['half_width']:.3g}</td>"
+    rows = "".join(f"<tr><td>{k}</td><td>{html.escape(UNITS[k])}</td>"
+                   f"<td>{doc['design']['predicted'][k]['half_width']:.3g}</td>"
                    f"<td>{100 * doc['design']['predicted'][k]['relative']:.3g} %</td>"
                    f"<td>{100 * doc['square']['predicted'][k]['relative']:.3g} %</td></tr>" for k in ESTIMATED)
     st = doc["settings"]
@@ -95,8 +100,7 @@ these.</p>
 {'unlimited' if limits.ref_rate_rad_s is None else f'&le; {limits.ref_rate_rad_s:g} rad/s'}.</p>
 <img alt="references, predicted angles and voltages" src="{run_figure(d.run, d.square, limits, u_limit_v)}">
 <h2>Settings and versions</h2>
-<p class="note">{html.escape(', '.join(f'{k} {v}' for k, v in st.items() if k not in ('pid', 'limits', 'noise_std_rad')))};
-noise {noise};
+<p class="note">{html.escape(', '.join(f'{k} {v}' for k, v in st.items() if k not in SHOWN_APART))}; noise {noise};
 PID {html.escape(', '.join(f'{k} {v:g}' for k, v in st['pid'].items()))}.</p>
 <p class="note">{html.escape(', '.join(f'{k} {v}' for k, v in doc['versions'].items()))}</p>
 </body></html>"""
