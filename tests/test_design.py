@@ -126,6 +126,8 @@ def test_a_design_from_a_previous_estimate_takes_its_bench_and_its_measured_nois
     assert d["parameters"]["J1"] == e["estimates"]["J1"] == pytest.approx(0.08, rel=0.01)
     floors = {a["angle"]: a["noise_floor_rad"] for a in e["model_check"]["axes"].values()}
     assert d["settings"]["noise_std_rad"] == floors and floors["alpha"] == pytest.approx(1e-3, rel=0.2)
+    import hashlib
+    assert d["settings"]["sha256"] == {str(est): hashlib.sha256(est.read_bytes()).hexdigest()}
     res = runner.invoke(app, ["design", "--from", str(est), "--params", str(bench)])
     assert res.exit_code == EXIT_USAGE and "--from and --params: give one bench, not both" in res.output
 

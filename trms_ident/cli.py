@@ -675,6 +675,7 @@ def design(
     """Plan the next experiment: multisine references for the lab's closed loop that keep the limits and make
     J1, B1, J2, B2 as precise as they can be, predicted from the model beside the paper's square reference."""
     import dataclasses
+    import hashlib
     import tomllib
 
     from . import design as planner
@@ -766,7 +767,9 @@ def design(
                                  if params else None, from_result=str(from_result) if from_result else None,
                                  controller=str(controller) if controller else None, pid=pid,
                                  u_limit_v=u_limit, limits=dataclasses.asdict(limits), objective=objective,
-                                 thrust_law=thrust_law, output=str(output), effect=effect, size=size))
+                                 thrust_law=thrust_law, output=str(output), effect=effect, size=size,
+                                 sha256={str(f): hashlib.sha256(Path(f).read_bytes()).hexdigest()
+                                         for f in (params, from_result, controller) if f and Path(f).is_file()}))
     page = None
     if not no_report:
         from .io.atomic import write_text
