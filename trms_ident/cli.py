@@ -674,13 +674,7 @@ def design(
 ) -> None:
     """Plan the next experiment: multisine references for the lab's closed loop that keep the limits and make
     J1, B1, J2, B2 as precise as they can be, predicted from the model beside the paper's square reference."""
-    import dataclasses
-    import hashlib
-    import tomllib
-
     from . import design as planner
-    from .io.reference import write_reference
-    from .params import merge
 
     if not duration > 0 or not rate > 0:
         raise SettingsError(f"--duration {duration:g} and --rate {rate:g}: both must be > 0")
@@ -698,7 +692,6 @@ def design(
         raise SettingsError(f"--noise-std {noise_std:g}: expected > 0 [rad]")
     if encoder_bits is not None and not 1 <= encoder_bits <= 32:
         raise SettingsError(f"--encoder-bits {encoder_bits}: expected 1..32")
-    sd = noise_std if noise_std is not None else 2 * math.pi / 2 ** (encoder_bits or 12) / math.sqrt(12.0)
     for name, v in (("--pitch-limit", pitch_limit), ("--yaw-limit", yaw_limit)):
         if not v > 0:
             raise SettingsError(f"{name} {v:g}: expected > 0 [rad] (a limit that excludes zero leaves no run)")
@@ -716,67 +709,16 @@ def design(
         raise SettingsError(f"--size {size:g}: expected a nonzero number")
     if thrust_law not in THRUST_LAWS:
         raise SettingsError(f"thrust law must be one of {tuple(THRUST_LAWS)}, got {thrust_law!r}")
-    from sim.simulate import DEFAULT_PID
+    from .commands import design_files
 
-    pid, u_limit = dict(DEFAULT_PID), 2.5
-    if controller is not None:
-        from .errors import InputNotFoundError, ParameterFileError
-
-        if not controller.is_file():
-            raise InputNotFoundError(f"{controller}: no such file")
-        try:
-            pid, u_limit = planner.controller_from(tomllib.loads(controller.read_text(encoding="utf-8")),
-                                                   str(controller))
-        except tomllib.TOMLDecodeError as exc:
-            raise ParameterFileError(f"{controller}: not TOML ({exc})") from None
-        except ValueError as exc:
-            raise ParameterFileError(str(exc)) from None
-    noise = {"alpha": sd, "beta": sd}
-    if from_result is not None:  # the bench as estimate found it: known values, J/B, the noise it measured
-        from .errors import LogFormatError
-
-        doc_in, known, _, estimates = read_result(from_result)
-        missing = [k for k in ESTIMATED if estimates.get(k) is None]
-        if missing:
-            raise LogFormatError(f"{from_result}: {', '.join(missing)} not identified there; give the bench with "
-                                 "--params")
-        overrides = {**known, **{k: float(estimates[k]) for k in ESTIMATED}}
-        if noise_std is None and encoder_bits is None:
-            axes = doc_in["model_check"].get("axes") or {}
-            floors = {a["angle"]: a.get("noise_floor_rad") for a in axes.values()
-                      if a.get("noise_floor_measured") and a.get("noise_floor_rad")}
-            if set(floors) != {"alpha", "beta"}:
-                raise SettingsError(f"--from {from_result}: that log's noise floor was not measured on both angles; "
-                                    "give --encoder-bits or --noise-std")
-            noise, sd = {k: float(v) for k, v in floors.items()}, None
-    else:
-        overrides = load_parameter_file(params, allow_estimated=True) if params else {}
-    p = merge(overrides, source="parameter overrides")
     limits = planner.Limits(pitch_limit, yaw_limit, max_saturated, max_ref_rate)
     with progress_bar("design") as advance:
-        try:
-            d = planner.design(duration, rate, p, thrust_law, noise, pid, u_limit, limits, objective,
-                               progress=(lambda f: advance("simulating candidates", f)) if advance else None,
-                               effect=None if effect is None else (effect, size))
-        except ValueError as exc:
-            raise SettingsError(str(exc)) from None
-    r = d.run
-    write_reference(output, r.t_s, r.alpha_ref_rad, r.beta_ref_rad)
-    doc = _design_doc(d, p, dict(duration_s=duration, rate_hz=rate, noise_std_rad=noise, encoder_bits=None
-                                 if noise_std is not None or sd is None else (encoder_bits or 12), params=str(params)
-                                 if params else None, from_result=str(from_result) if from_result else None,
-                                 controller=str(controller) if controller else None, pid=pid,
-                                 u_limit_v=u_limit, limits=dataclasses.asdict(limits), objective=objective,
-                                 thrust_law=thrust_law, output=str(output), effect=effect, size=size,
-                                 sha256={str(f): hashlib.sha256(Path(f).read_bytes()).hexdigest()
-                                         for f in (params, from_result, controller) if f and Path(f).is_file()}))
-    page = None
-    if not no_report:
-        from .io.atomic import write_text
-        from .report.design import render
-
-        page = output.with_suffix(".html")
-        write_text(page, render(doc, d, limits, u_limit))
+        out = design_files(duration, rate, limits, output, noise_std=noise_std, encoder_bits=encoder_bits,
+                           params=params, from_result=from_result, controller=controller, objective=objective,
+                           effect=None if effect is None else (effect, size), thrust_law=thrust_law,
+                           html=not no_report,
+                           progress=(lambda f: advance("simulating candidates", f)) if advance else None)
+    d, doc, r, page = out.design, out.doc, out.design.run, out.page
     say(f"wrote {output} ({r.t_s.size} samples, {duration:g} s at {rate:g} Hz; run it first with trms-ident simulate "
         f"--ref-file {output})" + (f" and {page}" if page else ""))
     say(f"  {doc['sentence']}")
@@ -796,42 +738,6 @@ def design(
         f"{100 * s['saturated_share']:.3g} %)")
     if json_path:
         emit_json(doc, json_path)
-
-
-def _design_doc(d, p: dict, settings: dict) -> dict:
-    """design's JSON: the predicted precision of the design and of the square reference, their envelopes, the
-    references' multisines and every setting."""
-    import dataclasses
-
-    from .report.summary import versions
-
-    def run_doc(r) -> dict:
-        return {"predicted": {k: {"half_width": v["half_width"], "relative": v["relative"], "se": v["se"]}
-                              for k, v in r.precision.items()},
-                "envelope": r.envelope, "violations": list(r.violations),
-                **({"effect": r.effect} if r.effect is not None else {})}
-
-    if d.run.effect is not None:
-        e, q = d.run.effect, d.square.effect
-        found = (f"Within the limits the design predicts {e['key']} of {e['size']:g} at t = {e['t']:.3g} (diagnose's "
-                 f"output-error test finds it with a chance of {100 * e['power']:.3g} %); the paper's square "
-                 f"reference, same length, t = {q['t']:.3g} ({100 * q['power']:.3g} %)"
-                 + (", but it breaks the limits: " + "; ".join(d.square.violations) if d.square.violations else "")
-                 + ".")
-    worst = max(ESTIMATED, key=lambda k: d.run.precision[k]["relative"])
-    sq_worst = max(ESTIMATED, key=lambda k: d.square.precision[k]["relative"])
-    sentence = (f"Within the limits the design predicts {worst} to +-{100 * d.run.precision[worst]['relative']:.3g} % "
-                f"(its widest interval); the paper's square reference, same length, {sq_worst} to "
-                f"+-{100 * d.square.precision[sq_worst]['relative']:.3g} %"
-                + (", but it breaks the limits: " + "; ".join(d.square.violations) if d.square.violations else "")
-                + ".")
-    if d.run.effect is not None:
-        sentence = found
-    shapes = {"pitch": dataclasses.asdict(d.pitch), "yaw": dataclasses.asdict(d.yaw)}
-    return {"kind": "trms-ident design", "sentence": sentence, "design": {**run_doc(d.run), **shapes},
-            "square": run_doc(d.square), "candidates": d.candidates, "feasible": d.feasible,
-            "parameters": {k: float(v) for k, v in p.items() if isinstance(v, (int, float))},
-            "settings": settings, "versions": versions()}
 
 
 @app.command()
@@ -973,24 +879,6 @@ def mat_signal_line(s: dict) -> str:
     return line
 
 
-def read_result(result: Path) -> tuple[dict, dict, dict, dict]:
-    """(the document, its known values with any --free estimates, those --free estimates, J/B estimates) of a
-    result.json written by estimate; one-line errors naming the file."""
-    from .errors import InputNotFoundError, LogFormatError
-
-    try:
-        doc = json.loads(result.read_text(encoding="utf-8"))
-        known = {k: v["value"] for k, v in doc["parameters"].items()}
-        freed = ((doc.get("refined") or {}).get("known_values_estimated") or {})
-        known.update({k: v["estimate"] for k, v in freed.items()})
-        estimates, _ = doc["estimates"], doc["model_check"]["adequate"]
-    except FileNotFoundError:
-        raise InputNotFoundError(f"{result}: no such file") from None
-    except (ValueError, KeyError, TypeError, AttributeError) as exc:
-        raise LogFormatError(f"{result}: not a result.json of trms-ident estimate ({exc})") from None
-    return doc, known, freed, estimates
-
-
 @app.command()
 @handled
 def export(
@@ -1002,6 +890,8 @@ def export(
     --params."""
     from .io.atomic import write_text
     from .params import to_toml
+
+    from .commands import read_result
 
     doc, known, freed, estimates = read_result(result)
     check = doc["model_check"]

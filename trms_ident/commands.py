@@ -1,6 +1,7 @@
 """What each command does, as plain functions: read, compute, write. The CLI adds flags and exit codes."""
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable
@@ -38,3 +39,111 @@ def estimate_file(log_path: str | Path, settings: Settings, out_dir: str | Path 
                         time_unit=time_unit, voltage_time=voltage_time, rate_hz=rate_hz)
     written = est.save(out_dir, html, on_stage) if out_dir is not None else []
     return EstimateOutput(est.log, est.result, est.doc, written)
+
+
+def read_result(result: Path) -> tuple[dict, dict, dict, dict]:
+    """(the document, its known values with any --free estimates, those --free estimates, J/B estimates) of a
+    result.json written by estimate; one-line errors naming the file."""
+    import json
+
+    from .errors import InputNotFoundError, LogFormatError
+
+    try:
+        doc = json.loads(result.read_text(encoding="utf-8"))
+        known = {k: v["value"] for k, v in doc["parameters"].items()}
+        freed = ((doc.get("refined") or {}).get("known_values_estimated") or {})
+        known.update({k: v["estimate"] for k, v in freed.items()})
+        estimates, _ = doc["estimates"], doc["model_check"]["adequate"]
+    except FileNotFoundError:
+        raise InputNotFoundError(f"{result}: no such file") from None
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise LogFormatError(f"{result}: not a result.json of trms-ident estimate ({exc})") from None
+    return doc, known, freed, estimates
+
+
+@dataclass
+class DesignOutput:
+    design: object  # design.Design
+    doc: dict  # its JSON (report.design.design_doc)
+    written: list[Path]
+    page: Path | None
+
+
+def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noise_std: float | None = None,
+                 encoder_bits: int | None = None, params: str | Path | None = None,
+                 from_result: Path | None = None, controller: Path | None = None, objective: str = "worst",
+                 effect: tuple[str, float] | None = None, thrust_law: str = "quadratic", html: bool = True,
+                 progress: Callable[[float], None] | None = None) -> DesignOutput:
+    """Plan the next experiment (design.design) for the bench in ``params`` (a parameter file or a bundled bench)
+    or ``from_result`` (an estimate's result.json: its known values, J/B and measured noise floors), under the PID
+    of ``controller`` (a TOML [controller] table; default the simulator's), and write the references to
+    ``output`` (.csv or .mat) and, with ``html``, the page beside them (<output>.html).  The noise is
+    ``noise_std`` [rad], else 2 pi / 2^encoder_bits / sqrt(12) (12 bits by default), else from_result's floors.
+    Errors: InputNotFoundError, ParameterFileError (the controller file), LogFormatError (the result file),
+    SettingsError (no reference keeps the limits; a result whose floors were not measured)."""
+    import hashlib
+    import math
+    import tomllib
+
+    from sim.simulate import DEFAULT_PID
+
+    from . import design as planner
+    from .errors import InputNotFoundError, LogFormatError, ParameterFileError, SettingsError
+    from .io.atomic import write_text
+    from .io.reference import write_reference
+    from .params import ESTIMATED, load_parameter_file, merge
+    from .report.design import design_doc, render
+
+    pid, u_limit = dict(DEFAULT_PID), 2.5
+    if controller is not None:
+        if not Path(controller).is_file():
+            raise InputNotFoundError(f"{controller}: no such file")
+        try:
+            pid, u_limit = planner.controller_from(tomllib.loads(Path(controller).read_text(encoding="utf-8")),
+                                                   str(controller))
+        except tomllib.TOMLDecodeError as exc:
+            raise ParameterFileError(f"{controller}: not TOML ({exc})") from None
+        except ValueError as exc:
+            raise ParameterFileError(str(exc)) from None
+    sd = noise_std if noise_std is not None else 2 * math.pi / 2 ** (encoder_bits or 12) / math.sqrt(12.0)
+    noise = {"alpha": sd, "beta": sd}
+    if from_result is not None:  # the bench as estimate found it: known values, J/B, the noise it measured
+        doc_in, known, _, estimates = read_result(Path(from_result))
+        missing = [k for k in ESTIMATED if estimates.get(k) is None]
+        if missing:
+            raise LogFormatError(f"{from_result}: {', '.join(missing)} not identified there; give the bench with "
+                                 "--params")
+        overrides = {**known, **{k: float(estimates[k]) for k in ESTIMATED}}
+        if noise_std is None and encoder_bits is None:
+            axes = doc_in["model_check"].get("axes") or {}
+            floors = {a["angle"]: a.get("noise_floor_rad") for a in axes.values()
+                      if a.get("noise_floor_measured") and a.get("noise_floor_rad")}
+            if set(floors) != {"alpha", "beta"}:
+                raise SettingsError(f"--from {from_result}: that log's noise floor was not measured on both angles; "
+                                    "give --encoder-bits or --noise-std")
+            noise, sd = {k: float(v) for k, v in floors.items()}, None
+    else:
+        overrides = load_parameter_file(params, allow_estimated=True) if params else {}
+    p = merge(overrides, source="parameter overrides")
+    try:
+        d = planner.design(duration_s, rate_hz, p, thrust_law, noise, pid, u_limit, limits, objective,
+                           progress=progress, effect=effect)
+    except ValueError as exc:
+        raise SettingsError(str(exc)) from None
+    r = d.run
+    write_reference(output, r.t_s, r.alpha_ref_rad, r.beta_ref_rad)
+    inputs = [f for f in (params, from_result, controller) if f and Path(f).is_file()]
+    doc = design_doc(d, p, dict(
+        duration_s=duration_s, rate_hz=rate_hz, noise_std_rad=noise,
+        encoder_bits=None if noise_std is not None or sd is None else (encoder_bits or 12),
+        params=str(params) if params else None, from_result=str(from_result) if from_result else None,
+        controller=str(controller) if controller else None, pid=pid, u_limit_v=u_limit,
+        limits=dataclasses.asdict(limits), objective=objective, thrust_law=thrust_law, output=str(output),
+        effect=None if effect is None else effect[0], size=None if effect is None else effect[1],
+        sha256={str(f): hashlib.sha256(Path(f).read_bytes()).hexdigest() for f in inputs}))
+    written, page = [Path(output)], None
+    if html:
+        page = Path(output).with_suffix(".html")
+        write_text(page, render(doc, d, limits, u_limit))
+        written.append(page)
+    return DesignOutput(d, doc, written, page)

@@ -15,6 +15,42 @@ from .figures import _stride, png_data_uri  # noqa: E402
 from .html import CSS  # noqa: E402
 
 
+def design_doc(d, p: dict, settings: dict) -> dict:
+    """design's JSON: the predicted precision of the design and of the square reference, their envelopes, the
+    references' multisines and every setting."""
+    import dataclasses
+
+    from .summary import versions
+
+    def run_doc(r) -> dict:
+        return {"predicted": {k: {"half_width": v["half_width"], "relative": v["relative"], "se": v["se"]}
+                              for k, v in r.precision.items()},
+                "envelope": r.envelope, "violations": list(r.violations),
+                **({"effect": r.effect} if r.effect is not None else {})}
+
+    if d.run.effect is not None:
+        e, q = d.run.effect, d.square.effect
+        found = (f"Within the limits the design predicts {e['key']} of {e['size']:g} at t = {e['t']:.3g} (diagnose's "
+                 f"output-error test finds it with a chance of {100 * e['power']:.3g} %); the paper's square "
+                 f"reference, same length, t = {q['t']:.3g} ({100 * q['power']:.3g} %)"
+                 + (", but it breaks the limits: " + "; ".join(d.square.violations) if d.square.violations else "")
+                 + ".")
+    worst = max(ESTIMATED, key=lambda k: d.run.precision[k]["relative"])
+    sq_worst = max(ESTIMATED, key=lambda k: d.square.precision[k]["relative"])
+    sentence = (f"Within the limits the design predicts {worst} to +-{100 * d.run.precision[worst]['relative']:.3g} % "
+                f"(its widest interval); the paper's square reference, same length, {sq_worst} to "
+                f"+-{100 * d.square.precision[sq_worst]['relative']:.3g} %"
+                + (", but it breaks the limits: " + "; ".join(d.square.violations) if d.square.violations else "")
+                + ".")
+    if d.run.effect is not None:
+        sentence = found
+    shapes = {"pitch": dataclasses.asdict(d.pitch), "yaw": dataclasses.asdict(d.yaw)}
+    return {"kind": "trms-ident design", "sentence": sentence, "design": {**run_doc(d.run), **shapes},
+            "square": run_doc(d.square), "candidates": d.candidates, "feasible": d.feasible,
+            "parameters": {k: float(v) for k, v in p.items() if isinstance(v, (int, float))},
+            "settings": settings, "versions": versions()}
+
+
 def run_figure(run, square, limits, u_limit_v: float) -> str:
     """Pitch and yaw (reference and predicted angle, with the range allowed) and both voltages (with the
     controller's limit), the design's run beside the square reference's."""
