@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import LogFormatError
-from .csv_log import read_bytes
+from .csv_log import read_bytes, write_columns
 
 COLUMNS = ("t", "alpha_ref", "beta_ref")
 
@@ -83,7 +83,7 @@ def write_reference(path: Path, t_s: np.ndarray, alpha_ref_rad: np.ndarray, beta
     """Write references atomically: ``.csv`` as read_reference reads it; ``.mat`` as a Simulink "From Workspace"
     Structure With Time in the variable ``ref`` (``ref.time`` [s], ``ref.signals.values`` (n, 2): alpha_ref,
     beta_ref [rad], ``ref.signals.dimensions`` 2)."""
-    from .atomic import atomic_path, write_text
+    from .atomic import atomic_path
 
     path = Path(path)
     if path.suffix.lower() == ".mat":
@@ -95,6 +95,4 @@ def write_reference(path: Path, t_s: np.ndarray, alpha_ref_rad: np.ndarray, beta
         with atomic_path(path) as tmp:
             scipy.io.savemat(tmp, {"ref": ref}, appendmat=False)
         return
-    write_text(path, "t,alpha_ref,beta_ref\n" + "".join(
-        f"{t!r},{a!r},{b!r}\n" for t, a, b in zip(np.asarray(t_s, float).tolist(), np.asarray(alpha_ref_rad, float)
-                                                  .tolist(), np.asarray(beta_ref_rad, float).tolist())))
+    write_columns(path, dict(zip(COLUMNS, (t_s, alpha_ref_rad, beta_ref_rad))))
