@@ -830,3 +830,17 @@ def test_a_profile_on_a_log_cut_mid_run_starts_where_the_current_models_fit_did(
     base = fitter.base(Model(), {}, theta0)
     at_truth = fitter._fit(Model(), {}, base.estimate, None, {key: 0.08}, start=base.start_states)
     assert at_truth.cost < 1.1 * 2 * fitter.n  # the true delay fits to the noise floor from there
+
+
+def test_a_refusal_says_a_fit_that_is_not_a_number_in_words():
+    """A finding refused while the model has no physical J/B to predict with (the CE150 elevation ramp, measured)
+    says so in words; 'nan %' reached the user once (CI, Data100_ea_a0)."""
+    from trms_ident.diagnosis.run import _refusal
+    from trms_ident.model.effects import Candidate
+    c = Candidate("com_offset", "pitch", "delta", "rad", "linear")
+    ok = {"J1": 0.07, "B1": 0.006, "J2": 0.02, "B2": 0.1}
+    why = _refusal(c, ok, ok, {"pitch": math.nan, "yaw": math.nan}, {"pitch": math.nan, "yaw": math.nan})
+    assert why == ("it does not raise the pitch prediction fit (n/a (J or B not physical: no prediction) -> "
+                   "n/a (J or B not physical: no prediction))")
+    assert _refusal(c, ok, ok, {"pitch": 90.0}, {"pitch": 95.0}) is None
+    assert "(95.00 % -> 90.00 %)" in _refusal(c, ok, ok, {"pitch": 95.0}, {"pitch": 90.0})

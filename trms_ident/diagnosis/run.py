@@ -20,7 +20,7 @@ from .discriminate import PAIR
 from .locate import lag_profile, regimes, segments
 from .model import AXIS_ANGLE, Model, drop_search_columns, modified_inputs, regression, smoothed_velocity
 from .fits import REST, best_start, prediction_fits, start_cost, start_samples
-from .predict import HORIZON_S, fit_text
+from .predict import HORIZON_S, fit_change, fit_text
 from .result import VERDICTS, Diagnosis, Finding
 from .judge import (TIMING_PAIR, _alternatives_by_output_error, _offsets_by_output_error, _oe_confirm, _oe_fit,
                     _oe_rescue, _oe_start)
@@ -567,13 +567,12 @@ def _refusal(c: Candidate, nominal: dict, augmented: dict, fit_before: dict, fit
         fall = [x for x, (fb, fa) in fits.items() if not fa >= fb]
         if fall or not any(fa > fb for fb, fa in fits.values()):
             x = (fall or list(axes_c))[0]
-            return (f"it does not raise the {x} simulation fit ({fits[x][0]:.4g} % -> {fits[x][1]:.4g} %, "
-                    "output-error fit)")
+            return f"it does not raise the {x} simulation fit ({fit_change(*fits[x])}, output-error fit)"
         return None
     for x in axes_c:
         fb, fa = fit_before.get(x, math.nan), fit_after.get(x, math.nan)
         if not math.isfinite(fa) or (math.isfinite(fb) and fa <= fb):
-            return f"it does not raise the {x} prediction fit ({fb:.4g} % -> {fa:.4g} %)"
+            return f"it does not raise the {x} prediction fit ({fit_change(fb, fa)})"
     return None
 
 
