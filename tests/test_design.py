@@ -144,3 +144,93 @@ def test_a_design_to_find_an_effect_predicts_its_t_and_power_beside_the_square(t
     assert 0.0 <= q["power"] <= e["power"] <= 1.0 and e["t"] > q["t"]  # chosen for it, within the limits
     assert doc["sentence"].startswith("Within the limits the design predicts coulomb_friction:pitch of 0.001 at t =")
     assert doc["design"]["violations"] == []
+
+
+def _diagnosis(path, first: dict, alternatives: list, floors=True) -> None:
+    """A diagnosis.json as diagnose writes it, reduced to what design --discriminate reads."""
+    doc = {"verdict": "explained", "findings": [{**first, "alternatives": alternatives}],
+           "estimates": {"augmented": {"J1": 0.068, "B1": 0.006, "J2": 0.02, "B2": 0.1}},
+           "settings": {"floors": {a: {"rad": 1e-3, "used": "noise" if floors else "black_box"}
+                                   for a in ("pitch", "yaw")}}}
+    path.write_text(json.dumps(doc))
+
+
+def test_the_discrimination_gap_is_what_the_rival_leaves_and_grows_with_the_samples():
+    """T-optimal criterion: the truth refits to its own angles (cost ~0); the rival offset mimics it at the
+    opposite sign (exactly, in the gravity term) and leaves a gap from the gyroscopic term only; the gap of
+    white noise grows with the samples (twice the rate, about twice the gap)."""
+    from sim.simulate import DEFAULT_PID
+    from trms_ident.params import defaults
+
+    truth, gaps = planner.Hypothesis("sensor_offset:pitch", 0.03), []
+    for rate in (50.0, 100.0):
+        t = np.arange(int(30 * rate) + 1) / rate
+        a = planner.shaped(t, 30.0, planner.Multisine(0.2, 0.3), False)
+        b = planner.shaped(t, 30.0, planner.Multisine(1.0, 0.3), True)
+        r = planner.simulate_run(t, a, b, rate, defaults(), "quadratic", {"alpha": 1e-3, "beta": 1e-3},
+                                 dict(DEFAULT_PID), 2.5, planner.Limits(), discriminate=(truth, ("com_offset:pitch",)))
+        d = r.discrimination
+        assert r.violations == [], r.violations
+        assert d["truth_cost"] < 1e-6 and d["closest"] == "com_offset:pitch"
+        rival = d["rivals"]["com_offset:pitch"]
+        assert rival["value"] == pytest.approx(-0.03, rel=0.02) and rival["converged"]
+        assert r.score == -rival["gap"] and rival["gap"] > 0.05
+        gaps.append(rival["gap"])
+    assert gaps[1] / gaps[0] == pytest.approx(2.0, rel=0.15)
+    assert planner.told_apart_chance(planner.gap_needed(0.9)) == pytest.approx(0.9)
+    assert planner.told_apart_chance(0.0) == 0.0 and planner.told_apart_chance(100.0) > 0.999
+
+
+def test_hypothesis_keys_take_effects_and_known_values_and_refuse_the_rest():
+    assert planner.hypothesis_key("com_offset:pitch") == "com_offset:pitch"
+    assert planner.hypothesis_key("kc") == planner.hypothesis_key("known_value:kc") == "known_value:kc"
+    assert planner.Hypothesis("known_value:kc", -0.1).known_value == "kc"
+    with pytest.raises(ValueError, match="design can tell apart the torque effects"):
+        planner.hypothesis_key("dead_zone:yaw")
+    with pytest.raises(ValueError, match="is not a known value of eq. \\(1\\)"):
+        planner.hypothesis_key("J1")
+
+
+def test_a_design_to_tell_look_alikes_apart_predicts_each_rivals_gap_beside_the_square(tmp_path):
+    dia, js = tmp_path / "diagnosis.json", tmp_path / "d.json"
+    _diagnosis(dia, {"effect": "sensor_offset", "axis": "pitch", "parameter": {"name": "delta", "value": 0.03}},
+               ["com_offset:pitch", "dead_zone:pitch"])
+    res = runner.invoke(app, ["design", "--duration", "20", "--rate", "50", "--discriminate", str(dia),
+                              "-o", str(tmp_path / "d.csv"), "--json", str(js)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(js.read_text())
+    told, sq = doc["design"]["discrimination"], doc["square"]["discrimination"]
+    assert told["truth"] == "sensor_offset:pitch" and told["truth_value"] == 0.03
+    assert set(told["rivals"]) == {"com_offset:pitch"}  # the dead zone cannot be refitted here: said, not dropped
+    assert "dead_zone:pitch" in doc["settings"]["not_weighed"] and "not weighed: dead_zone:pitch" in res.stderr
+    assert told["rivals"]["com_offset:pitch"]["gap"] >= 0.0 and doc["design"]["violations"] == []
+    assert doc["settings"]["noise_std_rad"] == {"alpha": 1e-3, "beta": 1e-3}  # the floors diagnose measured
+    assert doc["sentence"].startswith("Within the limits, on the bench with sensor_offset:pitch = 0.03, the design "
+                                      "predicts that com_offset:pitch (the closest rival)")
+    if told["rivals"]["com_offset:pitch"]["power"] < 0.9:  # 20 s at 50 Hz is short: the tool says what would do
+        assert "That is not enough to decide: a gap of 22 is (a 90 % chance)" in doc["sentence"]
+    assert set(sq["rivals"]) == {"com_offset:pitch"}
+    assert "Telling the look-alikes apart" in (tmp_path / "d.html").read_text()
+
+
+@pytest.mark.parametrize("first, alternatives, floors, extra, message", [
+    (None, [], True, [], "diagnose found nothing (explained): there is nothing to tell apart"),
+    ({"effect": "sensor_offset", "axis": "pitch", "parameter": {"name": "delta", "value": 0.03}}, [], True, [],
+     "its first finding (sensor_offset:pitch) has no look-alike design can weigh: diagnose told it apart"),
+    ({"effect": "sensor_offset", "axis": "pitch", "parameter": {"name": "delta", "value": 0.03}},
+     ["com_offset:pitch"], False, [], "that log's noise floor was not measured on both angles"),
+    ({"effect": "sensor_offset", "axis": "pitch", "parameter": {"name": "delta", "value": 0.03}},
+     ["com_offset:pitch"], True, ["--effect", "coulomb_friction:pitch", "--size", "0.001"],
+     "--discriminate and --effect"),
+])
+def test_a_diagnosis_design_cannot_use_is_a_one_line_error(tmp_path, first, alternatives, floors, extra, message):
+    dia = tmp_path / "diagnosis.json"
+    _diagnosis(dia, first or {}, alternatives, floors)
+    if first is None:
+        doc = json.loads(dia.read_text())
+        doc["findings"] = []
+        dia.write_text(json.dumps(doc))
+    res = runner.invoke(app, ["design", "--duration", "10", "--rate", "50", "--discriminate", str(dia), *extra,
+                              "-o", str(tmp_path / "d.csv")])
+    assert res.exit_code == EXIT_USAGE and message in res.output and "Traceback" not in res.output, res.output
+    assert len(res.output.strip().splitlines()) == 1 and not (tmp_path / "d.csv").exists()

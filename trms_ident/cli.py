@@ -662,6 +662,10 @@ def design(
                                                   "needs --size.")] = None,
     size: Annotated[Optional[float], typer.Option("--size", help="The effect's size to find, in its parameter's "
                                                   "unit (e.g. 0.001 N m).")] = None,
+    discriminate: Annotated[Optional[Path], typer.Option("--discriminate", help="A diagnosis.json of diagnose: design "
+                                                         "to tell its first finding from its flagged look-alikes "
+                                                         "(the bench: --params as diagnose was given, the "
+                                                         "findings' J/B; the noise diagnose measured).")] = None,
     thrust_law: LawOpt = "quadratic",
     output: Annotated[Path, typer.Option("--output", "-o", help="References to write: .csv with t, alpha_ref, "
                                          "beta_ref [s, rad] (run it first with simulate --ref-file), or .mat: "
@@ -703,6 +707,9 @@ def design(
         raise SettingsError(f"--objective {objective!r}: expected one of {', '.join(planner.OBJECTIVES)}")
     if (effect is None) != (size is None):
         raise SettingsError("--effect and --size go together: the effect to find and its size")
+    if discriminate is not None and effect is not None:
+        raise SettingsError("--discriminate and --effect: design to tell hypotheses apart or to find an effect, "
+                            "not both")
     if effect is not None and effect not in planner.EFFECTS:
         raise SettingsError(f"--effect {effect}: expected one of {', '.join(planner.EFFECTS)}")
     if size is not None and not (math.isfinite(size) and size != 0):
@@ -716,7 +723,7 @@ def design(
         out = design_files(duration, rate, limits, output, noise_std=noise_std, encoder_bits=encoder_bits,
                            params=params, from_result=from_result, controller=controller, objective=objective,
                            effect=None if effect is None else (effect, size), thrust_law=thrust_law,
-                           html=not no_report,
+                           html=not no_report, discriminate=discriminate,
                            progress=(lambda f: advance("simulating candidates", f)) if advance else None)
     d, doc, r, page = out.design, out.doc, out.design.run, out.page
     say(f"wrote {output} ({r.t_s.size} samples, {duration:g} s at {rate:g} Hz; run it first with trms-ident simulate "
@@ -728,6 +735,14 @@ def design(
     for k in ESTIMATED:
         say(f"    {k:<3}                       {100 * r.precision[k]['relative']:9.3g} %  "
             f"{100 * d.square.precision[k]['relative']:9.3g} %")
+    if r.discrimination is not None:
+        q = d.square.discrimination
+        for k, v in r.discrimination["rivals"].items():
+            say(f"  {k} against {r.discrimination['truth']}: predicted cost gap {v['gap']:.3g}, chance told apart "
+                f"{100 * v['power']:.3g} %" + (f" (the square reference: {q['rivals'][k]['gap']:.3g}, "
+                                              f"{100 * q['rivals'][k]['power']:.3g} %)" if q else ""))
+        for k, why in (doc["settings"].get("not_weighed") or {}).items():
+            say(f"  not weighed: {k} ({why})")
     if r.effect is not None:
         say(f"  {effect} of {size:g}: predicted t {r.effect['t']:.3g}, chance diagnose's output-error test finds it "
             f"{100 * r.effect['power']:.3g} % (the square reference: t {d.square.effect['t']:.3g}, "

@@ -61,6 +61,54 @@ def read_result(result: Path) -> tuple[dict, dict, dict, dict]:
     return doc, known, freed, estimates
 
 
+def read_diagnosis(path: Path) -> tuple[dict, object, tuple, dict, dict]:
+    """What ``design --discriminate`` needs from a diagnosis.json of diagnose: (the document, its first finding as
+    a design.Hypothesis, the rivals design can weigh (its flagged look-alikes), those it cannot -> why, the J/B
+    the findings' model was refitted to).  One-line errors naming the file."""
+    import json
+
+    from . import design as planner
+    from .errors import InputNotFoundError, LogFormatError, SettingsError
+    from .params import ESTIMATED
+
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        findings = doc["findings"]
+        jb = {k: v for k, v in doc["estimates"]["augmented"].items()}
+    except FileNotFoundError:
+        raise InputNotFoundError(f"{path}: no such file") from None
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise LogFormatError(f"{path}: not a diagnosis.json of trms-ident diagnose ({exc})") from None
+    if not findings:
+        raise SettingsError(f"{path}: diagnose found nothing ({doc.get('verdict')}): there is nothing to tell apart")
+    f = findings[0]
+    try:
+        first = f"known_value:{f['parameter']['name']}" if f["effect"] == "known_value" else f"{f['effect']}:{f['axis']}"
+        truth = planner.Hypothesis(planner.hypothesis_key(first), float(f["parameter"]["value"]))
+    except (KeyError, TypeError) as exc:
+        raise LogFormatError(f"{path}: its first finding is not one of diagnose's ({exc})") from None
+    except ValueError as exc:
+        raise SettingsError(f"{path}: its first finding, {exc}") from None
+    rivals, skipped = [], {}
+    for alt in f.get("alternatives") or []:
+        try:
+            key = planner.hypothesis_key(str(alt))
+        except ValueError as exc:
+            skipped[str(alt)] = str(exc)
+            continue
+        if key != truth.key and key not in rivals:
+            rivals.append(key)
+    if not rivals:
+        raise SettingsError(f"{path}: its first finding ({first}) has no look-alike design can weigh"
+                            + (f" ({'; '.join(skipped.values())})" if skipped else
+                               ": diagnose told it apart from its rivals already"))
+    bad = [k for k in ESTIMATED if not (isinstance(jb.get(k), (int, float)) and jb[k] > 0)]
+    if bad:
+        raise SettingsError(f"{path}: the findings' model has no physical {', '.join(bad)}; give the bench with "
+                            "--params (J/B too) and design for precision first")
+    return doc, truth, tuple(rivals), skipped, {k: float(jb[k]) for k in ESTIMATED}
+
+
 @dataclass
 class DesignOutput:
     design: object  # design.Design
@@ -73,14 +121,17 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
                  encoder_bits: int | None = None, params: str | Path | None = None,
                  from_result: Path | None = None, controller: Path | None = None, objective: str = "worst",
                  effect: tuple[str, float] | None = None, thrust_law: str = "quadratic", html: bool = True,
-                 progress: Callable[[float], None] | None = None) -> DesignOutput:
+                 progress: Callable[[float], None] | None = None, discriminate: Path | None = None) -> DesignOutput:
     """Plan the next experiment (design.design) for the bench in ``params`` (a parameter file or a bundled bench)
     or ``from_result`` (an estimate's result.json: its known values, J/B and measured noise floors), under the PID
     of ``controller`` (a TOML [controller] table; default the simulator's), and write the references to
     ``output`` (.csv or .mat) and, with ``html``, the page beside them (<output>.html).  The noise is
     ``noise_std`` [rad], else 2 pi / 2^encoder_bits / sqrt(12) (12 bits by default), else from_result's floors.
     Errors: InputNotFoundError, ParameterFileError (the controller file), LogFormatError (the result file),
-    SettingsError (no reference keeps the limits; a result whose floors were not measured)."""
+    SettingsError (no reference keeps the limits; a result whose floors were not measured).
+    ``discriminate``: a diagnosis.json; design to tell its first finding from its look-alikes (read_diagnosis):
+    the bench is ``params`` (the table diagnose was given) with the findings' J/B and the finding in, the noise
+    the floors diagnose measured unless ``noise_std`` or ``encoder_bits`` is given."""
     import hashlib
     import math
     import tomllib
@@ -124,15 +175,29 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
             noise, sd = {k: float(v) for k, v in floors.items()}, None
     else:
         overrides = load_parameter_file(params, allow_estimated=True) if params else {}
+    told = None
+    if discriminate is not None:
+        if from_result is not None:
+            raise SettingsError("--discriminate and --from: the bench comes from the diagnosis (with --params for "
+                                "the table diagnose was given)")
+        ddoc, truth, rivals, skipped, jb = read_diagnosis(Path(discriminate))
+        overrides = {**overrides, **jb}
+        floors = (ddoc.get("settings") or {}).get("floors") or {}
+        if noise_std is None and encoder_bits is None:
+            if not all((floors.get(a) or {}).get("used") == "noise" for a in ("pitch", "yaw")):
+                raise SettingsError(f"--discriminate {discriminate}: that log's noise floor was not measured on both "
+                                    "angles; give --encoder-bits or --noise-std")
+            noise, sd = {"alpha": float(floors["pitch"]["rad"]), "beta": float(floors["yaw"]["rad"])}, None
+        told = (truth, rivals)
     p = merge(overrides, source="parameter overrides")
     try:
         d = planner.design(duration_s, rate_hz, p, thrust_law, noise, pid, u_limit, limits, objective,
-                           progress=progress, effect=effect)
+                           progress=progress, effect=effect, discriminate=told)
     except ValueError as exc:
         raise SettingsError(str(exc)) from None
     r = d.run
     write_reference(output, r.t_s, r.alpha_ref_rad, r.beta_ref_rad)
-    inputs = [f for f in (params, from_result, controller) if f and Path(f).is_file()]
+    inputs = [f for f in (params, from_result, controller, discriminate) if f and Path(f).is_file()]
     doc = design_doc(d, p, dict(
         duration_s=duration_s, rate_hz=rate_hz, noise_std_rad=noise,
         encoder_bits=None if noise_std is not None or sd is None else (encoder_bits or 12),
@@ -140,6 +205,8 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
         controller=str(controller) if controller else None, pid=pid, u_limit_v=u_limit,
         limits=dataclasses.asdict(limits), objective=objective, thrust_law=thrust_law, output=str(output),
         effect=None if effect is None else effect[0], size=None if effect is None else effect[1],
+        discriminate=str(discriminate) if discriminate else None,
+        not_weighed=skipped if discriminate is not None else None,
         sha256={str(f): hashlib.sha256(Path(f).read_bytes()).hexdigest() for f in inputs}))
     written, page = [Path(output)], None
     if html:

@@ -24,6 +24,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from scipy.stats import norm
+
 from .numerics.fisher import Z95, covariance, detection_power, precision_of
 from .diagnosis.select import FAMILY_ALPHA
 from .model import effects as room
@@ -43,6 +45,10 @@ LOWEST_PEAK = 0.05
 REFINE_ROUNDS = 3
 REFINE_RATIO = 1.15
 OBJECTIVES = ("worst", "d")
+#: telling hypotheses apart: the search's highest rate [Hz], and how many of its best are simulated at the run's
+#: rate until one keeps the limits
+SCREEN_HZ = 100.0
+SCREEN_CHECKED = 5
 #: the effects design can plan for: the torque effects the refinement's kernel carries with exact sensitivities
 EFFECTS = tuple(EFFECT_SLOTS)
 #: diagnose's family: its candidates and level (diagnosis/select.py), for the predicted power of an effect
@@ -98,6 +104,9 @@ class Run:
     violations: list = field(default_factory=list)  # the limits it breaks, in words (empty: feasible)
     score: float = math.inf  # the objective (lower is better; inf when it breaks a limit or cannot be evaluated)
     effect: dict | None = None  # with an effect: {"key", "size", "se", "t" (size / se), "power"}
+    #: with --discriminate: {"truth", "truth_value", "rivals": {key: {"gap", "value", "power", "converged"}},
+    #: "closest"} (discrimination())
+    discrimination: dict | None = None
 
 
 def frequencies_hz(duration_s: float, band_hz: float, n: int = N_FREQUENCIES) -> np.ndarray:
@@ -151,6 +160,99 @@ def describe(m) -> str:
     return f"multisine, peak {m.peak_rad:.3g} rad, up to {m.band_hz:g} Hz"
 
 
+@dataclass(frozen=True)
+class Hypothesis:
+    """One explanation diagnose weighed, at a value: a library effect the refinement's kernel carries
+    ("com_offset:pitch", EFFECTS) or a known value of eq. (1) off its table ("known_value:kc")."""
+
+    key: str
+    value: float
+
+    @property
+    def known_value(self) -> str | None:
+        return self.key.split(":", 1)[1] if self.key.startswith("known_value:") else None
+
+
+def hypothesis_key(text: str) -> str:
+    """A diagnosis' name for an explanation as a Hypothesis key: "sensor_offset:pitch" stays, "known_value:kc"
+    stays, a bare known value's name ("kc", as its look-alikes are listed) becomes "known_value:kc"; ValueError
+    for one design cannot weigh (an input modification, a lag: the output-error refit here carries torque effects
+    and known values only)."""
+    from .params import KNOWN
+
+    key = text if ":" in text else f"known_value:{text}"
+    if key.startswith("known_value:"):
+        name = key.split(":", 1)[1]
+        if name not in KNOWN:
+            raise ValueError(f"{text!r} is not a known value of eq. (1)")
+        return key
+    if key not in EFFECTS:
+        raise ValueError(f"{text!r}: design can tell apart the torque effects {', '.join(EFFECTS)} and known values; "
+                         "not this one")
+    return key
+
+
+#: the look-alike pair diagnose tells apart by the output-error cost gap (diagnosis/discriminate.py), and the
+#: gap it needs: a rival is told apart when its refit leaves at least this much more noise-weighted squared error
+MIN_COST_GAP = 10.0
+
+
+def _refit(u1, u2, alpha, beta, dt: float, params: dict, law: str, noise_rad: dict, h: Hypothesis, start: float):
+    """The model with hypothesis ``h`` fitted by output error to these angles (J/B, h's value, the start states
+    free; h's value started at ``start``): (noise-weighted squared angle error, h's value, converged)."""
+    from .numerics.refine import refine as oe_refine
+
+    theta = {k: float(params[k]) for k in NAMES}
+    name = h.known_value
+    if name is not None:
+        r = oe_refine(u1, u2, alpha, beta, dt, {**params, name: start}, law, theta, noise_rad, free=(name,))
+    else:
+        r = oe_refine(u1, u2, alpha, beta, dt, params, law, theta, noise_rad, free=(h.key,), effects={h.key: start})
+    return float(r.cost), float(r.freed[name or h.key]["estimate"]), bool(r.converged)
+
+
+def told_apart_chance(gap: float) -> float:
+    """The chance that a log whose expected output-error cost gap is ``gap`` shows a gap of at least MIN_COST_GAP:
+    under white angle noise the observed gap is about normal, mean ``gap``, variance 4 ``gap`` (the noise's
+    projection on the two models' difference, counted twice)."""
+    if not gap > 0:
+        return 0.0
+    return float(norm.sf((MIN_COST_GAP - gap) / (2.0 * math.sqrt(gap))))
+
+
+def gap_needed(chance: float = 0.9) -> float:
+    """The expected cost gap at which told_apart_chance reaches ``chance``: gap - 2 z sqrt(gap) = MIN_COST_GAP."""
+    z = float(norm.isf(1.0 - chance))
+    return (z + math.sqrt(z * z + MIN_COST_GAP)) ** 2
+
+
+def discrimination(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, params: dict, law: str, noise_rad: dict,
+                   truth: Hypothesis, rivals: tuple[str, ...]) -> dict:
+    """How far each rival stays from ``truth`` on a run (the T-optimal criterion of Atkinson and Fedorov): the
+    run's angles are the bench with ``truth`` (noise-free); the truth and each rival are fitted to them by output
+    error with J/B and their own value free, and the gap is the noise-weighted squared angle error the rival
+    leaves beyond the truth's: the expected difference of the two fits' costs on a recorded run, which is twice
+    the log likelihood ratio diagnose weighs.  ``params`` is the table diagnose was given (J/B the bench's)."""
+    def start_of(key: str) -> float:
+        h = Hypothesis(key, 0.0)
+        if h.known_value is not None:
+            return float(params[h.known_value])
+        if {key, truth.key} == {"com_offset:pitch", "sensor_offset:pitch"}:
+            return -truth.value  # the two offsets mimic each other at opposite signs (EFFECT_SLOTS' conventions)
+        return 0.0
+
+    own, _, _ = _refit(u1_v, u2_v, alpha_rad, beta_rad, dt_s, params, law, noise_rad, truth, truth.value)
+    out = {}
+    for key in rivals:
+        cost, value, ok = _refit(u1_v, u2_v, alpha_rad, beta_rad, dt_s, params, law, noise_rad, Hypothesis(key, 0.0),
+                                 start_of(key))
+        gap = max(cost - own, 0.0)
+        out[key] = {"gap": gap, "value": value, "converged": ok, "power": told_apart_chance(gap)}
+    closest = min(out, key=lambda k: out[k]["gap"])
+    return {"truth": truth.key, "truth_value": truth.value, "rivals": out, "closest": closest,
+            "truth_cost": own}
+
+
 def _objective(cov: np.ndarray, params: dict, objective: str) -> float:
     scale = np.array([abs(float(params[k])) for k in NAMES])
     rel = cov / np.outer(scale, scale)
@@ -162,17 +264,27 @@ def _objective(cov: np.ndarray, params: dict, objective: str) -> float:
 
 def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, rate_hz: float, params: dict,
                  law: str, noise_rad: dict, pid: dict, u_limit_v: float, limits: Limits, objective: str = "worst",
-                 effect: tuple[str, float] | None = None, judged_anyway: bool = False) -> Run:
+                 effect: tuple[str, float] | None = None, judged_anyway: bool = False,
+                 discriminate: tuple[Hypothesis, tuple[str, ...]] | None = None) -> Run:
     """The references (sampled at ``t_s`` [s], from 0, at ``rate_hz``) run through the closed loop noise-free,
     judged against ``limits`` and scored by ``objective``; ``effect`` = (key, size): the bench has that effect and
     the score is its parameter's standard error over its size.  A run that breaks a limit is never chosen, so its
-    information matrix is only evaluated when ``judged_anyway`` (the paper's run, reported beside the design)."""
+    information matrix is only evaluated when ``judged_anyway`` (the paper's run, reported beside the design).
+    ``discriminate`` = (truth, rivals): the bench has the truth (a Hypothesis), and the score is the smallest
+    output-error cost gap a rival leaves (discrimination(); larger is better, so the score is its negative)."""
     from sim import SimSettings, simulate
 
     table = (t_s, alpha_ref, beta_ref)
     fx = [] if effect is None else [dict(zip(("effect", "axis"), effect[0].split(":")), value=float(effect[1]))]
+    bench = dict(params)
+    if discriminate is not None:
+        truth = discriminate[0]
+        if truth.known_value is not None:
+            bench[truth.known_value] = truth.value
+        else:
+            fx = [dict(zip(("effect", "axis"), truth.key.split(":")), value=float(truth.value))]
     s = SimSettings(ref="file", ref_table=table, duration_s=float(t_s[-1]), sample_rate_hz=rate_hz,
-                    thrust_law=law, u_limit_v=u_limit_v, overrides=dict(params), pid=dict(pid), effects=fx)
+                    thrust_law=law, u_limit_v=u_limit_v, overrides=bench, pid=dict(pid), effects=fx)
     r = simulate(s)
     at_limit = (np.abs(r.u1_v) >= u_limit_v * (1 - 1e-9)) | (np.abs(r.u2_v) >= u_limit_v * (1 - 1e-9))
     env = {"alpha_rad": float(np.max(np.abs(r.alpha_rad))), "beta_rad": float(np.max(np.abs(r.beta_rad))),
@@ -193,12 +305,19 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
                        f"time (limit {100 * limits.saturated_share:g} %)")
     if limits.ref_rate_rad_s is not None and env["ref_rate_rad_s"] > limits.ref_rate_rad_s:
         bad.append(f"the reference moves at {env['ref_rate_rad_s']:.3g} rad/s (limit {limits.ref_rate_rad_s:g})")
-    precision, score, found = {}, math.inf, None
+    precision, score, found, told = {}, math.inf, None, None
     if "the closed loop diverges" not in bad and (not bad or judged_anyway):
         try:
-            cov = covariance(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, dt, params, law, noise_rad, effect)
-            precision = precision_of(cov, params)
-            if effect is not None:
+            if discriminate is not None:
+                told = discrimination(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, dt, params, law, noise_rad,
+                                      *discriminate)
+                if not np.isfinite(told["rivals"][told["closest"]]["gap"]):
+                    raise FloatingPointError
+            cov = covariance(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, dt, bench, law, noise_rad, effect)
+            precision = precision_of(cov, bench)
+            if told is not None:
+                score = -told["rivals"][told["closest"]]["gap"]
+            elif effect is not None:
                 se = math.sqrt(max(float(cov[4, 4]), 0.0))
                 found = {"key": effect[0], "size": float(effect[1]), "se": se,
                          "t": abs(effect[1]) / se if se > 0 else math.inf,
@@ -209,7 +328,8 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
             score = score if not bad else math.inf
         except (np.linalg.LinAlgError, FloatingPointError, ValueError):
             bad.append("its information matrix cannot be evaluated")
-    return Run(r.t_s, alpha_ref, beta_ref, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, precision, env, bad, score, found)
+    return Run(r.t_s, alpha_ref, beta_ref, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, precision, env, bad, score, found,
+               told)
 
 
 @dataclass
@@ -227,12 +347,22 @@ class Design:
 
 def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad: dict, pid: dict,
            u_limit_v: float, limits: Limits, objective: str = "worst", progress=None,
-           effect: tuple[str, float] | None = None) -> Design:
+           effect: tuple[str, float] | None = None,
+           discriminate: tuple[Hypothesis, tuple[str, ...]] | None = None) -> Design:
     """References for ``duration_s`` [s] at ``rate_hz`` [Hz] that keep ``limits`` and minimise ``objective``
     (OBJECTIVES) for the bench ``params`` under the PID ``pid`` (the simulator's names Kp1 ... Tf) limited to
     ``u_limit_v`` [V], with the logged angles' noise ``noise_rad``.  Raises ValueError when no candidate keeps the
     limits (the message says what the gentlest one breaks).  ``progress(fraction)`` is called as it goes.
-    ``effect`` = (key, size): design to find that effect (EFFECTS) instead, the bench simulated with it."""
+    ``effect`` = (key, size): design to find that effect (EFFECTS) instead, the bench simulated with it.
+    ``discriminate`` = (truth, rivals): design to tell the truth (a Hypothesis, in the simulated bench) from the
+    rivals (hypothesis keys): the largest smallest output-error cost gap (discrimination())."""
+    if effect is not None and discriminate is not None:
+        raise ValueError("design for an effect or to tell hypotheses apart, not both")
+    if discriminate is not None:
+        if not discriminate[1]:
+            raise ValueError("nothing to tell apart: no rival hypothesis")
+        for key in (discriminate[0].key, *discriminate[1]):
+            hypothesis_key(key)
     if effect is not None and effect[0] not in EFFECTS:
         raise ValueError(f"effect {effect[0]!r}: design can plan for {', '.join(EFFECTS)}")
     if effect is not None and not effect[1] != 0:
@@ -242,10 +372,17 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     n = int(round(duration_s * rate_hz)) + 1
     t = np.arange(n) / rate_hz
     say = progress or (lambda f: None)
+    # telling hypotheses apart refits each rival per candidate: the search runs at SCREEN_HZ at most (the gaps
+    # scaled by the ratio of rates: white noise, a cost that grows with the samples), the choice again at the rate
+    screen_hz = min(rate_hz, SCREEN_HZ) if discriminate is not None else rate_hz
+    ts = np.arange(int(round(duration_s * screen_hz)) + 1) / screen_hz
 
-    def run(a, b) -> Run:
-        return simulate_run(t, shaped(t, duration_s, a, False), shaped(t, duration_s, b, True), rate_hz, params, law,
-                            noise_rad, pid, u_limit_v, limits, objective, effect)
+    def run(a, b, times=ts, hz=screen_hz) -> Run:
+        r = simulate_run(times, shaped(times, duration_s, a, False), shaped(times, duration_s, b, True), hz, params,
+                         law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate=discriminate)
+        if discriminate is not None and math.isfinite(r.score):
+            r.score *= rate_hz / hz
+        return r
 
     peaks_a = np.geomspace(LOWEST_PEAK * limits.pitch_rad, limits.pitch_rad, PEAK_STEPS)
     peaks_b = np.geomspace(LOWEST_PEAK * limits.yaw_rad, limits.yaw_rad, PEAK_STEPS)
@@ -272,12 +409,23 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
                 tried[cand] = run(*cand)
         best = min(tried, key=lambda k: tried[k].score)
         say((len(grid) + 4 * (r + 1)) / total)
+    chosen = tried[best]
+    if screen_hz != rate_hz:  # the screen's choice at the run's own rate (the first feasible in the screen's order)
+        order = sorted((k for k in tried if math.isfinite(tried[k].score)), key=lambda k: tried[k].score)
+        for k in order[:SCREEN_CHECKED]:
+            chosen = run(*k, times=t, hz=rate_hz)
+            if math.isfinite(chosen.score):
+                best = k
+                break
+        else:
+            raise ValueError(f"the {SCREEN_CHECKED} best references at {screen_hz:g} Hz break the limits at "
+                             f"{rate_hz:g} Hz: " + "; ".join(chosen.violations))
     from sim.references import reference
 
     sa, sb = reference("square", t)  # the paper's experiment 1
     paper = simulate_run(t, sa, sb, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect,
-                         judged_anyway=True)
-    return Design(tried[best], best[0], best[1], paper, len(tried),
+                         judged_anyway=True, discriminate=discriminate)
+    return Design(chosen, best[0], best[1], paper, len(tried),
                   sum(math.isfinite(v.score) for v in tried.values()))
 
 

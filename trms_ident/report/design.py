@@ -26,7 +26,8 @@ def design_doc(d, p: dict, settings: dict) -> dict:
         return {"predicted": {k: {"half_width": v["half_width"], "relative": v["relative"], "se": v["se"]}
                               for k, v in r.precision.items()},
                 "envelope": r.envelope, "violations": list(r.violations),
-                **({"effect": r.effect} if r.effect is not None else {})}
+                **({"effect": r.effect} if r.effect is not None else {}),
+                **({"discrimination": r.discrimination} if r.discrimination is not None else {})}
 
     if d.run.effect is not None:
         e, q = d.run.effect, d.square.effect
@@ -44,11 +45,38 @@ def design_doc(d, p: dict, settings: dict) -> dict:
                 + ".")
     if d.run.effect is not None:
         sentence = found
+    if d.run.discrimination is not None:
+        sentence = discrimination_sentence(d, settings["duration_s"])
     shapes = {"pitch": dataclasses.asdict(d.pitch), "yaw": dataclasses.asdict(d.yaw)}
     return {"kind": "trms-ident design", "sentence": sentence, "design": {**run_doc(d.run), **shapes},
             "square": run_doc(d.square), "candidates": d.candidates, "feasible": d.feasible,
             "parameters": {k: float(v) for k, v in p.items() if isinstance(v, (int, float))},
             "settings": settings, "versions": versions()}
+
+
+def discrimination_sentence(d, duration_s: float) -> str:
+    """What the design predicts for telling diagnose's first finding from its look-alikes, beside the square."""
+    from ..design import MIN_COST_GAP, gap_needed
+
+    t, q = d.run.discrimination, d.square.discrimination
+    c = t["rivals"][t["closest"]]
+    text = (f"Within the limits, on the bench with {t['truth']} = {t['truth_value']:.4g}, the design predicts that "
+            f"{t['closest']} (the closest rival), refitted, leaves a noise-weighted squared angle error {c['gap']:.3g} "
+            f"above the truth's: diagnose tells them apart (a gap of at least {MIN_COST_GAP:g}) with a chance of "
+            f"{100 * c['power']:.3g} %")
+    if len(t["rivals"]) > 1:
+        text += " (" + ", ".join(f"{k}: {v['gap']:.3g}" for k, v in t["rivals"].items()) + ")"
+    qc = q["rivals"][q["closest"]] if q else None
+    if qc is not None:
+        text += (f"; the paper's square reference, same length, {qc['gap']:.3g} ({100 * qc['power']:.3g} %)"
+                 + (", but it breaks the limits" if d.square.violations else ""))
+    text += "."
+    need = gap_needed(0.9)
+    if c["power"] < 0.9 and c["gap"] > 0:
+        text += (f" That is not enough to decide: a gap of {need:.3g} is (a 90 % chance). The gap grows with the "
+                 f"samples: about {duration_s * need / c['gap']:.3g} s of this design at this rate, a faster rate, "
+                 "a quieter encoder or wider limits would reach it.")
+    return text
 
 
 def run_figure(run, square, limits, u_limit_v: float) -> str:
@@ -99,7 +127,7 @@ def precision_figure(doc: dict) -> str:
 
 
 #: settings the page shows in their own words, not in the settings line
-SHOWN_APART = ("pid", "limits", "noise_std_rad")
+SHOWN_APART = ("pid", "limits", "noise_std_rad", "not_weighed")
 
 
 def render(doc: dict, d, limits, u_limit_v: float) -> str:
@@ -114,12 +142,27 @@ def render(doc: dict, d, limits, u_limit_v: float) -> str:
                    f"<td>{doc['design']['predicted'][k]['half_width']:.3g}</td>"
                    f"<td>{100 * doc['design']['predicted'][k]['relative']:.3g} %</td>"
                    f"<td>{100 * doc['square']['predicted'][k]['relative']:.3g} %</td></tr>" for k in ESTIMATED)
+    told = ""
+    if "discrimination" in doc["design"]:
+        t, q = doc["design"]["discrimination"], doc["square"].get("discrimination")
+        told = ("<h2>Telling the look-alikes apart</h2><table><tr><th>rival</th><th>design: cost gap</th>"
+                "<th>design: chance told apart</th><th>rival's refitted value</th><th>paper's square: cost gap</th>"
+                "</tr>" + "".join(
+                    f"<tr><td>{html.escape(k)}</td><td>{v['gap']:.3g}</td><td>{100 * v['power']:.3g} %</td>"
+                    f"<td>{v['value']:.4g}</td><td>{q['rivals'][k]['gap']:.3g}</td></tr>" if q else
+                    f"<tr><td>{html.escape(k)}</td><td>{v['gap']:.3g}</td><td>{100 * v['power']:.3g} %</td>"
+                    f"<td>{v['value']:.4g}</td><td>-</td></tr>" for k, v in t["rivals"].items()) + "</table>"
+                f"<p class=\"note\">The bench simulated with {html.escape(t['truth'])} = {t['truth_value']:.4g} "
+                "(diagnose's first finding); each rival fitted to its noise-free angles by output error with J/B and "
+                "its own value free. The cost gap is the noise-weighted squared angle error it leaves beyond the "
+                "truth's: the expected difference of the two fits' costs on the recorded run, twice the log "
+                "likelihood ratio.</p>")
     st = doc["settings"]
     noise = ", ".join(f"{a} {v:.3g} rad" for a, v in st["noise_std_rad"].items())
     return f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident design</title>
 <style>{CSS}</style></head><body>
 <h1>The next experiment: {st['duration_s']:g} s at {st['rate_hz']:g} Hz</h1>
-<p>{html.escape(doc['sentence'])}</p>
+<p>{html.escape(doc['sentence'])}</p>{told}
 <h2>Predicted precision</h2>
 <table><tr><th>parameter</th><th>unit</th><th>design: 95 % half-width</th><th>design: relative</th>
 <th>paper's square: relative</th></tr>{rows}</table>
