@@ -208,7 +208,7 @@ def test_a_design_to_tell_look_alikes_apart_predicts_each_rivals_gap_beside_the_
     assert doc["sentence"].startswith("Within the limits, on the bench with sensor_offset:pitch = 0.03, the design "
                                       "predicts that com_offset:pitch (the closest rival)")
     if told["rivals"]["com_offset:pitch"]["power"] < 0.9:  # 20 s at 50 Hz is short: the tool says what would do
-        assert "That is not enough to decide: a gap of 22 is (a 90 % chance)" in doc["sentence"]
+        assert "That is not enough to decide: a 90 % chance needs a gap of 22" in doc["sentence"]
     assert set(sq["rivals"]) == {"com_offset:pitch"}
     assert "Telling the look-alikes apart" in (tmp_path / "d.html").read_text()
 

@@ -73,7 +73,7 @@ def discrimination_sentence(d, duration_s: float) -> str:
     text += "."
     need = gap_needed(0.9)
     if c["power"] < 0.9 and c["gap"] > 0:
-        text += (f" That is not enough to decide: a gap of {need:.3g} is (a 90 % chance). The gap grows with the "
+        text += (f" That is not enough to decide: a 90 % chance needs a gap of {need:.3g}. The gap grows with the "
                  f"samples: about {duration_s * need / c['gap']:.3g} s of this design at this rate, a faster rate, "
                  "a quieter encoder or wider limits would reach it.")
     return text
