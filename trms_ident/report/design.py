@@ -149,9 +149,8 @@ def render(doc: dict, d, limits, u_limit_v: float) -> str:
                 "<th>design: chance told apart</th><th>rival's refitted value</th><th>paper's square: cost gap</th>"
                 "</tr>" + "".join(
                     f"<tr><td>{html.escape(k)}</td><td>{v['gap']:.3g}</td><td>{100 * v['power']:.3g} %</td>"
-                    f"<td>{v['value']:.4g}</td><td>{q['rivals'][k]['gap']:.3g}</td></tr>" if q else
-                    f"<tr><td>{html.escape(k)}</td><td>{v['gap']:.3g}</td><td>{100 * v['power']:.3g} %</td>"
-                    f"<td>{v['value']:.4g}</td><td>-</td></tr>" for k, v in t["rivals"].items()) + "</table>"
+                    f"<td>{v['value']:.4g}</td><td>{format(q['rivals'][k]['gap'], '.3g') if q else '-'}</td></tr>"
+                    for k, v in t["rivals"].items()) + "</table>"
                 f"<p class=\"note\">The bench simulated with {html.escape(t['truth'])} = {t['truth_value']:.4g} "
                 "(diagnose's first finding); each rival fitted to its noise-free angles by output error with J/B and "
                 "its own value free. The cost gap is the noise-weighted squared angle error it leaves beyond the "
