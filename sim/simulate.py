@@ -30,6 +30,10 @@ class SimSettings:
     seed: int = 0
     noise_std_rad: float = 0.0
     quantization_rad: float = 0.0
+    #: where the encoders' grids sit off zero [rad] (pitch, yaw): the angle logged is round((angle + o) / q) q - o,
+    #: the controller reads round((angle + o) / q) q.  Rounding is otherwise the same on every seed: a benchmark
+    #: that wants independent 12-bit runs draws these per seed
+    quantization_offset_rad: tuple = (0.0, 0.0)
     thrust_law: str = "quadratic"
     u_limit_v: float = 2.5
     max_step_s: float = 5e-4
@@ -106,6 +110,8 @@ def simulate(settings: SimSettings) -> SimResult:
         aref, bref = reference(settings.ref, t, settings.seed)
     rng = np.random.default_rng(settings.seed)
     noise = rng.standard_normal((2, n)) * settings.noise_std_rad
+    grid = np.asarray(settings.quantization_offset_rad, dtype=float) if settings.quantization_rad > 0 else np.zeros(2)
+    noise += grid[:, None]
     pid = {**DEFAULT_PID, **settings.pid}
     gains = np.array([pid[k] for k in ("Kp1", "Ki1", "Kd1", "Kp2", "Ki2", "Kd2", "Tf")], dtype=float)
     p = np.array([params[k] for k in PARAM_ORDER], dtype=float)
@@ -128,4 +134,5 @@ def simulate(settings: SimSettings) -> SimResult:
     }
     cut = slice(skip, None)  # a log cut from the middle of a run keeps the run's own clock
     u_time = t + settings.voltage_offset * dts
+    a_log, b_log = a_log - grid[0], b_log - grid[1]
     return SimResult(t[cut], u1[cut], u2[cut], a_log[cut], b_log[cut], state[cut], truth, u_time[cut])

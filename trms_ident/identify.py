@@ -11,7 +11,9 @@ import numpy as np
 
 from .errors import IdentificationError, SettingsError
 from .log import Log
-from .numerics.design import FilterDesign, angle_noise_rad, design_filters
+from .numerics.design import FilterDesign, angle_noise_rad, design_filters, quantization_step
+from .numerics.fisher import Z95
+from .numerics.quantization import OFFSETS as QUANTIZATION_OFFSETS
 from .numerics.fused import drem_summaries
 from .numerics.adequacy import RMS_OVER_NOISE, judging_floors, model_check
 from . import known_values
@@ -372,7 +374,40 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
         return r, base + "; NOT used: Gauss-Newton did not converge", False
     if r.blocks < MIN_BLOCKS:
         return r, base + f"; NOT used: {r.blocks} block(s) after the start are too few for an interval", False
-    return r, base, True
+    r, widened = _with_rounding(log, settings, params, r, noise)
+    return r, base + widened, True
+
+
+def _with_rounding(log: Log, settings: Settings, params: dict, r: Refined, noise: dict) -> tuple[Refined, str]:
+    """On a log whose angles sit on an encoder's grid, each interval is the wider of the batch-means one and the
+    spread the grid's rounding causes (numerics/quantization.py, at the estimate, from the model's own angles);
+    the covariance of J/B is scaled alike.  (The refined result, the words added to the refinement's note.)"""
+    from .numerics.quantization import rounding_covariance
+
+    quantum = {"alpha": quantization_step(log.alpha_rad), "beta": quantization_step(log.beta_rad)}
+    if not any(q > 0 for q in quantum.values()):
+        return r, ""
+    freed = {k: v["estimate"] for k, v in r.freed.items()}
+    try:
+        cov = rounding_covariance(log.u1_v, log.u2_v, r.prediction, log.sample_time_s, {**params, **freed},
+                                  settings.thrust_law, r.estimate, noise, quantum, free=tuple(freed),
+                                  start_states0=r.start_states, **timing(log, len(log)))
+    except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
+        return r, "; the encoder's rounding spread could not be evaluated (intervals: batch means only)"
+    ci95, ratio, wider = dict(r.ci95), np.ones(4), []
+    for i, k in enumerate(ESTIMATED):
+        lo, hi = r.ci95[k]
+        half, half_q = (hi - lo) / 2.0, Z95 * math.sqrt(max(float(cov[i, i]), 0.0))
+        if half_q > half:
+            est = r.estimate[k]
+            ci95[k], ratio[i] = (est - half_q, est + half_q), half_q / half if half > 0 else 1.0
+            wider.append(f"{k} x{ratio[i]:.2g}")
+    if not wider:
+        return r, ""
+    cov_jb = None if r.cov_jb is None else r.cov_jb * np.outer(ratio, ratio)
+    return replace(r, ci95=ci95, cov_jb=cov_jb), (
+        f"; intervals widened to the spread the encoder's rounding causes (quantum {max(quantum.values()):.3g} rad, "
+        f"{QUANTIZATION_OFFSETS} grid offsets): {', '.join(wider)}")
 
 
 def _refined_interval(r: Refined, name: str) -> Interval:
