@@ -9,8 +9,9 @@ Three benches (Table 1; two with J/B and known values off it), durations 30, 60 
 (12-bit encoders at 1 kHz; 2 mrad Gaussian noise at 100 Hz).  For each cell the design is made for that bench,
 length and noise (the designer knows the bench, as with --from), and then each of four references (the design,
 the paper's square and sine, the simulator's multisine) is run through the simulator's closed loop with five noise
-seeds from 11000 and estimated with the bench's known values.  Per reference and cell: the predicted worst relative
-95 % half-width (numerics/fisher.py, from the noise-free run), the achieved one (the median over seeds of the
+seeds from 11000 (for the encoders: each seed's grid offset, drawn) and estimated with the bench's known values.
+Per reference and cell: the predicted worst relative 95 % half-width (numerics/fisher.py, from the noise-free run;
+with encoders, each parameter's the wider of the white-noise bound and its rounding's spread), the achieved one (the median over seeds of the
 estimate's own widest relative interval), the ratio of each parameter's achieved half-width to its predicted one,
 coverage of the true J/B, the largest |pitch| and |yaw|, and the time at the voltage limit.  Limits: design's
 defaults (|pitch| <= 1 rad, |yaw| <= 3 rad, <= 5 % of the time at the voltage limit).
@@ -62,7 +63,7 @@ def cell(args: tuple) -> dict:
     sd = q / math.sqrt(12.0) if q else sigma
     noise = {"alpha": sd, "beta": sd}
     t0 = time.perf_counter()
-    d = design(duration, rate, p, "quadratic", noise, DEFAULT_PID, 2.5, Limits())
+    d = design(duration, rate, p, "quadratic", noise, DEFAULT_PID, 2.5, Limits(), quantum_rad=q or 0.0)
     design_s = time.perf_counter() - t0
     table = (d.run.t_s, d.run.alpha_ref_rad, d.run.beta_ref_rad)
     known = {k: v for k, v in p.items() if k not in JB}
@@ -78,8 +79,10 @@ def cell(args: tuple) -> dict:
                 kw.update(ref=ref)
             clean = simulate(SimSettings(**kw))
             pred = predicted_precision(clean.u1_v, clean.u2_v, clean.alpha_rad, clean.beta_rad, 1 / rate, p,
-                                       "quadratic", noise)
-            r = simulate(SimSettings(**kw, noise_std_rad=sigma, quantization_rad=q))
+                                       "quadratic", noise, quantum_rad=q or 0.0)
+            # rounding alone is the same on every seed: each seed's encoders sit at their own place on the grid
+            grid = tuple(np.random.default_rng(seed).uniform(0.0, q or 0.0, 2))
+            r = simulate(SimSettings(**kw, noise_std_rad=sigma, quantization_rad=q, quantization_offset_rad=grid))
             at = (np.abs(r.u1_v) >= 2.5 * (1 - 1e-9)) | (np.abs(r.u2_v) >= 2.5 * (1 - 1e-9))
             row = {"alpha_max": float(np.max(np.abs(r.alpha_rad))), "beta_max": float(np.max(np.abs(r.beta_rad))),
                    "saturated": float(np.mean(at)), "predicted": {k: pred[k]["relative"] for k in JB}}

@@ -191,8 +191,9 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
         told = (truth, rivals)
     p = merge(overrides, source="parameter overrides")
     try:
+        quantum = 2 * math.pi / 2 ** (encoder_bits or 12) if noise_std is None and sd is not None else 0.0
         d = planner.design(duration_s, rate_hz, p, thrust_law, noise, pid, u_limit, limits, objective,
-                           progress=progress, effect=effect, discriminate=told)
+                           progress=progress, effect=effect, discriminate=told, quantum_rad=quantum)
     except ValueError as exc:
         raise SettingsError(str(exc)) from None
     r = d.run

@@ -253,6 +253,23 @@ def discrimination(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, params: dict, l
             "truth_cost": own}
 
 
+def bench_of(params: dict, discriminate) -> dict:
+    """The simulated bench's known values: ``params`` with a known-value hypothesis under test in."""
+    if discriminate is not None and discriminate[0].known_value is not None:
+        return {**params, discriminate[0].known_value: discriminate[0].value}
+    return params
+
+
+def _round_precision(r: "Run", rate_hz: float, params: dict, law: str, noise_rad: dict, quantum_rad: float) -> None:
+    """r.precision (in place) with each interval the wider of the white-noise bound and the rounding's spread."""
+    from .numerics.fisher import with_rounding
+
+    cov = np.diag([r.precision[k]["se"] ** 2 for k in NAMES])
+    cov = with_rounding(cov, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, 1.0 / rate_hz, params, law, noise_rad,
+                        quantum_rad)
+    r.precision = precision_of(cov, params)
+
+
 def _objective(cov: np.ndarray, params: dict, objective: str) -> float:
     scale = np.array([abs(float(params[k])) for k in NAMES])
     rel = cov / np.outer(scale, scale)
@@ -276,13 +293,9 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
 
     table = (t_s, alpha_ref, beta_ref)
     fx = [] if effect is None else [dict(zip(("effect", "axis"), effect[0].split(":")), value=float(effect[1]))]
-    bench = dict(params)
-    if discriminate is not None:
-        truth = discriminate[0]
-        if truth.known_value is not None:
-            bench[truth.known_value] = truth.value
-        else:
-            fx = [dict(zip(("effect", "axis"), truth.key.split(":")), value=float(truth.value))]
+    bench = dict(bench_of(params, discriminate))
+    if discriminate is not None and discriminate[0].known_value is None:
+        fx = [dict(zip(("effect", "axis"), discriminate[0].key.split(":")), value=float(discriminate[0].value))]
     s = SimSettings(ref="file", ref_table=table, duration_s=float(t_s[-1]), sample_rate_hz=rate_hz,
                     thrust_law=law, u_limit_v=u_limit_v, overrides=bench, pid=dict(pid), effects=fx)
     r = simulate(s)
@@ -348,14 +361,17 @@ class Design:
 def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad: dict, pid: dict,
            u_limit_v: float, limits: Limits, objective: str = "worst", progress=None,
            effect: tuple[str, float] | None = None,
-           discriminate: tuple[Hypothesis, tuple[str, ...]] | None = None) -> Design:
+           discriminate: tuple[Hypothesis, tuple[str, ...]] | None = None, quantum_rad: float = 0.0) -> Design:
     """References for ``duration_s`` [s] at ``rate_hz`` [Hz] that keep ``limits`` and minimise ``objective``
     (OBJECTIVES) for the bench ``params`` under the PID ``pid`` (the simulator's names Kp1 ... Tf) limited to
     ``u_limit_v`` [V], with the logged angles' noise ``noise_rad``.  Raises ValueError when no candidate keeps the
     limits (the message says what the gentlest one breaks).  ``progress(fraction)`` is called as it goes.
     ``effect`` = (key, size): design to find that effect (EFFECTS) instead, the bench simulated with it.
     ``discriminate`` = (truth, rivals): design to tell the truth (a Hypothesis, in the simulated bench) from the
-    rivals (hypothesis keys): the largest smallest output-error cost gap (discrimination())."""
+    rivals (hypothesis keys): the largest smallest output-error cost gap (discrimination()).
+    ``quantum_rad``: the encoders' quantum [rad] when the noise is their rounding: the design's and the square's
+    predicted intervals are then each the wider of the white-noise bound and the rounding's spread
+    (fisher.with_rounding; the search ranks by the bound alone)."""
     if effect is not None and discriminate is not None:
         raise ValueError("design for an effect or to tell hypotheses apart, not both")
     if discriminate is not None:
@@ -425,6 +441,10 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     sa, sb = reference("square", t)  # the paper's experiment 1
     paper = simulate_run(t, sa, sb, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect,
                          judged_anyway=True, discriminate=discriminate)
+    if quantum_rad > 0:
+        for r in (chosen, paper):
+            if r.precision:
+                _round_precision(r, rate_hz, bench_of(params, discriminate), law, noise_rad, quantum_rad)
     return Design(chosen, best[0], best[1], paper, len(tried),
                   sum(math.isfinite(v.score) for v in tried.values()))
 

@@ -157,6 +157,8 @@ def render(doc: dict, d, limits, u_limit_v: float) -> str:
                 "truth's: the expected difference of the two fits' costs on the recorded run, twice the log "
                 "likelihood ratio.</p>")
     st = doc["settings"]
+    rounding = ("; with encoders of " + str(st["encoder_bits"]) + " bits, each the wider of that and the spread "
+                "their rounding causes (numerics/quantization.py)" if st.get("encoder_bits") else "")
     noise = ", ".join(f"{a} {v:.3g} rad" for a, v in st["noise_std_rad"].items())
     return f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident design</title>
 <style>{CSS}</style></head><body>
@@ -167,7 +169,7 @@ def render(doc: dict, d, limits, u_limit_v: float) -> str:
 <th>paper's square: relative</th></tr>{rows}</table>
 <img alt="predicted half-widths" src="{precision_figure(doc)}">
 <p class="note">Cramer-Rao bound of the output-error estimate for the run (numerics/fisher.py), white noise of
-the logged angles: {noise}; the estimate's own intervals on a recorded run are measured, not
+the logged angles: {noise}{rounding}; the estimate's own intervals on a recorded run are measured, not
 these.</p>
 <h2>What the bench would do</h2>
 <table><tr><th>run</th><th>largest |pitch| [rad]</th><th>largest |yaw| [rad]</th><th>largest |u1| [V]</th>
