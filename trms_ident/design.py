@@ -23,9 +23,9 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-
 from scipy.stats import norm
 
+from .diagnosis.discriminate import MIN_COST_GAP
 from .numerics.fisher import Z95, covariance, detection_power, precision_of
 from .diagnosis.select import FAMILY_ALPHA
 from .model import effects as room
@@ -192,11 +192,6 @@ def hypothesis_key(text: str) -> str:
     return key
 
 
-#: the look-alike pair diagnose tells apart by the output-error cost gap (diagnosis/discriminate.py), and the
-#: gap it needs: a rival is told apart when its refit leaves at least this much more noise-weighted squared error
-MIN_COST_GAP = 10.0
-
-
 def _refit(u1, u2, alpha, beta, dt: float, params: dict, law: str, noise_rad: dict, h: Hypothesis, start: float):
     """The model with hypothesis ``h`` fitted by output error to these angles (J/B, h's value, the start states
     free; h's value started at ``start``): (noise-weighted squared angle error, h's value, converged)."""
@@ -212,7 +207,8 @@ def _refit(u1, u2, alpha, beta, dt: float, params: dict, law: str, noise_rad: di
 
 
 def told_apart_chance(gap: float) -> float:
-    """The chance that a log whose expected output-error cost gap is ``gap`` shows a gap of at least MIN_COST_GAP:
+    """The chance that a log whose expected output-error cost gap is ``gap`` shows a gap of at least MIN_COST_GAP
+    (the gap diagnose needs to tell the two pitch offsets apart, diagnosis/discriminate.py):
     under white angle noise the observed gap is about normal, mean ``gap``, variance 4 ``gap`` (the noise's
     projection on the two models' difference, counted twice)."""
     if not gap > 0:
