@@ -126,7 +126,8 @@ sample time {inp['sample_time_s']:.6g} s.<br><span class="note">sha256 {inp['sha
 <table>{_row(head, 'th')}{''.join(rows)}</table>
 <p class="note"><b>Intervals:</b> {html.escape(doc['ci95_meaning'])}.</p>
 <p class="note">Headline: {html.escape(doc['headline_meaning'])}. Intervals: batch means over blocks
-(valid for correlated residuals); for DREM widened by the predicted errors-in-variables bias.</p>
+(valid for correlated residuals), on angles that sit on an encoder's grid the wider of that and the spread the
+rounding causes; for DREM widened by the predicted errors-in-variables bias.</p>
 <p class="note">{html.escape(doc['refinement'])}.</p>
 <p>Excitation: {html.escape(excitation)}.</p><ul class="note">{notes}</ul>
 <p class="note">Filters: {html.escape(settings['filter_F'])}; {html.escape(settings['filter_H'])}.
