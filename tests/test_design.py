@@ -174,7 +174,8 @@ def test_the_discrimination_gap_is_what_the_rival_leaves_and_grows_with_the_samp
         assert d["truth_cost"] < 1e-6 and d["closest"] == "com_offset:pitch"
         rival = d["rivals"]["com_offset:pitch"]
         assert rival["value"] == pytest.approx(-0.03, rel=0.02) and rival["converged"]
-        assert r.score == -rival["gap"] and rival["gap"] > 0.05
+        assert rival["rule"] == "cost_gap" and r.score == -rival["z"] and rival["gap"] > 0.05
+        assert rival["z"] == pytest.approx((rival["gap"] - 10) / (2 * math.sqrt(rival["gap"])))
         gaps.append(rival["gap"])
     assert gaps[1] / gaps[0] == pytest.approx(2.0, rel=0.15)
     assert planner.told_apart_chance(planner.gap_needed(0.9)) == pytest.approx(0.9)
@@ -206,11 +207,33 @@ def test_a_design_to_tell_look_alikes_apart_predicts_each_rivals_gap_beside_the_
     assert told["rivals"]["com_offset:pitch"]["gap"] >= 0.0 and doc["design"]["violations"] == []
     assert doc["settings"]["noise_std_rad"] == {"alpha": 1e-3, "beta": 1e-3}  # the floors diagnose measured
     assert doc["sentence"].startswith("Within the limits, on the bench with sensor_offset:pitch = 0.03, the design "
-                                      "predicts that com_offset:pitch (the closest rival)")
+                                      "predicts that com_offset:pitch, refitted, leaves a noise-weighted squared "
+                                      "angle error")
     if told["rivals"]["com_offset:pitch"]["power"] < 0.9:  # 20 s at 50 Hz is short: the tool says what would do
         assert "That is not enough to decide: a 90 % chance needs a gap of 22" in doc["sentence"]
     assert set(sq["rivals"]) == {"com_offset:pitch"}
     assert "Telling the look-alikes apart" in (tmp_path / "d.html").read_text()
+
+
+def test_a_known_value_and_its_look_alikes_are_told_apart_by_the_noise_floor_rule(tmp_path):
+    """A known value's look-alikes stop being ones when their refit leaves an angle above 1.2x its floor
+    (known_values.py): that, not the offsets' cost gap, is the rule design predicts for them."""
+    from sim.simulate import DEFAULT_PID
+    from trms_ident.params import defaults
+
+    p = defaults()
+    truth = planner.Hypothesis("known_value:a1", 0.8 * p["a1"])
+    t = np.arange(2001) / 100.0
+    a = planner.shaped(t, 20.0, planner.Multisine(0.1, 0.3), False)
+    b = planner.shaped(t, 20.0, planner.Multisine(0.5, 0.3), True)
+    r = planner.simulate_run(t, a, b, 100.0, p, "quadratic", {"alpha": 1e-3, "beta": 1e-3}, dict(DEFAULT_PID), 2.5,
+                             planner.Limits(), discriminate=(truth, ("known_value:Kg", "thrust_asymmetry:pitch")))
+    d = r.discrimination
+    assert r.violations == [] and set(d["rivals"]) == {"known_value:Kg", "thrust_asymmetry:pitch"} and d["truth_cost"] < 1e-6
+    for v in d["rivals"].values():
+        assert v["rule"] == "noise_floor" and min(v["rms_over_noise"].values()) >= 1.0
+        assert (v["power"] > 0.5) == (max(v["rms_over_noise"].values()) > 1.2)
+    assert r.score == -min(v["z"] for v in d["rivals"].values())
 
 
 @pytest.mark.parametrize("first, alternatives, floors, extra, message", [

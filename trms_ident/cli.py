@@ -738,9 +738,10 @@ def design(
     if r.discrimination is not None:
         q = d.square.discrimination
         for k, v in r.discrimination["rivals"].items():
-            say(f"  {k} against {r.discrimination['truth']}: predicted cost gap {v['gap']:.3g}, chance told apart "
-                f"{100 * v['power']:.3g} %" + (f" (the square reference: {q['rivals'][k]['gap']:.3g}, "
-                                              f"{100 * q['rivals'][k]['power']:.3g} %)" if q else ""))
+            say(f"  {k} against {r.discrimination['truth']}: predicted cost gap {v['gap']:.3g}, error RMS over the "
+                f"floor pitch {v['rms_over_noise']['alpha']:.3g}x, yaw {v['rms_over_noise']['beta']:.3g}x; chance "
+                f"told apart {100 * v['power']:.3g} % (by diagnose's {v['rule'].replace('_', ' ')} rule"
+                + (f"; the square reference: {100 * q['rivals'][k]['power']:.3g} %)" if q else ")"))
         for k, why in (doc["settings"].get("not_weighed") or {}).items():
             say(f"  not weighed: {k} ({why})")
     if r.effect is not None:

@@ -26,6 +26,7 @@ import numpy as np
 from scipy.stats import norm
 
 from .diagnosis.discriminate import MIN_COST_GAP
+from .numerics.adequacy import RMS_OVER_NOISE
 from .numerics.fisher import Z95, covariance, detection_power, precision_of
 from .diagnosis.select import FAMILY_ALPHA
 from .model import effects as room
@@ -195,7 +196,7 @@ def hypothesis_key(text: str) -> str:
 
 def _refit(u1, u2, alpha, beta, dt: float, params: dict, law: str, noise_rad: dict, h: Hypothesis, start: float):
     """The model with hypothesis ``h`` fitted by output error to these angles (J/B, h's value, the start states
-    free; h's value started at ``start``): (noise-weighted squared angle error, h's value, converged)."""
+    free; h's value started at ``start``): refine's Refined and h's fitted value."""
     from .numerics.refine import refine as oe_refine
 
     theta = {k: float(params[k]) for k in NAMES}
@@ -204,7 +205,13 @@ def _refit(u1, u2, alpha, beta, dt: float, params: dict, law: str, noise_rad: di
         r = oe_refine(u1, u2, alpha, beta, dt, {**params, name: start}, law, theta, noise_rad, free=(name,))
     else:
         r = oe_refine(u1, u2, alpha, beta, dt, params, law, theta, noise_rad, free=(h.key,), effects={h.key: start})
-    return float(r.cost), float(r.freed[name or h.key]["estimate"]), bool(r.converged)
+    return r, float(r.freed[name or h.key]["estimate"])
+
+
+#: the two pitch offsets: diagnose tells them apart by their output-error cost gap (diagnosis/discriminate.py);
+#: any other look-alike stops being one when its refit leaves an angle above RMS_OVER_NOISE times its noise floor
+#: (known_values.py, diagnosis/weigh.py)
+OFFSETS_PAIR = frozenset(("com_offset:pitch", "sensor_offset:pitch"))
 
 
 def told_apart_chance(gap: float) -> float:
@@ -212,9 +219,18 @@ def told_apart_chance(gap: float) -> float:
     (the gap diagnose needs to tell the two pitch offsets apart, diagnosis/discriminate.py):
     under white angle noise the observed gap is about normal, mean ``gap``, variance 4 ``gap`` (the noise's
     projection on the two models' difference, counted twice)."""
-    if not gap > 0:
-        return 0.0
-    return float(norm.sf((MIN_COST_GAP - gap) / (2.0 * math.sqrt(gap))))
+    return float(norm.cdf(_gap_z(gap)))
+
+
+def _gap_z(gap: float) -> float:
+    return (gap - MIN_COST_GAP) / (2.0 * math.sqrt(gap)) if gap > 0 else -math.inf
+
+
+def _floor_z(excess: float, n: int) -> float:
+    """How many standard deviations a rival's squared angle error over the noise floor's, 1 + ``excess`` (its
+    noise-free misfit's mean square over the noise variance), sits above RMS_OVER_NOISE^2 on a log of ``n``
+    samples (the mean of n squared standard normals, shifted by the misfit: variance (2 + 4 excess) / n)."""
+    return (1.0 + excess - RMS_OVER_NOISE ** 2) / math.sqrt((2.0 + 4.0 * excess) / max(n, 1))
 
 
 def gap_needed(chance: float = 0.9) -> float:
@@ -224,30 +240,40 @@ def gap_needed(chance: float = 0.9) -> float:
 
 
 def discrimination(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, params: dict, law: str, noise_rad: dict,
-                   truth: Hypothesis, rivals: tuple[str, ...]) -> dict:
+                   truth: Hypothesis, rivals: tuple[str, ...], samples_scale: float = 1.0) -> dict:
     """How far each rival stays from ``truth`` on a run (the T-optimal criterion of Atkinson and Fedorov): the
     run's angles are the bench with ``truth`` (noise-free); the truth and each rival are fitted to them by output
-    error with J/B and their own value free, and the gap is the noise-weighted squared angle error the rival
-    leaves beyond the truth's: the expected difference of the two fits' costs on a recorded run, which is twice
-    the log likelihood ratio diagnose weighs.  ``params`` is the table diagnose was given (J/B the bench's)."""
+    error with J/B and their own value free.  Per rival: the gap, the noise-weighted squared angle error it leaves
+    beyond the truth's (the expected difference of the two fits' costs on a recorded run, twice the log
+    likelihood ratio); its angles' predicted error RMS over their noise floors on a recorded run; and, by the
+    rule diagnose applies to that pair (``rule``: "cost_gap" for the two pitch offsets, else "noise_floor"),
+    ``z`` (standard deviations past diagnose's threshold) and ``power`` (the chance it is told apart).  The
+    closest rival is the one with the least z.  ``params`` is the table diagnose was given (J/B the bench's).
+    ``samples_scale``: judged for a log with this many times the samples (the gap scales with them)."""
     def start_of(key: str) -> float:
         h = Hypothesis(key, 0.0)
         if h.known_value is not None:
             return float(params[h.known_value])
-        if {key, truth.key} == {"com_offset:pitch", "sensor_offset:pitch"}:
+        if {key, truth.key} == OFFSETS_PAIR:
             return -truth.value  # the two offsets mimic each other at opposite signs (EFFECT_SLOTS' conventions)
         return 0.0
 
-    own, _, _ = _refit(u1_v, u2_v, alpha_rad, beta_rad, dt_s, params, law, noise_rad, truth, truth.value)
+    n = len(u1_v) * samples_scale
+    own, _ = _refit(u1_v, u2_v, alpha_rad, beta_rad, dt_s, params, law, noise_rad, truth, truth.value)
     out = {}
     for key in rivals:
-        cost, value, ok = _refit(u1_v, u2_v, alpha_rad, beta_rad, dt_s, params, law, noise_rad, Hypothesis(key, 0.0),
-                                 start_of(key))
-        gap = max(cost - own, 0.0)
-        out[key] = {"gap": gap, "value": value, "converged": ok, "power": told_apart_chance(gap)}
-    closest = min(out, key=lambda k: out[k]["gap"])
+        r, value = _refit(u1_v, u2_v, alpha_rad, beta_rad, dt_s, params, law, noise_rad, Hypothesis(key, 0.0),
+                          start_of(key))
+        gap = max(r.cost - own.cost, 0.0) * samples_scale
+        excess = {a: max(r.rms_rad[a] ** 2 - own.rms_rad[a] ** 2, 0.0) / noise_rad[a] ** 2 for a in ("alpha", "beta")}
+        rule = "cost_gap" if {key, truth.key} == OFFSETS_PAIR else "noise_floor"
+        z = _gap_z(gap) if rule == "cost_gap" else max(_floor_z(e, n) for e in excess.values())
+        out[key] = {"gap": gap, "value": value, "converged": bool(r.converged), "rule": rule,
+                    "rms_over_noise": {a: math.sqrt(1.0 + e) for a, e in excess.items()}, "z": z,
+                    "power": float(norm.cdf(z))}
+    closest = min(out, key=lambda k: out[k]["z"])
     return {"truth": truth.key, "truth_value": truth.value, "rivals": out, "closest": closest,
-            "truth_cost": own}
+            "truth_cost": float(own.cost)}
 
 
 def bench_of(params: dict, discriminate) -> dict:
@@ -279,16 +305,19 @@ def _objective(cov: np.ndarray, params: dict, objective: str) -> float:
 def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, rate_hz: float, params: dict,
                  law: str, noise_rad: dict, pid: dict, u_limit_v: float, limits: Limits, objective: str = "worst",
                  effect: tuple[str, float] | None = None, judged_anyway: bool = False,
-                 discriminate: tuple[Hypothesis, tuple[str, ...]] | None = None, quantum_rad: float = 0.0) -> Run:
+                 discriminate: tuple[Hypothesis, tuple[str, ...]] | None = None, quantum_rad: float = 0.0,
+                 samples_scale: float = 1.0) -> Run:
     """The references (sampled at ``t_s`` [s], from 0, at ``rate_hz``) run through the closed loop noise-free,
     judged against ``limits`` and scored by ``objective``; ``effect`` = (key, size): the bench has that effect and
     the score is its parameter's standard error over its size.  A run that breaks a limit is never chosen, so its
     information matrix is only evaluated when ``judged_anyway`` (the paper's run, reported beside the design).
-    ``discriminate`` = (truth, rivals): the bench has the truth (a Hypothesis), and the score is the smallest
-    output-error cost gap a rival leaves (discrimination(); larger is better, so the score is its negative).
+    ``discriminate`` = (truth, rivals): the bench has the truth (a Hypothesis), and the score is the closest
+    rival's z (discrimination(); larger is better, so the score is its negative).
     ``quantum_rad``: the controller reads encoders of this quantum [rad] (the loop is simulated with them: their
     rounding drives the derivative term; measured: 4.8 % of the time at the voltage limit noise-free, 5.2 % with
-    12-bit encoders at 1 kHz).  Its angles are then rounded: design uses such a run to judge the limits only."""
+    12-bit encoders at 1 kHz).  Its angles are then rounded: design uses such a run to judge the limits only.
+    ``samples_scale``: the discrimination is judged for a log with this many times the samples (a screen at a
+    lower rate than the run's: white noise, the gap grows with the samples)."""
     from sim import SimSettings, simulate
 
     table = (t_s, alpha_ref, beta_ref)
@@ -324,13 +353,13 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
         try:
             if discriminate is not None:
                 told = discrimination(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, dt, params, law, noise_rad,
-                                      *discriminate)
+                                      *discriminate, samples_scale=samples_scale)
                 if not np.isfinite(told["rivals"][told["closest"]]["gap"]):
-                    raise FloatingPointError
+                    raise FloatingPointError  # (z is -inf for a rival that mimics the truth exactly: a score)
             cov = covariance(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, dt, bench, law, noise_rad, effect)
             precision = precision_of(cov, bench)
             if told is not None:
-                score = -told["rivals"][told["closest"]]["gap"]
+                score = -told["rivals"][told["closest"]]["z"]
             elif effect is not None:
                 se = math.sqrt(max(float(cov[4, 4]), 0.0))
                 found = {"key": effect[0], "size": float(effect[1]), "se": se,
@@ -369,7 +398,7 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     limits (the message says what the gentlest one breaks).  ``progress(fraction)`` is called as it goes.
     ``effect`` = (key, size): design to find that effect (EFFECTS) instead, the bench simulated with it.
     ``discriminate`` = (truth, rivals): design to tell the truth (a Hypothesis, in the simulated bench) from the
-    rivals (hypothesis keys): the largest smallest output-error cost gap (discrimination()).
+    rivals (hypothesis keys): the closest rival as far past diagnose's threshold as can be (discrimination()).
     ``quantum_rad``: the encoders' quantum [rad] when the noise is their rounding: the choice must keep the limits
     with the controller reading rounded angles too (its envelope is that run's), and the design's and the square's
     predicted intervals are each the wider of the white-noise bound and the rounding's spread
@@ -379,8 +408,8 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     if discriminate is not None:
         if not discriminate[1]:
             raise ValueError("nothing to tell apart: no rival hypothesis")
-        for key in (discriminate[0].key, *discriminate[1]):
-            hypothesis_key(key)
+        hypothesis_key(discriminate[0].key)
+        discriminate = (discriminate[0], tuple(hypothesis_key(k) for k in discriminate[1]))
     if effect is not None and effect[0] not in EFFECTS:
         raise ValueError(f"effect {effect[0]!r}: design can plan for {', '.join(EFFECTS)}")
     if effect is not None and not effect[1] != 0:
@@ -397,9 +426,8 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
 
     def run(a, b, times=ts, hz=screen_hz) -> Run:
         r = simulate_run(times, shaped(times, duration_s, a, False), shaped(times, duration_s, b, True), hz, params,
-                         law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate=discriminate)
-        if discriminate is not None and math.isfinite(r.score):
-            r.score *= rate_hz / hz
+                         law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate=discriminate,
+                         samples_scale=rate_hz / hz)
         return r
 
     peaks_a = np.geomspace(LOWEST_PEAK * limits.pitch_rad, limits.pitch_rad, PEAK_STEPS)

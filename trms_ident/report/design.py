@@ -57,25 +57,36 @@ def design_doc(d, p: dict, settings: dict) -> dict:
 def discrimination_sentence(d, duration_s: float) -> str:
     """What the design predicts for telling diagnose's first finding from its look-alikes, beside the square."""
     from ..design import MIN_COST_GAP, gap_needed
+    from ..numerics.adequacy import RMS_OVER_NOISE
 
     t, q = d.run.discrimination, d.square.discrimination
+
+    def told(key: str, v: dict) -> str:
+        if v["rule"] == "cost_gap":
+            return (f"{key}, refitted, leaves a noise-weighted squared angle error {v['gap']:.3g} above the truth's "
+                    f"(diagnose needs {MIN_COST_GAP:g})")
+        worst = max(v["rms_over_noise"], key=v["rms_over_noise"].get)
+        return (f"{key}, refitted, leaves the {worst} at {v['rms_over_noise'][worst]:.3g}x its noise floor "
+                f"(above {RMS_OVER_NOISE:g}x it is no look-alike)")
+
     c = t["rivals"][t["closest"]]
     text = (f"Within the limits, on the bench with {t['truth']} = {t['truth_value']:.4g}, the design predicts that "
-            f"{t['closest']} (the closest rival), refitted, leaves a noise-weighted squared angle error {c['gap']:.3g} "
-            f"above the truth's: diagnose tells them apart (a gap of at least {MIN_COST_GAP:g}) with a chance of "
-            f"{100 * c['power']:.3g} %")
-    if len(t["rivals"]) > 1:
-        text += " (" + ", ".join(f"{k}: {v['gap']:.3g}" for k, v in t["rivals"].items()) + ")"
-    qc = q["rivals"][q["closest"]] if q else None
-    if qc is not None:
-        text += (f"; the paper's square reference, same length, {qc['gap']:.3g} ({100 * qc['power']:.3g} %)"
+            f"{told(t['closest'], c)}: diagnose tells them apart with a chance of {100 * c['power']:.3g} %")
+    others = [k for k in t["rivals"] if k != t["closest"]]
+    if others:
+        text += " (the other rivals: " + ", ".join(f"{k} {100 * t['rivals'][k]['power']:.3g} %" for k in others) + ")"
+    if q:
+        text += (f"; under the paper's square reference, same length, {100 * q['rivals'][t['closest']]['power']:.3g} %"
                  + (", but it breaks the limits" if d.square.violations else ""))
     text += "."
-    need = gap_needed(0.9)
-    if c["power"] < 0.9 and c["gap"] > 0:
+    if c["power"] < 0.9 and c["rule"] == "cost_gap" and c["gap"] > 0:
+        need = gap_needed(0.9)
         text += (f" That is not enough to decide: a 90 % chance needs a gap of {need:.3g}. The gap grows with the "
                  f"samples: about {duration_s * need / c['gap']:.3g} s of this design at this rate, a faster rate, "
                  "a quieter encoder or wider limits would reach it.")
+    elif c["power"] < 0.9:
+        text += (" That is not enough to decide, and a longer run does not help much here (the error over the floor "
+                 "is a mean square, not a sum): a quieter encoder or wider limits would.")
     return text
 
 
@@ -145,17 +156,21 @@ def render(doc: dict, d, limits, u_limit_v: float) -> str:
     told = ""
     if "discrimination" in doc["design"]:
         t, q = doc["design"]["discrimination"], doc["square"].get("discrimination")
-        told = ("<h2>Telling the look-alikes apart</h2><table><tr><th>rival</th><th>design: cost gap</th>"
-                "<th>design: chance told apart</th><th>rival's refitted value</th><th>paper's square: cost gap</th>"
-                "</tr>" + "".join(
-                    f"<tr><td>{html.escape(k)}</td><td>{v['gap']:.3g}</td><td>{100 * v['power']:.3g} %</td>"
-                    f"<td>{v['value']:.4g}</td><td>{format(q['rivals'][k]['gap'], '.3g') if q else '-'}</td></tr>"
+        told = ("<h2>Telling the look-alikes apart</h2><table><tr><th>rival</th><th>diagnose's rule</th>"
+                "<th>design: cost gap</th><th>design: error RMS / floor (pitch, yaw)</th>"
+                "<th>design: chance told apart</th><th>rival's refitted value</th>"
+                "<th>paper's square: chance</th></tr>" + "".join(
+                    f"<tr><td>{html.escape(k)}</td><td>{v['rule'].replace('_', ' ')}</td><td>{v['gap']:.3g}</td>"
+                    f"<td>{v['rms_over_noise']['alpha']:.3g}, {v['rms_over_noise']['beta']:.3g}</td>"
+                    f"<td>{100 * v['power']:.3g} %</td><td>{v['value']:.4g}</td>"
+                    f"<td>{format(100 * q['rivals'][k]['power'], '.3g') + ' %' if q else '-'}</td></tr>"
                     for k, v in t["rivals"].items()) + "</table>"
                 f"<p class=\"note\">The bench simulated with {html.escape(t['truth'])} = {t['truth_value']:.4g} "
                 "(diagnose's first finding); each rival fitted to its noise-free angles by output error with J/B and "
                 "its own value free. The cost gap is the noise-weighted squared angle error it leaves beyond the "
                 "truth's: the expected difference of the two fits' costs on the recorded run, twice the log "
-                "likelihood ratio.</p>")
+                "likelihood ratio; diagnose tells the two pitch offsets apart by it (10 needed), any other "
+                "look-alike by whether its refit leaves an angle above 1.2x its noise floor.</p>")
     st = doc["settings"]
     rounding = ("; with encoders of " + str(st["encoder_bits"]) + " bits, each the wider of that and the spread "
                 "their rounding causes (numerics/quantization.py)" if st.get("encoder_bits") else "")
