@@ -62,5 +62,7 @@ def test_gaussian_noise_is_left_to_batch_means_and_design_predicts_the_rounding_
     white = predicted_precision(clean.u1_v, clean.u2_v, clean.alpha_rad, clean.beta_rad, 1e-3, p, "quadratic", sd)
     enc = predicted_precision(clean.u1_v, clean.u2_v, clean.alpha_rad, clean.beta_rad, 1e-3, p, "quadratic", sd,
                               quantum_rad=Q12)
-    assert all(enc[k]["half_width"] >= white[k]["half_width"] * (1 - 1e-12) for k in white)
-    assert enc["J1"]["half_width"] > 2 * white["J1"]["half_width"]  # J1's rounding spread is ~3x the bound here
+    # the rounding's spread replaces the bound: ~3x it for J1 here, under it for B1 (measured 2.8e-6 and 9.6e-7
+    # against 8.8e-7 and 2.8e-6; the estimate's errors on this run: 3.6e-6 and 7.3e-7)
+    assert enc["J1"]["half_width"] > 2 * white["J1"]["half_width"]
+    assert enc["B1"]["half_width"] < white["B1"]["half_width"]
