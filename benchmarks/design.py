@@ -11,7 +11,7 @@ length and noise (the designer knows the bench, as with --from), and then each o
 the paper's square and sine, the simulator's multisine) is run through the simulator's closed loop with five noise
 seeds from 11000 (for the encoders: each seed's grid offset, drawn) and estimated with the bench's known values.
 Per reference and cell: the predicted worst relative 95 % half-width (numerics/fisher.py, from the noise-free run;
-with encoders, the spread their rounding causes instead of the white-noise bound), the achieved one (the median over seeds of the
+with encoders, what estimate would report on the rounded run instead of the white-noise bound), the achieved one (the median over seeds of the
 estimate's own widest relative interval), the ratio of each parameter's achieved half-width to its predicted one,
 coverage of the true J/B, the largest |pitch| and |yaw|, and the time at the voltage limit.  Limits: design's
 defaults (|pitch| <= 1 rad, |yaw| <= 3 rad, <= 5 % of the time at the voltage limit).

@@ -52,7 +52,7 @@ def test_estimate_intervals_on_a_12_bit_log_at_1_khz_cover_the_truth(offset):
     assert "intervals widened to the spread the encoder's rounding causes" in note and "J1 x" in note
 
 
-def test_gaussian_noise_is_left_to_batch_means_and_design_predicts_the_rounding_spread():
+def test_gaussian_noise_is_left_to_batch_means_and_design_predicts_what_estimate_reports_on_rounded_angles():
     r = _square_run(q=0.0, noise=1e-3)
     res = identify(validated(r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, angle_unit="rad"))
     note = res.refine_note
@@ -62,7 +62,8 @@ def test_gaussian_noise_is_left_to_batch_means_and_design_predicts_the_rounding_
     white = predicted_precision(clean.u1_v, clean.u2_v, clean.alpha_rad, clean.beta_rad, 1e-3, p, "quadratic", sd)
     enc = predicted_precision(clean.u1_v, clean.u2_v, clean.alpha_rad, clean.beta_rad, 1e-3, p, "quadratic", sd,
                               quantum_rad=Q12)
-    # the rounding's spread replaces the bound: ~3x it for J1 here, under it for B1 (measured 2.8e-6 and 9.6e-7
-    # against 8.8e-7 and 2.8e-6; the estimate's errors on this run: 3.6e-6 and 7.3e-7)
+    # what estimate would report on the rounded angles replaces the bound: ~3x it for J1 here (the rounding's
+    # spread), under it for B1 (the estimate's errors on this run: J1 3.6e-6 against a bound of 8.8e-7, B1 7.3e-7
+    # against 2.8e-6)
     assert enc["J1"]["half_width"] > 2 * white["J1"]["half_width"]
     assert enc["B1"]["half_width"] < white["B1"]["half_width"]

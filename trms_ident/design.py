@@ -287,7 +287,7 @@ def bench_of(params: dict, discriminate) -> dict:
 
 
 def _round_precision(r: "Run", rate_hz: float, params: dict, law: str, noise_rad: dict, quantum_rad: float) -> None:
-    """r.precision (in place) with each interval the spread the encoders' rounding causes."""
+    """r.precision (in place) with each interval what estimate would report on the run's rounded angles."""
     from .numerics.fisher import with_rounding
 
     cov = np.diag([r.precision[k]["se"] ** 2 for k in NAMES])
@@ -405,8 +405,8 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     rivals (hypothesis keys): the closest rival as far past diagnose's threshold as can be (discrimination()).
     ``quantum_rad``: the encoders' quantum [rad] when the noise is their rounding: the choice must keep the limits
     with the controller reading rounded angles too (its envelope is that run's), and the design's and the square's
-    predicted intervals are the spread the rounding causes (fisher.with_rounding; the search ranks by the
-    white-noise bound at q / sqrt(12), which costs one evaluation instead of eight)."""
+    predicted intervals are what estimate would report on the rounded run (fisher.with_rounding; the search ranks
+    by the white-noise bound at q / sqrt(12), which costs one evaluation instead of eight refinements)."""
     if effect is not None and discriminate is not None:
         raise ValueError("design for an effect or to tell hypotheses apart, not both")
     if discriminate is not None:

@@ -19,6 +19,8 @@ from scipy.stats import norm
 from .refine import NAMES, _scaled_inverse, _schur
 from .refine import refine as oe_refine
 
+#: Gauss-Newton iterations of the refinement on each rounded run (with_rounding): it converges in 2-4
+ROUNDED_ITERATIONS = 10
 #: two-sided 95 % normal quantile
 Z95 = 1.959963984540054
 
@@ -45,8 +47,8 @@ def covariance(u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_r
 def predicted_precision(u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_rad: np.ndarray,
                         dt_s: float, params: dict, law: str, noise_rad: dict, quantum_rad: float = 0.0) -> dict:
     """J1, B1, J2, B2 -> {"se", "half_width" (95 %), "relative" (half-width over the value)}: covariance()'s
-    diagonal (same arguments); with an encoder's ``quantum_rad`` [rad], the spread its rounding causes instead
-    (with_rounding)."""
+    diagonal (same arguments); with an encoder's ``quantum_rad`` [rad], what estimate would report on the rounded
+    angles instead (with_rounding)."""
     cov = covariance(u1_v, u2_v, alpha_rad, beta_rad, dt_s, params, law, noise_rad)
     if quantum_rad > 0:
         cov = with_rounding(cov, u1_v, u2_v, alpha_rad, beta_rad, dt_s, params, law, noise_rad, quantum_rad)
@@ -55,20 +57,23 @@ def predicted_precision(u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarra
 
 def with_rounding(cov: np.ndarray, u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_rad: np.ndarray,
                   dt_s: float, params: dict, law: str, noise_rad: dict, quantum_rad: float) -> np.ndarray:
-    """``cov`` (J/B first) scaled so that each of J1, B1, J2, B2 has the variance that rounding the run's
-    noise-free angles on an encoder grid of ``quantum_rad`` [rad] causes (numerics/quantization.py), when the
-    encoder's rounding is the noise: white noise of q / sqrt(12) is not what rounding slow motion at a high rate
-    does (measured: J1's error 4x that bound on a 12-bit log at 1 kHz, B1's a quarter; with the wider of the two,
-    estimate's intervals on 12-bit runs came out 0.39-0.45x the prediction on two of nine designs)."""
+    """``cov`` (J/B first) scaled so that each of J1, B1, J2, B2 has the variance estimate's interval would
+    report when the encoder's rounding is the noise: the wider of the spread that rounding the run's noise-free
+    angles on a grid of ``quantum_rad`` [rad] causes and the batch-means variance the refinement reports on those
+    rounded angles (numerics/quantization.py; estimate's own rule, identify._with_rounding).  White noise of
+    q / sqrt(12) is not what rounding slow motion at a high rate does (measured: J1's error 4x that bound on a
+    12-bit log at 1 kHz, B1's a quarter)."""
     from .quantization import rounding_covariance
 
     theta = {k: float(params[k]) for k in NAMES}
-    rq = rounding_covariance(u1_v, u2_v, np.column_stack([alpha_rad, beta_rad]), dt_s, params, law, theta,
-                             noise_rad, {"alpha": quantum_rad, "beta": quantum_rad})
+    spread, batch = rounding_covariance(u1_v, u2_v, np.column_stack([alpha_rad, beta_rad]), dt_s, params, law,
+                                        theta, noise_rad, {"alpha": quantum_rad, "beta": quantum_rad},
+                                        iterations=ROUNDED_ITERATIONS)
     ratio = np.ones(cov.shape[0])
     for i in range(4):
-        if cov[i, i] > 0 and rq[i, i] > 0:
-            ratio[i] = math.sqrt(rq[i, i] / cov[i, i])
+        target = max(spread[i, i], batch[i, i] if np.isfinite(batch[i, i]) else 0.0)
+        if cov[i, i] > 0 and target > 0:
+            ratio[i] = math.sqrt(target / cov[i, i])
     return cov * np.outer(ratio, ratio)
 
 

@@ -172,8 +172,8 @@ def render(doc: dict, d, limits, u_limit_v: float) -> str:
                 "likelihood ratio; diagnose tells the two pitch offsets apart by it (10 needed), any other "
                 "look-alike by whether its refit leaves an angle above 1.2x its noise floor.</p>")
     st = doc["settings"]
-    rounding = ("; with encoders of " + str(st["encoder_bits"]) + " bits, the spread their rounding causes instead "
-                "(numerics/quantization.py)" if st.get("encoder_bits") else "")
+    rounding = ("; with encoders of " + str(st["encoder_bits"]) + " bits, instead, what estimate would report on "
+                "the rounded run (numerics/quantization.py)" if st.get("encoder_bits") else "")
     noise = ", ".join(f"{a} {v:.3g} rad" for a, v in st["noise_std_rad"].items())
     return f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident design</title>
 <style>{CSS}</style></head><body>
