@@ -390,8 +390,8 @@ def _with_rounding(log: Log, settings: Settings, params: dict, r: Refined, noise
     freed = {k: v["estimate"] for k, v in r.freed.items()}
     try:
         cov, _ = rounding_covariance(log.u1_v, log.u2_v, r.prediction, log.sample_time_s, {**params, **freed},
-                                  settings.thrust_law, r.estimate, noise, quantum, free=tuple(freed),
-                                  start_states0=r.start_states, **timing(log, len(log)))
+                                     settings.thrust_law, r.estimate, noise, quantum, free=tuple(freed),
+                                     start_states0=r.start_states, **timing(log, len(log)))
     except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
         return r, "; the encoder's rounding spread could not be evaluated (intervals: batch means only)"
     ci95, ratio, wider = dict(r.ci95), np.ones(4), []
