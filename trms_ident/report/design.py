@@ -66,7 +66,8 @@ def discrimination_sentence(d, duration_s: float) -> str:
             return (f"{key}, refitted, leaves a noise-weighted squared angle error {v['gap']:.3g} above the truth's "
                     f"(diagnose needs {MIN_COST_GAP:g})")
         worst = max(v["rms_over_noise"], key=v["rms_over_noise"].get)
-        return (f"{key}, refitted, leaves the {worst} at {v['rms_over_noise'][worst]:.3g}x its noise floor "
+        return (f"{key}, refitted, leaves the {'pitch' if worst == 'alpha' else 'yaw'} angle at "
+                f"{v['rms_over_noise'][worst]:.3g}x its noise floor "
                 f"(above {RMS_OVER_NOISE:g}x it is no look-alike)")
 
     c = t["rivals"][t["closest"]]
