@@ -109,8 +109,8 @@ class Run:
     violations: list = field(default_factory=list)  # the limits it breaks, in words (empty: feasible)
     score: float = math.inf  # the objective (lower is better; inf when it breaks a limit or cannot be evaluated)
     effect: dict | None = None  # with an effect: {"key", "size", "se", "t" (size / se), "power"}
-    #: with --discriminate: {"truth", "truth_value", "rivals": {key: {"gap", "value", "power", "converged"}},
-    #: "closest"} (discrimination())
+    #: with --discriminate: discrimination()'s {"truth", "truth_value", "truth_cost", "closest", "rivals": {key:
+    #: {"gap", "value", "converged", "rule", "rms_over_noise", "z", "power"}}}
     discrimination: dict | None = None
 
 
@@ -318,8 +318,8 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
     rival's z (discrimination(); larger is better, so the score is its negative).
     ``quantum_rad``: the controller reads encoders of this quantum [rad] (the loop is simulated with them: their
     rounding drives the derivative term; measured: 4.8 % of the time at the voltage limit noise-free, 5.2 % with
-    12-bit encoders at 1 kHz), their grid ``grid_rad`` [rad] off zero.  Its angles are then rounded: design uses
-    such a run to judge the limits only.
+    12-bit encoders at 1 kHz), their grid ``grid_rad`` [rad] off zero.  Its angles are then rounded, so such a
+    run is judged against the limits only (no information, no score).
     ``samples_scale``: the discrimination is judged for a log with this many times the samples (a screen at a
     lower rate than the run's: white noise, the gap grows with the samples)."""
     from sim import SimSettings, simulate
@@ -353,7 +353,7 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
     if limits.ref_rate_rad_s is not None and env["ref_rate_rad_s"] > limits.ref_rate_rad_s:
         bad.append(f"the reference moves at {env['ref_rate_rad_s']:.3g} rad/s (limit {limits.ref_rate_rad_s:g})")
     precision, score, found, told = {}, math.inf, None, None
-    if "the closed loop diverges" not in bad and (not bad or judged_anyway):
+    if "the closed loop diverges" not in bad and (not bad or judged_anyway) and not quantum_rad > 0:
         try:
             if discriminate is not None:
                 told = discrimination(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, dt, params, law, noise_rad,
@@ -423,16 +423,15 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     n = int(round(duration_s * rate_hz)) + 1
     t = np.arange(n) / rate_hz
     say = progress or (lambda f: None)
-    # telling hypotheses apart refits each rival per candidate: the search runs at SCREEN_HZ at most (the gaps
-    # scaled by the ratio of rates: white noise, a cost that grows with the samples), the choice again at the rate
+    # telling hypotheses apart refits each rival per candidate: the search runs at SCREEN_HZ at most (each
+    # candidate judged for a log with the run's samples: white noise), the choice again at the run's rate
     screen_hz = min(rate_hz, SCREEN_HZ) if discriminate is not None else rate_hz
     ts = np.arange(int(round(duration_s * screen_hz)) + 1) / screen_hz
 
-    def run(a, b, times=ts, hz=screen_hz) -> Run:
-        r = simulate_run(times, shaped(times, duration_s, a, False), shaped(times, duration_s, b, True), hz, params,
-                         law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate=discriminate,
-                         samples_scale=rate_hz / hz)
-        return r
+    def run(a, b, times=ts, hz=screen_hz, **kw) -> Run:
+        return simulate_run(times, shaped(times, duration_s, a, False), shaped(times, duration_s, b, True), hz,
+                            params, law, noise_rad, pid, u_limit_v, limits, objective, effect,
+                            discriminate=discriminate, samples_scale=rate_hz / hz, **kw)
 
     peaks_a = np.geomspace(LOWEST_PEAK * limits.pitch_rad, limits.pitch_rad, PEAK_STEPS)
     peaks_b = np.geomspace(LOWEST_PEAK * limits.yaw_rad, limits.yaw_rad, PEAK_STEPS)
@@ -466,9 +465,7 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
         for k in order[:CONFIRMED]:
             chosen = run(*k, times=t, hz=rate_hz) if screen_hz != rate_hz else tried[k]
             if math.isfinite(chosen.score) and quantum_rad > 0:  # the controller reads the rounded angles
-                reads = [simulate_run(t, shaped(t, duration_s, k[0], False), shaped(t, duration_s, k[1], True),
-                                      rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect,
-                                      discriminate=discriminate, quantum_rad=quantum_rad, grid_rad=g * quantum_rad)
+                reads = [run(*k, times=t, hz=rate_hz, quantum_rad=quantum_rad, grid_rad=g * quantum_rad)
                          for g in GRID_OFFSETS]  # where the encoders' zero sits on their grid is unknown
                 read = max(reads, key=lambda x: (len(x.violations), x.envelope["saturated_share"]))
                 if read.violations:
