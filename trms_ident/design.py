@@ -27,11 +27,12 @@ from scipy.stats import norm
 
 from .diagnosis.discriminate import MIN_COST_GAP
 from .numerics.adequacy import RMS_OVER_NOISE
-from .numerics.fisher import Z95, covariance, detection_power, precision_of
+from .numerics.fisher import covariance, detection_power, precision_of
 from .diagnosis.select import FAMILY_ALPHA
 from .model import effects as room
 from .model.plant import EFFECT_SLOTS
 from .numerics.refine import NAMES
+from .numerics.stats import Z95
 
 #: sines per axis
 N_FREQUENCIES = 8

@@ -12,14 +12,14 @@ import numpy as np
 from .errors import IdentificationError, SettingsError
 from .log import Log
 from .numerics.design import FilterDesign, angle_noise_rad, design_filters, quantization_step
-from .numerics.fisher import Z95
 from .numerics.quantization import OFFSETS as QUANTIZATION_OFFSETS
 from .numerics.fused import drem_summaries
 from .numerics.adequacy import RMS_OVER_NOISE, judging_floors, model_check
 from . import known_values
 from .known_values import over_noise as _over_noise
 from .numerics.refine import WINDOW_S, Refined, refine, substeps
-from .numerics.stats import IDENTIFIABLE_REL_HALF_WIDTH, MIN_BLOCKS, Interval, block_length, interval_from_sums
+from .numerics.stats import (IDENTIFIABLE_REL_HALF_WIDTH, MIN_BLOCKS, Z95, Interval, block_length,
+                             interval_from_sums)
 from .params import ESTIMATED, merge
 from .settings import AXES, GAIN_CONVENTIONS, HEADLINES, MAX_TRACE_POINTS, REFINE_AUTO_MAX_STEPS, Settings
 

@@ -41,7 +41,7 @@ from scipy.stats import norm
 from .. import known_values
 from ..log import Log
 from ..numerics.adequacy import RMS_OVER_NOISE
-from ..numerics.stats import block_length
+from ..numerics.stats import Z95, block_length
 from .fits import prediction_fits
 from .model import AXIS_ANGLE, Model, regression
 from .result import Finding
@@ -173,7 +173,7 @@ def _refitted(d, log: Log, pp: dict, law: str, est: dict, start: dict | None):
 def _against_table(value: float, table: float, ci95) -> tuple[float, float]:
     """t and two-sided p of a refitted known value against the value given, from its 95 % interval."""
     lo, hi = ci95
-    se = (hi - lo) / (2 * 1.959963984540054) if hi > lo else math.inf
+    se = (hi - lo) / (2 * Z95) if hi > lo else math.inf
     t = (value - table) / se if se > 0 else math.inf
     return float(t), float(2 * norm.sf(abs(t))) if math.isfinite(t) else 0.0
 

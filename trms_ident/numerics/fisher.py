@@ -17,12 +17,11 @@ import numpy as np
 from scipy.stats import norm
 
 from .refine import NAMES, _scaled_inverse, _schur
+from .stats import Z95
 from .refine import refine as oe_refine
 
 #: Gauss-Newton iterations of the refinement on each rounded run (with_rounding): it converges in 2-4
 ROUNDED_ITERATIONS = 10
-#: two-sided 95 % normal quantile
-Z95 = 1.959963984540054
 
 
 def covariance(u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_rad: np.ndarray, dt_s: float,

@@ -18,6 +18,8 @@ from scipy.special import stdtrit
 
 #: a parameter whose 95 % half-width exceeds this fraction of its value is not identifiable
 IDENTIFIABLE_REL_HALF_WIDTH = 0.25
+#: two-sided 95 % normal quantile
+Z95 = 1.959963984540054
 MIN_BLOCKS = 4
 
 
