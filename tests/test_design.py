@@ -65,6 +65,7 @@ def test_a_design_keeps_its_limits_and_estimate_achieves_its_predicted_precision
     (["-o", "d.txt"], EXIT_USAGE, "expected a .csv (t, alpha_ref, beta_ref) or .mat"),
     (["--effect", "coulomb_friction:pitch"], EXIT_USAGE, "--effect and --size go together"),
     (["--effect", "dead_zone:yaw", "--size", "0.1"], EXIT_USAGE, "--effect dead_zone:yaw: expected one of"),
+    (["--from", "r.json", "--discriminate", "d.json"], EXIT_USAGE, "--discriminate and --from: the bench comes"),
 ])
 def test_bad_design_options_are_one_line_errors(tmp_path, args, code, message):
     res = runner.invoke(app, ["design", "--duration", "10", "--rate", "100", "-o", str(tmp_path / "d.csv"), *args])

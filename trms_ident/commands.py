@@ -145,6 +145,9 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
     from .params import ESTIMATED, load_parameter_file, merge
     from .report.design import design_doc, render
 
+    if discriminate is not None and from_result is not None:
+        raise SettingsError("--discriminate and --from: the bench comes from the diagnosis (with --params for "
+                            "the table diagnose was given)")
     pid, u_limit = dict(DEFAULT_PID), 2.5
     if controller is not None:
         if not Path(controller).is_file():
@@ -156,7 +159,8 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
             raise ParameterFileError(f"{controller}: not TOML ({exc})") from None
         except ValueError as exc:
             raise ParameterFileError(str(exc)) from None
-    sd = noise_std if noise_std is not None else 2 * math.pi / 2 ** (encoder_bits or 12) / math.sqrt(12.0)
+    quantum = 2 * math.pi / 2 ** (encoder_bits or 12)  # the encoders' [rad], unless the noise is given otherwise
+    sd = noise_std if noise_std is not None else quantum / math.sqrt(12.0)
     noise = {"alpha": sd, "beta": sd}
     if from_result is not None:  # the bench as estimate found it: known values, J/B, the noise it measured
         doc_in, known, _, estimates = read_result(Path(from_result))
@@ -177,9 +181,6 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
         overrides = load_parameter_file(params, allow_estimated=True) if params else {}
     told = None
     if discriminate is not None:
-        if from_result is not None:
-            raise SettingsError("--discriminate and --from: the bench comes from the diagnosis (with --params for "
-                                "the table diagnose was given)")
         ddoc, truth, rivals, skipped, jb = read_diagnosis(Path(discriminate))
         overrides = {**overrides, **jb}
         floors = (ddoc.get("settings") or {}).get("floors") or {}
@@ -190,10 +191,10 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
             noise, sd = {"alpha": float(floors["pitch"]["rad"]), "beta": float(floors["yaw"]["rad"])}, None
         told = (truth, rivals)
     p = merge(overrides, source="parameter overrides")
+    bits = None if noise_std is not None or sd is None else (encoder_bits or 12)  # None: the noise is not rounding
     try:
-        quantum = 2 * math.pi / 2 ** (encoder_bits or 12) if noise_std is None and sd is not None else 0.0
         d = planner.design(duration_s, rate_hz, p, thrust_law, noise, pid, u_limit, limits, objective,
-                           progress=progress, effect=effect, discriminate=told, quantum_rad=quantum)
+                           progress=progress, effect=effect, discriminate=told, quantum_rad=quantum if bits else 0.0)
     except ValueError as exc:
         raise SettingsError(str(exc)) from None
     r = d.run
@@ -201,7 +202,7 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
     inputs = [f for f in (params, from_result, controller, discriminate) if f and Path(f).is_file()]
     doc = design_doc(d, p, dict(
         duration_s=duration_s, rate_hz=rate_hz, noise_std_rad=noise,
-        encoder_bits=None if noise_std is not None or sd is None else (encoder_bits or 12),
+        encoder_bits=bits,
         params=str(params) if params else None, from_result=str(from_result) if from_result else None,
         controller=str(controller) if controller else None, pid=pid, u_limit_v=u_limit,
         limits=dataclasses.asdict(limits), objective=objective, thrust_law=thrust_law, output=str(output),
