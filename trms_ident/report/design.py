@@ -29,24 +29,21 @@ def design_doc(d, p: dict, settings: dict) -> dict:
                 **({"effect": r.effect} if r.effect is not None else {}),
                 **({"discrimination": r.discrimination} if r.discrimination is not None else {})}
 
-    if d.run.effect is not None:
-        e, q = d.run.effect, d.square.effect
-        found = (f"Within the limits the design predicts {e['key']} of {e['size']:g} at t = {e['t']:.3g} (diagnose's "
-                 f"output-error test finds it with a chance of {100 * e['power']:.3g} %); the paper's square "
-                 f"reference, same length, t = {q['t']:.3g} ({100 * q['power']:.3g} %)"
-                 + (", but it breaks the limits: " + "; ".join(d.square.violations) if d.square.violations else "")
-                 + ".")
-    worst = max(ESTIMATED, key=lambda k: d.run.precision[k]["relative"])
-    sq_worst = max(ESTIMATED, key=lambda k: d.square.precision[k]["relative"])
-    sentence = (f"Within the limits the design predicts {worst} to +-{100 * d.run.precision[worst]['relative']:.3g} % "
-                f"(its widest interval); the paper's square reference, same length, {sq_worst} to "
-                f"+-{100 * d.square.precision[sq_worst]['relative']:.3g} %"
-                + (", but it breaks the limits: " + "; ".join(d.square.violations) if d.square.violations else "")
-                + ".")
-    if d.run.effect is not None:
-        sentence = found
+    breaks = ", but it breaks the limits: " + "; ".join(d.square.violations) if d.square.violations else ""
     if d.run.discrimination is not None:
         sentence = discrimination_sentence(d, settings["duration_s"])
+    elif d.run.effect is not None:
+        e, q = d.run.effect, d.square.effect
+        sentence = (f"Within the limits the design predicts {e['key']} of {e['size']:g} at t = {e['t']:.3g} "
+                    f"(diagnose's output-error test finds it with a chance of {100 * e['power']:.3g} %); the paper's "
+                    f"square reference, same length, t = {q['t']:.3g} ({100 * q['power']:.3g} %){breaks}.")
+    else:
+        worst = max(ESTIMATED, key=lambda k: d.run.precision[k]["relative"])
+        sq_worst = max(ESTIMATED, key=lambda k: d.square.precision[k]["relative"])
+        sentence = (f"Within the limits the design predicts {worst} to "
+                    f"+-{100 * d.run.precision[worst]['relative']:.3g} % (its widest interval); the paper's square "
+                    f"reference, same length, {sq_worst} to +-{100 * d.square.precision[sq_worst]['relative']:.3g} %"
+                    f"{breaks}.")
     shapes = {"pitch": dataclasses.asdict(d.pitch), "yaw": dataclasses.asdict(d.yaw)}
     return {"kind": "trms-ident design", "sentence": sentence, "design": {**run_doc(d.run), **shapes},
             "square": run_doc(d.square), "candidates": d.candidates, "feasible": d.feasible,
