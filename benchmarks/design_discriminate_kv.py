@@ -38,6 +38,11 @@ def _first(d) -> tuple[str, list, str]:
     return key, list(f.alternatives), key + (f" (~{', '.join(f.alternatives)})" if f.alternatives else "")
 
 
+def _names(alternatives: list) -> set:
+    """Look-alikes as diagnose lists them, a known value by its name alone ("known_value:Kg" and "Kg" alike)."""
+    return {a.removeprefix("known_value:") for a in alternatives}
+
+
 def _one(seed: int) -> dict:
     from sim import SimSettings, simulate
     from trms_ident.commands import design_files
@@ -75,9 +80,7 @@ def _one(seed: int) -> dict:
                               overrides=bench))
     d1, _ = _diagnose(r1)
     key1, alts1, row["designed"] = _first(d1)
-    flagged = {a.split(":", 1)[-1] if a.startswith("known_value:") else a for a in alts1}
-    row["right"] = key1 == NAME and not (flagged & {a.split(":", 1)[-1] if a.startswith("known_value:") else a
-                                                    for a in alts0})
+    row["right"] = key1 == NAME and not (_names(alts1) & _names(alts0))
     return row
 
 
