@@ -18,7 +18,7 @@ they agree or two remain; two logs that disagree cannot say which of them is the
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.special import chdtrc, stdtrit
@@ -27,7 +27,7 @@ from .errors import IdentificationError
 from .identify import MOTORS_AT_REST, Result, _noise, identify, timing
 from .log import Log
 from .numerics.adequacy import model_check
-from .numerics.joint import JointFit, Run, efficient_weights, noise_inflation, refine_joint
+from .numerics.joint import JointFit, Run, noise_inflation, refine_joint
 from .numerics.stats import IDENTIFIABLE_REL_HALF_WIDTH
 from .params import ESTIMATED, merge
 from .settings import Settings
@@ -160,18 +160,9 @@ def _alone(log: Log, name: str, settings: Settings) -> LogVerdict:
 
 def _pooled(logs: list[Log], verdicts: list[LogVerdict], pool: list[int], params: dict, settings: Settings
             ) -> JointFit:
-    """The pooled fit over the logs in ``pool``, started where the logs' own fits agree best, weighted by each
-    log's noise inflation; then each log's weight chosen for the most precise pool (efficient_weights) and the
-    fit repeated from there."""
-    fit, runs = _pooled_once(logs, verdicts, pool, params, settings)
-    if len(pool) < 2:
-        return fit
-    best = np.array([min((verdicts[i].cov[j, j] for i in pool if np.isfinite(verdicts[i].cov[j, j])
-                          and verdicts[i].cov[j, j] > 0), default=np.nan) for j in range(4)])
-    w = efficient_weights(fit.runs, best)
-    runs = [replace(r, weight=float(wi), start_states0=fr["start_states"]) for r, wi, fr in zip(runs, w, fit.runs)]
-    refit = refine_joint(runs, params, settings.thrust_law, fit.estimate)
-    return refit if refit.converged or not fit.converged else fit
+    """The pooled fit over the logs in ``pool``: output error weighted by each log's noise inflation, then the
+    efficient combination of the logs' score equations (numerics/joint._efficient_step)."""
+    return _pooled_once(logs, verdicts, pool, params, settings)[0]
 
 
 def _pooled_once(logs: list[Log], verdicts: list[LogVerdict], pool: list[int], params: dict, settings: Settings
@@ -190,8 +181,17 @@ def _pooled_once(logs: list[Log], verdicts: list[LogVerdict], pool: list[int], p
         tm = timing(log, len(log))
         runs.append(Run(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, log.sample_time_s, _noise(log, len(log)),
                         tm["t_s"], tm["switch_delay_s"], starts0,
-                        1.0 / max(noise_inflation(r if res.headline == "refined" else None), 1e-6)))
+                        1.0 / max(noise_inflation(r if res.headline == "refined" else None), 1e-6),
+                        _own_cov(verdicts[i], res)))
     return refine_joint(runs, params, settings.thrust_law, start), runs
+
+
+def _own_cov(v: LogVerdict, res: Result) -> np.ndarray | None:
+    """The log's own J/B covariance for the pooled sandwich: its refined estimate's, when that determines all four
+    (a DREM-only or partly determined log's scores are weighed at the pooled fit instead)."""
+    if res.headline != "refined" or v.cov is None or not np.all(np.isfinite(v.cov)):
+        return None
+    return v.cov
 
 
 def _test(verdicts: list[LogVerdict], pool: list[int], fit: JointFit, leave_out: dict | None = None) -> dict:

@@ -8,8 +8,12 @@ refine does), then that log's start states, leaving one 4 x 4 system in J/B summ
 
 Each log's cost counts with a weight (Run.weight: the caller's; joint.py starts from 1 / noise_inflation and then
 takes efficient_weights), so that a log counts by the information it really carries. Intervals: a sandwich over
-independent logs, S^-1 (sum over logs of the batch-means meat of each log's J/B scores, its own nuisance unknowns
-projected out) S^-1, with S the pooled normal matrix; Student's t on the total number of blocks.
+independent logs, S^-1 (sum over logs of M_log) S^-1, with S the pooled normal matrix and M_log the variance of the
+log's J/B scores (its own nuisance unknowns projected out); Student's t on the total number of blocks. M_log is
+S_log C_log S_log when the log's own estimate gave a covariance C_log of all four (Run.cov_jb: batch means, widened
+by the rounding's spread on an encoder's grid), so that a pool of one log reports that log's own interval and a
+pool never rests on a second, noisier estimate of the same variance; else the batch-means variance of its scores
+at the pooled fit.
 """
 from __future__ import annotations
 
@@ -38,18 +42,20 @@ class Run:
     switch_delay_s: np.ndarray | None = None
     start_states0: dict | None = None
     weight: float = 1.0  # the log's share of the pooled cost: 1 / its noise inflation (see noise_inflation)
+    cov_jb: np.ndarray | None = None  # (4, 4) the log's own J/B covariance, as its estimate reports it (or None)
 
 
 @dataclass(frozen=True)
 class JointFit:
-    estimate: dict  # J1, B1, J2, B2
+    estimate: dict  # J1, B1, J2, B2: the efficient step's from the output-error fit (see _efficient_step)
     ci95: dict  # name -> (low, high)
-    cov: np.ndarray  # (4, 4) sandwich covariance of J/B
+    cov: np.ndarray  # (4, 4) covariance of J/B
     converged: bool
     iterations: int
     cost: float  # the pooled noise-weighted squared angle error (each log's own, unweighted by its share)
     blocks: int  # independent blocks over all logs
-    runs: list  # per log: {"prediction", "rms_rad", "cost", "start_states", "blocks", "weight", "s_jb", "meat_jb"}
+    runs: list  # per log: {"prediction", "rms_rad", "cost", "start_states", "blocks", "weight"}
+    output_error: dict  # J/B of the weighted output-error fit, where each log's prediction is simulated
 
 
 def refine_joint(runs: list[Run], params: dict, law: str, theta0: dict, window_s: float = WINDOW_S,
@@ -106,20 +112,25 @@ def refine_joint(runs: list[Run], params: dict, law: str, theta0: dict, window_s
         starts = [st for _, st in trial]
     system = [_eliminate(a, b) for _, a, b, _ in state]
     s_mat = sum(e.s_gg for e in system)
-    meats = [_meat(e, st, su) for e, st, su in zip(system, state, setups)]
-    inv = _scaled_inverse(s_mat)
-    cov = inv @ sum(meats) @ inv  # the sandwich
+    meats = [_meat(e, st, su) if r.cov_jb is None else e.s_gg @ r.cov_jb @ e.s_gg  # (e.s_gg carries w: w^2 S C S)
+             for e, st, su, r in zip(system, state, setups, runs)]
+    jb_oe = jb
+    if converged:
+        jb, cov = _efficient_step(jb, system, meats)
+    else:
+        inv = _scaled_inverse(s_mat)
+        cov = inv @ sum(meats) @ inv  # the sandwich
     blocks = sum(sc.shape[0] for _, _, _, sc in state)
     half = float(stdtrit(max(blocks - 1, 1), 0.975)) * np.sqrt(np.maximum(np.diag(cov), 0.0))
     per_run = [{"prediction": out, "rms_rad": _rms(su.y, out), "cost": float(c / w), "weight": w,
-                "blocks": int(sc.shape[0]), "s_jb": e.s_gg / w, "meat_jb": meat / w ** 2,
+                "blocks": int(sc.shape[0]),
                 "start_states": {**dict(zip(START_NAMES, map(float, m))), "alpha_dot_0_rad_s": float(st[0, 1]),
                                  "beta_dot_0_rad_s": float(st[0, 3])}}
-               for su, out, m, st, (c, _, _, sc), w, e, meat in zip(setups, outs, motors, starts, state, weights,
-                                                                       system, meats)]
+               for su, out, m, st, (c, _, _, sc), w in zip(setups, outs, motors, starts, state, weights)]
     return JointFit(dict(zip(NAMES, map(float, jb))),
                     {k: (float(jb[i] - half[i]), float(jb[i] + half[i])) for i, k in enumerate(NAMES)},
-                    cov, converged, it, float(sum(r["cost"] for r in per_run)), blocks, per_run)
+                    cov, converged, it, float(sum(r["cost"] for r in per_run)), blocks, per_run,
+                    dict(zip(NAMES, map(float, jb_oe))))
 
 
 def _weighted(res: tuple, w: float) -> tuple:
@@ -190,27 +201,27 @@ def _sandwich(s_mat, system, state, setups) -> np.ndarray:
     return inv @ meat @ inv
 
 
-def efficient_weights(runs: list[dict], reference_var: np.ndarray) -> np.ndarray:
-    """Each log's weight in the pooled cost that makes the pooled J/B most precise: the sandwich covariance
-    (sum w S)^-1 (sum w^2 M)^-1 (sum w S)^-1 from each log's information S and score variance M (``runs``: a
-    JointFit's, unweighted), minimising the sum over J/B of its variance over ``reference_var`` (the best single
-    log's, so that each parameter's relative precision counts alike).  Weights are scaled to a mean of 1."""
-    from scipy.optimize import minimize
+def _efficient_step(jb: np.ndarray, system: list, meats: list) -> tuple[np.ndarray, np.ndarray]:
+    """The efficient combination of the logs from the converged output-error fit at ``jb``: one Gauss-Newton step
+    of the stacked score equations weighted by the inverse of their variances (efficient GMM),
 
-    s_list = [r["s_jb"] for r in runs]
-    m_list = [r["meat_jb"] for r in runs]
-    ref = np.where(np.isfinite(reference_var) & (reference_var > 0), reference_var, np.inf)
+        theta = jb + F^-1 sum_log S M^-1 r,    cov = F^-1,    F = sum_log S M^-1 S,
 
-    def objective(log_w):
-        w = np.exp(log_w)
-        inv = _scaled_inverse(sum(wi * s for wi, s in zip(w, s_list)))
-        cov = inv @ sum(wi * wi * m for wi, m in zip(w, m_list)) @ inv
-        return float(np.sum(np.diag(cov)[np.isfinite(ref)] / ref[np.isfinite(ref)]))
-
-    if len(runs) < 2 or not np.isfinite(ref).any():
-        return np.ones(len(runs))
-    start = np.log([max(r["weight"], 1e-9) for r in runs])
-    best = minimize(objective, start, method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-6,
-                                                                    "maxiter": 400 * len(runs)})
-    w = np.exp(best.x if best.fun <= objective(start) else start)
-    return w / w.mean()
+    with S, r a log's J/B normal matrix and right-hand side (its own unknowns eliminated) and M its score variance.
+    Where M = S C S (the log's own covariance C), S M^-1 S = C^-1 and S^-1 r is the step to that log's own optimum,
+    so theta is the precision-weighted mean of the logs' own estimates, matrix weights C^-1, and its covariance
+    (sum C^-1)^-1 is no wider than any log's own in any direction. A scalar weight per log cannot do that when the
+    logs' noise is coloured differently (one log's J1 is best, another's B1): with the best scalar weights the
+    pooled J1 and B1 of one benchmark bench were both 1.25x the best single log's. The step is the estimate only if
+    it stays positive; else the output-error fit with its sandwich covariance is kept."""
+    infos, rhs = [], []
+    for e, meat in zip(system, meats):
+        s_m = e.s_gg @ _scaled_inverse(meat)  # the weights w cancel: (w S)(w^2 M)^-1 (w S) = S M^-1 S
+        infos.append(s_m @ e.s_gg)
+        rhs.append(s_m @ e.r_gg)
+    cov = _scaled_inverse(sum(infos))
+    step = cov @ sum(rhs)
+    if np.all(np.isfinite(step)) and np.all(jb + step > 0):
+        return jb + step, cov
+    inv = _scaled_inverse(sum(e.s_gg for e in system))
+    return jb, inv @ sum(meats) @ inv

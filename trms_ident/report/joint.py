@@ -47,9 +47,12 @@ def joint_doc(result: JointResult, logs: list[Log]) -> dict:
             "adequate": result.adequate,
             "logs": per_log,
             "fit": {"method": "output error over all pooled logs at once (numerics/joint.py): J/B shared, each log's "
-                              "start states, windows and noise weights its own; intervals a sandwich over the logs",
+                              "start states, windows and noise weights its own; then one efficient step of the "
+                              "logs' score equations weighted by their own covariances (the estimate and its "
+                              "intervals)",
                     "converged": fit.converged, "iterations": fit.iterations, "cost": fit.cost,
-                    "blocks": fit.blocks},
+                    "blocks": fit.blocks, "output_error_estimate": fit.output_error,
+                    "weights": [r["weight"] for r in fit.runs]},
         },
         "parameters": {k: {"value": v, "unit": UNITS.get(k, ""), "source": "table" if v == table[k] else "file"}
                        for k, v in result.params.items() if k not in ESTIMATED},
