@@ -23,6 +23,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from scipy.signal import lfilter
 from scipy.stats import norm
 
 from .diagnosis.discriminate import MIN_COST_GAP
@@ -88,10 +89,21 @@ class Square:
     peak_rad: float
     period_s: float
     kind: str = "square"
+    #: the voltage [V] the run is held under (None: the reference as it is). The square waves are run with the
+    #: controller limited to this voltage, and the references then re-derived from that run's voltages and angles
+    #: (reference_for), so that the lab's controller, limited to its own u_limit, produces the same voltages
+    #: without ever reaching its limit. Both axes of a pair are held under the same voltage.
+    held_v: float | None = None
 
 
 #: square-wave periods tried [s]
 PERIODS_S = (1.0, 2.0, 4.0, 8.0)
+#: square waves held under a voltage (Square.held_v): these fractions of the controller's limit, the periods of
+#: PERIODS_S and the largest HELD_PEAKS peaks of the grid per axis. What the limit on the time at the voltage limit
+#: caps is the voltage's power: a square wave held under 1.8 V at twice the paper's levels gives Table 1's bench
+#: its B1 to 0.61 %, as the paper's square does at 2.5 V (75 % of the time at the limit)
+HELD_FRACTIONS = (0.95, 0.9, 0.8, 0.7)
+HELD_PEAKS = 3
 
 
 @dataclass
@@ -147,6 +159,60 @@ def square(t_s: np.ndarray, m: Square, lag_periods: float = 0.0) -> np.ndarray:
     return y
 
 
+def reference_for(t_s: np.ndarray, u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_rad: np.ndarray,
+                  pid: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The references [rad] under which the controller ``pid`` (paper eq. (9) as sim/plant.py discretizes it: PID
+    per axis, the derivative on the measurement through 1/(Tf s + 1), the integral summed after each sample)
+    reading the angles ``alpha_rad``, ``beta_rad`` outputs the voltages ``u1_v``, ``u2_v`` [V] at the uniform
+    stamps ``t_s`` [s], while it does not saturate: sample by sample, the error e = (u - I - Kd d) / Kp and the
+    reference y + e, I the integral so far and d the filtered derivative of the angle."""
+    dt = float(t_s[1] - t_s[0]) if t_s.size > 1 else 1.0
+    tf = float(pid["Tf"])
+    out = []
+    for u, y, kp, ki, kd in ((u1_v, alpha_rad, pid["Kp1"], pid["Ki1"], pid["Kd1"]),
+                             (u2_v, beta_rad, pid["Kp2"], pid["Ki2"], pid["Kd2"])):
+        if not kp > 0:
+            raise ValueError("a reference for given voltages needs a proportional gain above 0 on each axis")
+        # d_k = (Tf d_k-1 - (y_k - y_k-1)) / (Tf + dt), d_0 = 0: a first-order filter of the angle's differences
+        d = lfilter([-1.0 / (tf + dt)], [1.0, -tf / (tf + dt)], np.diff(y, prepend=y[0]))
+        # e_k = (v_k - I_k) / Kp with I_k+1 = I_k + Ki dt e_k: I follows v through a first-order filter
+        v = np.asarray(u, dtype=float) - kd * d
+        c = ki * dt / kp
+        integral = lfilter([0.0, c], [1.0, -(1.0 - c)], v)
+        out.append(y + (v - integral) / kp)
+    return out[0], out[1]
+
+
+def voltage_noise_v(pid: dict, noise_rad: dict, dt_s: float) -> tuple[float, float]:
+    """The standard deviation [V] of each axis' voltage that white angle noise ``noise_rad`` ({"alpha", "beta"}
+    [rad]) makes through the controller ``pid`` at steps ``dt_s``: its proportional and filtered derivative terms
+    (the integral's share is negligible), sum over the impulse response of -Kp n_k + Kd d_k."""
+    tf = float(pid["Tf"])
+    g, c = 1.0 / (tf + dt_s), tf / (tf + dt_s)
+    out = []
+    for sd, kp, kd in ((noise_rad.get("alpha", 0.0), pid["Kp1"], pid["Kd1"]),
+                       (noise_rad.get("beta", 0.0), pid["Kp2"], pid["Kd2"])):
+        gain2 = (kp + kd * g) ** 2 + (kd * g * (1.0 - c)) ** 2 / (1.0 - c * c)
+        out.append(float(sd) * math.sqrt(gain2))
+    return out[0], out[1]
+
+
+def saturated_with_noise(u1_v: np.ndarray, u2_v: np.ndarray, u_limit_v: float, sd_v: tuple[float, float]) -> float:
+    """The expected share of samples with a voltage at ``u_limit_v`` [V] once the controller adds the voltage noise
+    ``sd_v`` (voltage_noise_v, Gaussian) to the noise-free ``u1_v``, ``u2_v``: a sample at the limit without noise
+    stays there; else either axis' noisy voltage passes it."""
+    free = []
+    for u, sd in ((u1_v, sd_v[0]), (u2_v, sd_v[1])):
+        a = np.abs(np.asarray(u, dtype=float))
+        at = a >= u_limit_v * (1 - 1e-9)
+        if sd > 0:
+            p = norm.sf((u_limit_v - a) / sd) + norm.sf((u_limit_v + a) / sd)
+        else:
+            p = np.zeros_like(a)
+        free.append(np.where(at, 0.0, 1.0 - p))
+    return float(np.mean(1.0 - free[0] * free[1]))
+
+
 def shaped(t_s: np.ndarray, duration_s: float, m, yaw: bool) -> np.ndarray:
     """The reference [rad] of axis shape ``m`` (Multisine or Square) at ``t_s``."""
     if isinstance(m, Square):
@@ -162,7 +228,9 @@ def scaled(m, k: float):
 def describe(m) -> str:
     """An axis' reference shape (Multisine or Square) in words."""
     if isinstance(m, Square):
-        return f"square wave +-{m.peak_rad:.3g} rad, period {m.period_s:g} s"
+        return (f"square wave +-{m.peak_rad:.3g} rad, period {m.period_s:g} s"
+                + (f", run with the voltage held under {m.held_v:.3g} V (the reference re-derived from that run)"
+                   if m.held_v is not None else ""))
     return f"multisine, peak {m.peak_rad:.3g} rad, up to {m.band_hz:g} Hz"
 
 
@@ -326,19 +394,20 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
     from sim import SimSettings, simulate
 
     table = (t_s, alpha_ref, beta_ref)
-    fx = [] if effect is None else [dict(zip(("effect", "axis"), effect[0].split(":")), value=float(effect[1]))]
+    fx = _effects_of(effect, discriminate)
     bench = dict(bench_of(params, discriminate))
-    if discriminate is not None and discriminate[0].known_value is None:
-        fx = [dict(zip(("effect", "axis"), discriminate[0].key.split(":")), value=float(discriminate[0].value))]
     s = SimSettings(ref="file", ref_table=table, duration_s=float(t_s[-1]), sample_rate_hz=rate_hz,
                     thrust_law=law, u_limit_v=u_limit_v, overrides=bench, pid=dict(pid), effects=fx,
                     quantization_rad=quantum_rad, quantization_offset_rad=(grid_rad, grid_rad))
     r = simulate(s)
     at_limit = (np.abs(r.u1_v) >= u_limit_v * (1 - 1e-9)) | (np.abs(r.u2_v) >= u_limit_v * (1 - 1e-9))
+    dt = 1.0 / rate_hz
+    # the angles' noise moves the voltages too (a run simulated with the encoders has its rounding in already)
+    sd_v = (0.0, 0.0) if quantum_rad > 0 else voltage_noise_v({**pid_defaults(), **pid}, noise_rad, dt)
     env = {"alpha_rad": float(np.max(np.abs(r.alpha_rad))), "beta_rad": float(np.max(np.abs(r.beta_rad))),
            "u1_v": float(np.max(np.abs(r.u1_v))), "u2_v": float(np.max(np.abs(r.u2_v))),
-           "saturated_share": float(np.mean(at_limit))}
-    dt = 1.0 / rate_hz
+           "saturated_share": saturated_with_noise(r.u1_v, r.u2_v, u_limit_v, sd_v),
+           "saturated_share_noise_free": float(np.mean(at_limit)), "voltage_noise_v": list(sd_v)}
     env["ref_rate_rad_s"] = max(float(np.max(np.abs(np.diff(x)))) / dt for x in (alpha_ref, beta_ref))
     bad = []
     if not np.all(np.isfinite(r.alpha_rad)) or not np.all(np.isfinite(r.beta_rad)):
@@ -350,7 +419,7 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
             bad.append(f"yaw reaches {env['beta_rad']:.3g} rad (limit {limits.yaw_rad:g})")
         if env["saturated_share"] > limits.saturated_share:
             bad.append(f"a motor voltage is at its {u_limit_v:g} V limit {100 * env['saturated_share']:.3g} % of the "
-                       f"time (limit {100 * limits.saturated_share:g} %)")
+                       f"time with the angles' noise (limit {100 * limits.saturated_share:g} %)")
     if limits.ref_rate_rad_s is not None and env["ref_rate_rad_s"] > limits.ref_rate_rad_s:
         bad.append(f"the reference moves at {env['ref_rate_rad_s']:.3g} rad/s (limit {limits.ref_rate_rad_s:g})")
     precision, score, found, told = {}, math.inf, None, None
@@ -378,6 +447,37 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
             bad.append("its information matrix cannot be evaluated")
     return Run(r.t_s, alpha_ref, beta_ref, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, precision, env, bad, score, found,
                told)
+
+
+def _effects_of(effect, discriminate) -> list:
+    """The simulator's effects for the bench a candidate runs on: the effect designed for, or the hypothesis to
+    tell apart when it is an effect (a known value is in bench_of's table instead)."""
+    if discriminate is not None and discriminate[0].known_value is None:
+        return [dict(zip(("effect", "axis"), discriminate[0].key.split(":")), value=float(discriminate[0].value))]
+    return [] if effect is None else [dict(zip(("effect", "axis"), effect[0].split(":")), value=float(effect[1]))]
+
+
+def pid_defaults() -> dict:
+    """The simulator's controller gains (a controller file may give some only)."""
+    from sim.simulate import DEFAULT_PID
+
+    return dict(DEFAULT_PID)
+
+
+def _held_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, rate_hz: float, params: dict, law: str,
+              pid: dict, held_v: float, discriminate, effect) -> tuple[np.ndarray, np.ndarray] | None:
+    """The references that make the lab's controller produce the voltages the references ``alpha_ref``,
+    ``beta_ref`` produce with the controller limited to ``held_v`` [V] (noise-free, the simulated bench:
+    reference_for), or None when that run diverges."""
+    from sim import SimSettings, simulate
+
+    r = simulate(SimSettings(ref="file", ref_table=(t_s, alpha_ref, beta_ref), duration_s=float(t_s[-1]),
+                             sample_rate_hz=rate_hz, thrust_law=law, u_limit_v=held_v,
+                             overrides=dict(bench_of(params, discriminate)), pid=dict(pid),
+                             effects=_effects_of(effect, discriminate)))
+    if not (np.all(np.isfinite(r.alpha_rad)) and np.all(np.isfinite(r.beta_rad))):
+        return None
+    return reference_for(t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, {**pid_defaults(), **pid})
 
 
 @dataclass
@@ -424,14 +524,20 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     n = int(round(duration_s * rate_hz)) + 1
     t = np.arange(n) / rate_hz
     say = progress or (lambda f: None)
+    pid_full = {**pid_defaults(), **pid}
     # telling hypotheses apart refits each rival per candidate: the search runs at SCREEN_HZ at most (each
     # candidate judged for a log with the run's samples: white noise), the choice again at the run's rate
     screen_hz = min(rate_hz, SCREEN_HZ) if discriminate is not None else rate_hz
     ts = np.arange(int(round(duration_s * screen_hz)) + 1) / screen_hz
 
     def run(a, b, times=ts, hz=screen_hz, **kw) -> Run:
-        return simulate_run(times, shaped(times, duration_s, a, False), shaped(times, duration_s, b, True), hz,
-                            params, law, noise_rad, pid, u_limit_v, limits, objective, effect,
+        ra, rb = shaped(times, duration_s, a, False), shaped(times, duration_s, b, True)
+        if getattr(a, "held_v", None) is not None:  # run held under the voltage, the references re-derived
+            held = _held_run(times, ra, rb, hz, params, law, pid, a.held_v, discriminate, effect)
+            if held is None:
+                return Run(times, ra, rb, *(np.full(times.size, np.nan),) * 4, {}, {}, ["the closed loop diverges"])
+            ra, rb = held
+        return simulate_run(times, ra, rb, hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect,
                             discriminate=discriminate, samples_scale=rate_hz / hz, **kw)
 
     peaks_a = np.geomspace(LOWEST_PEAK * limits.pitch_rad, limits.pitch_rad, PEAK_STEPS)
@@ -440,6 +546,10 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
             for pa in peaks_a for pb in peaks_b]
     grid += [(Square(float(pa), per), Square(float(pb), per)) for per in PERIODS_S if per <= duration_s / 2
              for pa in peaks_a for pb in peaks_b]
+    if all(pid_full[k] > 0 for k in ("Kp1", "Kp2")):  # square waves held under a voltage
+        grid += [(Square(float(pa), per, held_v=f * u_limit_v), Square(float(pb), per, held_v=f * u_limit_v))
+                 for f in HELD_FRACTIONS for per in PERIODS_S if per <= duration_s / 2
+                 for pa in peaks_a[-HELD_PEAKS:] for pb in peaks_b[-HELD_PEAKS:]]
     total = len(grid) + REFINE_ROUNDS * 4
     tried: dict = {}
     for i, (a, b) in enumerate(grid):
