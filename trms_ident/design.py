@@ -226,12 +226,19 @@ def scaled(m, k: float):
 
 
 def describe(m) -> str:
-    """An axis' reference shape (Multisine or Square) in words."""
+    """An axis' reference shape (Multisine or Square) in words (a held pair: see described)."""
     if isinstance(m, Square):
-        return (f"square wave +-{m.peak_rad:.3g} rad, period {m.period_s:g} s"
-                + (f", run with the voltage held under {m.held_v:.3g} V (the reference re-derived from that run)"
-                   if m.held_v is not None else ""))
+        return f"square wave +-{m.peak_rad:.3g} rad, period {m.period_s:g} s"
     return f"multisine, peak {m.peak_rad:.3g} rad, up to {m.band_hz:g} Hz"
+
+
+def described(pitch, yaw) -> str:
+    """A pair of axis shapes in words, and whether the run is held under a voltage."""
+    text = f"pitch {describe(pitch)}, yaw {describe(yaw)}"
+    if getattr(pitch, "held_v", None) is not None:
+        text += (f"; run with the voltages held under {pitch.held_v:.3g} V, and the references re-derived from that "
+                 "run so that the controller makes the same voltages without reaching its limit")
+    return text
 
 
 @dataclass(frozen=True)
@@ -457,6 +464,18 @@ def _effects_of(effect, discriminate) -> list:
     return [] if effect is None else [dict(zip(("effect", "axis"), effect[0].split(":")), value=float(effect[1]))]
 
 
+def keep(tried: dict, key, r: Run) -> None:
+    """Add the candidate ``key``'s run to ``tried``, keeping the samples of the CONFIRMED best runs only (the
+    confirmation and the answer read no others): 620 runs of 120 s at 1 kHz held 5 GB."""
+    tried[key] = r
+    full = sorted((k for k in tried if tried[k].u1_v.size), key=lambda k: tried[k].score)
+    for k in full[CONFIRMED:]:
+        x = tried[k]
+        empty = np.empty(0)
+        tried[k] = replace(x, t_s=empty, alpha_ref_rad=empty, beta_ref_rad=empty, u1_v=empty, u2_v=empty,
+                           alpha_rad=empty, beta_rad=empty)
+
+
 def pid_defaults() -> dict:
     """The simulator's controller gains (a controller file may give some only)."""
     from sim.simulate import DEFAULT_PID
@@ -553,7 +572,7 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     total = len(grid) + REFINE_ROUNDS * 4
     tried: dict = {}
     for i, (a, b) in enumerate(grid):
-        tried[(a, b)] = run(a, b)
+        keep(tried, (a, b), run(a, b))
         say((i + 1) / total)
     best = min(tried, key=lambda k: tried[k].score)
     if not math.isfinite(tried[best].score):
@@ -566,7 +585,7 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
         for cand in ((scaled(a, REFINE_RATIO), b), (scaled(a, 1 / REFINE_RATIO), b), (a, scaled(b, REFINE_RATIO)),
                      (a, scaled(b, 1 / REFINE_RATIO))):
             if cand not in tried:
-                tried[cand] = run(*cand)
+                keep(tried, cand, run(*cand))
         best = min(tried, key=lambda k: tried[k].score)
         say((len(grid) + 4 * (r + 1)) / total)
     chosen = tried[best]
