@@ -306,3 +306,26 @@ def test_a_diagnosis_design_cannot_use_is_a_one_line_error(tmp_path, first, alte
                               "-o", str(tmp_path / "d.csv")])
     assert res.exit_code == EXIT_USAGE and message in res.output and "Traceback" not in res.output, res.output
     assert len(res.output.strip().splitlines()) == 1 and not (tmp_path / "d.csv").exists()
+
+
+def test_a_square_reference_whose_run_diverges_is_said_without_a_number():
+    """The paper's square is simulated beside every design; where its closed loop diverges it has no precision,
+    and the sentence, the table and the figure say so instead of failing."""
+    import dataclasses
+
+    from sim.simulate import DEFAULT_PID
+    from trms_ident.params import defaults
+    from trms_ident.report.design import design_doc, render
+
+    noise = {"alpha": 1e-3, "beta": 1e-3}
+    d = planner.design(6.0, 50.0, defaults(), "quadratic", noise, DEFAULT_PID, 2.5, planner.Limits())
+    nan = np.full(d.square.t_s.size, np.nan)
+    diverged = dataclasses.replace(d.square, alpha_rad=nan, beta_rad=nan, precision={},
+                                   violations=["the closed loop diverges"])
+    d = dataclasses.replace(d, square=diverged)
+    doc = design_doc(d, defaults(), {"duration_s": 6.0, "rate_hz": 50.0, "noise_std_rad": noise, "encoder_bits": None,
+                                     "pid": DEFAULT_PID, "limits": dataclasses.asdict(planner.Limits())})
+    assert "the paper's square reference, same length, no prediction, but it breaks the limits: the closed loop " \
+           "diverges." in doc["sentence"]
+    page = render(doc, d, planner.Limits(), 2.5)
+    assert "n/a (its run diverges)" in page and "nan %" not in page

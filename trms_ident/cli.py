@@ -732,9 +732,10 @@ def design(
     say(f"  references: {planner.described(d.pitch, d.yaw)} ({d.candidates} candidates simulated, {d.feasible} "
         "within the limits)")
     say("  predicted 95 % half-width      design      square (the paper's)")
-    for k in ESTIMATED:
+    for k in ESTIMATED:  # the square's run may diverge: no precision then
+        sq = d.square.precision.get(k)
         say(f"    {k:<3}                       {100 * r.precision[k]['relative']:9.3g} %  "
-            f"{100 * d.square.precision[k]['relative']:9.3g} %")
+            + (f"{100 * sq['relative']:9.3g} %" if sq else "      n/a (its run diverges)"))
     if r.discrimination is not None:
         q = d.square.discrimination
         for k, v in r.discrimination["rivals"].items():
@@ -745,9 +746,10 @@ def design(
         for k, why in (doc["settings"].get("not_weighed") or {}).items():
             say(f"  not weighed: {k} ({why})")
     if r.effect is not None:
+        q = d.square.effect
         say(f"  {effect} of {size:g}: predicted t {r.effect['t']:.3g}, chance diagnose's output-error test finds it "
-            f"{100 * r.effect['power']:.3g} % (the square reference: t {d.square.effect['t']:.3g}, "
-            f"{100 * d.square.effect['power']:.3g} %)")
+            f"{100 * r.effect['power']:.3g} % (the square reference: "
+            + (f"t {q['t']:.3g}, {100 * q['power']:.3g} %)" if q else "n/a, its run diverges)"))
     e, s = r.envelope, d.square.envelope
     say(f"  largest |pitch| {e['alpha_rad']:.3g} rad (square {s['alpha_rad']:.3g}), |yaw| {e['beta_rad']:.3g} rad "
         f"(square {s['beta_rad']:.3g}), time at the voltage limit {100 * e['saturated_share']:.3g} % (square "

@@ -36,14 +36,18 @@ def design_doc(d, p: dict, settings: dict) -> dict:
         e, q = d.run.effect, d.square.effect
         sentence = (f"Within the limits the design predicts {e['key']} of {e['size']:g} at t = {e['t']:.3g} "
                     f"(diagnose's output-error test finds it with a chance of {100 * e['power']:.3g} %); the paper's "
-                    f"square reference, same length, t = {q['t']:.3g} ({100 * q['power']:.3g} %){breaks}.")
+                    "square reference, same length, "
+                    + (f"t = {q['t']:.3g} ({100 * q['power']:.3g} %){breaks}." if q else f"no prediction{breaks}."))
     else:
         worst = max(ESTIMATED, key=lambda k: d.run.precision[k]["relative"])
-        sq_worst = max(ESTIMATED, key=lambda k: d.square.precision[k]["relative"])
         sentence = (f"Within the limits the design predicts {worst} to "
                     f"+-{100 * d.run.precision[worst]['relative']:.3g} % (its widest interval); the paper's square "
-                    f"reference, same length, {sq_worst} to +-{100 * d.square.precision[sq_worst]['relative']:.3g} %"
-                    f"{breaks}.")
+                    "reference, same length, ")
+        if d.square.precision:
+            sq_worst = max(ESTIMATED, key=lambda k: d.square.precision[k]["relative"])
+            sentence += f"{sq_worst} to +-{100 * d.square.precision[sq_worst]['relative']:.3g} %{breaks}."
+        else:  # its closed loop diverged
+            sentence += f"no prediction{breaks}."
     shapes = {"pitch": dataclasses.asdict(d.pitch), "yaw": dataclasses.asdict(d.yaw)}
     return {"kind": "trms-ident design", "sentence": sentence, "design": {**run_doc(d.run), **shapes},
             "square": run_doc(d.square), "candidates": d.candidates, "feasible": d.feasible,
@@ -118,11 +122,16 @@ def run_figure(run, square, limits, u_limit_v: float) -> str:
     return png_data_uri(fig)
 
 
+def _percent(p: dict | None) -> str:
+    """A predicted relative half-width in %, or why there is none (the run diverged)."""
+    return f"{100 * p['relative']:.3g} %" if p else "n/a (its run diverges)"
+
+
 def precision_figure(doc: dict) -> str:
     """Predicted relative 95 % half-widths [%] of J1, B1, J2, B2: the design beside the square reference."""
     x = np.arange(len(ESTIMATED))
     d = [100 * doc["design"]["predicted"][k]["relative"] for k in ESTIMATED]
-    q = [100 * doc["square"]["predicted"][k]["relative"] for k in ESTIMATED]
+    q = [100 * doc["square"]["predicted"].get(k, {}).get("relative", np.nan) for k in ESTIMATED]  # NaN: diverged
     fig, ax = plt.subplots(figsize=(7, 3.2))
     ax.bar(x - 0.2, d, 0.4, label="design (within the limits)")
     ax.bar(x + 0.2, q, 0.4, color="0.6", label="paper's square" + (" (breaks the limits)" if doc["square"]["violations"]
@@ -150,7 +159,7 @@ def render(doc: dict, d, limits, u_limit_v: float) -> str:
     rows = "".join(f"<tr><td>{k}</td><td>{html.escape(UNITS[k])}</td>"
                    f"<td>{doc['design']['predicted'][k]['half_width']:.3g}</td>"
                    f"<td>{100 * doc['design']['predicted'][k]['relative']:.3g} %</td>"
-                   f"<td>{100 * doc['square']['predicted'][k]['relative']:.3g} %</td></tr>" for k in ESTIMATED)
+                   f"<td>{_percent(doc['square']['predicted'].get(k))}</td></tr>" for k in ESTIMATED)
     told = ""
     if "discrimination" in doc["design"]:
         t, q = doc["design"]["discrimination"], doc["square"].get("discrimination")
