@@ -28,7 +28,7 @@ from scipy.stats import norm
 
 from .diagnosis.discriminate import MIN_COST_GAP
 from .numerics.adequacy import RMS_OVER_NOISE
-from .numerics.fisher import covariance, detection_power, precision_of
+from .numerics.fisher import covariance, detection_power, encoder_covariance, precision_of
 from .diagnosis.select import FAMILY_ALPHA
 from .model import effects as room
 from .model.plant import EFFECT_SLOTS
@@ -362,14 +362,32 @@ def bench_of(params: dict, discriminate) -> dict:
     return params
 
 
-def _round_precision(r: "Run", rate_hz: float, params: dict, law: str, noise_rad: dict, quantum_rad: float) -> None:
-    """r.precision (in place) with each interval what estimate would report on the run's rounded angles."""
-    from .numerics.fisher import with_rounding
+def _round_precision(r: "Run", rate_hz: float, params: dict, law: str, noise_rad: dict, pid: dict, u_limit_v: float,
+                     quantum_rad: float, effect, discriminate) -> None:
+    """r.precision (in place) as what estimate would report on r's references recorded with encoders of
+    ``quantum_rad`` [rad]: the loop simulated with the encoders at each place of their grid (GRID_OFFSETS), then
+    fisher.encoder_covariance."""
+    runs = []
+    for g in GRID_OFFSETS:
+        x = _simulated(r.t_s, r.alpha_ref_rad, r.beta_ref_rad, rate_hz, params, law, pid, u_limit_v, effect,
+                       discriminate, quantum_rad, g * quantum_rad)
+        runs.append((x.u1_v, x.u2_v, x.true_state[:, 0], x.true_state[:, 2]))
+    bench = bench_of(params, discriminate)
+    r.precision = precision_of(encoder_covariance(runs, 1.0 / rate_hz, bench, law, noise_rad, quantum_rad, effect),
+                               bench)
 
-    cov = np.diag([r.precision[k]["se"] ** 2 for k in NAMES])
-    cov = with_rounding(cov, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, 1.0 / rate_hz, params, law, noise_rad,
-                        quantum_rad)
-    r.precision = precision_of(cov, params)
+
+def _simulated(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, rate_hz: float, params: dict, law: str,
+               pid: dict, u_limit_v: float, effect, discriminate, quantum_rad: float = 0.0, grid_rad: float = 0.0):
+    """The simulator's closed loop on the references (the bench with the effect or hypothesis it is planned for),
+    noise-free; with encoders of ``quantum_rad`` [rad] whose grid sits ``grid_rad`` off zero."""
+    from sim import SimSettings, simulate
+
+    return simulate(SimSettings(ref="file", ref_table=(t_s, alpha_ref, beta_ref), duration_s=float(t_s[-1]),
+                                sample_rate_hz=rate_hz, thrust_law=law, u_limit_v=u_limit_v,
+                                overrides=dict(bench_of(params, discriminate)), pid=dict(pid),
+                                effects=_effects_of(effect, discriminate), quantization_rad=quantum_rad,
+                                quantization_offset_rad=(grid_rad, grid_rad)))
 
 
 def _objective(cov: np.ndarray, params: dict, objective: str) -> float:
@@ -398,15 +416,9 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
     run is judged against the limits only (no information, no score).
     ``samples_scale``: the discrimination is judged for a log with this many times the samples (a screen at a
     lower rate than the run's: white noise, the gap grows with the samples)."""
-    from sim import SimSettings, simulate
-
-    table = (t_s, alpha_ref, beta_ref)
-    fx = _effects_of(effect, discriminate)
     bench = dict(bench_of(params, discriminate))
-    s = SimSettings(ref="file", ref_table=table, duration_s=float(t_s[-1]), sample_rate_hz=rate_hz,
-                    thrust_law=law, u_limit_v=u_limit_v, overrides=bench, pid=dict(pid), effects=fx,
-                    quantization_rad=quantum_rad, quantization_offset_rad=(grid_rad, grid_rad))
-    r = simulate(s)
+    r = _simulated(t_s, alpha_ref, beta_ref, rate_hz, params, law, pid, u_limit_v, effect, discriminate, quantum_rad,
+                   grid_rad)
     at_limit = (np.abs(r.u1_v) >= u_limit_v * (1 - 1e-9)) | (np.abs(r.u2_v) >= u_limit_v * (1 - 1e-9))
     dt = 1.0 / rate_hz
     # the angles' noise moves the voltages too (a run simulated with the encoders has its rounding in already)
@@ -488,12 +500,7 @@ def _held_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, rate
     """The references that make the lab's controller produce the voltages the references ``alpha_ref``,
     ``beta_ref`` produce with the controller limited to ``held_v`` [V] (noise-free, the simulated bench:
     reference_for), or None when that run diverges."""
-    from sim import SimSettings, simulate
-
-    r = simulate(SimSettings(ref="file", ref_table=(t_s, alpha_ref, beta_ref), duration_s=float(t_s[-1]),
-                             sample_rate_hz=rate_hz, thrust_law=law, u_limit_v=held_v,
-                             overrides=dict(bench_of(params, discriminate)), pid=dict(pid),
-                             effects=_effects_of(effect, discriminate)))
+    r = _simulated(t_s, alpha_ref, beta_ref, rate_hz, params, law, pid, held_v, effect, discriminate)
     if not (np.all(np.isfinite(r.alpha_rad)) and np.all(np.isfinite(r.beta_rad))):
         return None
     return reference_for(t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, {**pid_defaults(), **pid})
@@ -616,7 +623,7 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     if quantum_rad > 0:
         for r in (chosen, paper):
             if r.precision:
-                _round_precision(r, rate_hz, bench_of(params, discriminate), law, noise_rad, quantum_rad)
+                _round_precision(r, rate_hz, params, law, noise_rad, pid, u_limit_v, quantum_rad, effect, discriminate)
     return Design(chosen, best[0], best[1], paper, len(tried),
                   sum(math.isfinite(v.score) for v in tried.values()))
 

@@ -85,6 +85,21 @@ def with_rounding(cov: np.ndarray, u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad
     return cov * np.outer(ratio, ratio)
 
 
+def encoder_covariance(runs: list, dt_s: float, params: dict, law: str, noise_rad: dict, quantum_rad: float,
+                       effect: tuple[str, float] | None = None) -> np.ndarray:
+    """covariance() as estimate would report it on a run recorded with encoders of ``quantum_rad`` [rad], from
+    ``runs``: (u1 [V], u2 [V], alpha [rad], beta [rad]) of the closed loop simulated with the encoders in it (the
+    controller reads their rounded angles, and that changes the voltages it makes), the angles its noise-free
+    ones, one run per place of the encoders' grid. For each, the information along its angles scaled to the
+    rounding's spread (with_rounding); the variances averaged over the runs. (Rounding an encoder-free run instead
+    predicted J2 at 0.4-0.6x what estimate then reported on a held 120 s design at 1 kHz.)"""
+    covs = []
+    for u1, u2, a, b in runs:
+        cov = covariance(u1, u2, a, b, dt_s, params, law, noise_rad, effect)
+        covs.append(with_rounding(cov, u1, u2, a, b, dt_s, params, law, noise_rad, quantum_rad))
+    return np.mean(covs, axis=0)
+
+
 def detection_power(value: float, se: float, n_tests: int, alpha: float) -> float:
     """The chance that a two-sided test of an effect's parameter at the family level ``alpha`` / ``n_tests``
     (Bonferroni, as diagnose's) finds it, when the estimate is normal about ``value`` with standard error ``se``."""
