@@ -729,8 +729,8 @@ def design(
     say(f"wrote {output} ({r.t_s.size} samples, {duration:g} s at {rate:g} Hz; run it first with trms-ident simulate "
         f"--ref-file {output})" + (f" and {page}" if page else ""))
     say(f"  {doc['sentence']}")
-    say(f"  references: {planner.described(d.pitch, d.yaw)} ({d.candidates} candidates simulated, {d.feasible} "
-        "within the limits)")
+    say(f"  references: pitch {planner.describe(d.pitch)}, yaw {planner.describe(d.yaw)} ({d.candidates} candidates "
+        f"simulated, {d.feasible} within the limits)")
     say("  predicted 95 % half-width      design      square (the paper's)")
     for k in ESTIMATED:  # the square's run may diverge: no precision then
         sq = d.square.precision.get(k)

@@ -48,11 +48,29 @@ def design_doc(d, p: dict, settings: dict) -> dict:
             sentence += f"{sq_worst} to +-{100 * d.square.precision[sq_worst]['relative']:.3g} %{breaks}."
         else:  # its closed loop diverged
             sentence += f"no prediction{breaks}."
+    sentence += _off_bench_clause(d.run.envelope.get("off_bench"), settings.get("limits"))
     shapes = {"pitch": dataclasses.asdict(d.pitch), "yaw": dataclasses.asdict(d.yaw)}
     return {"kind": "trms-ident design", "sentence": sentence, "design": {**run_doc(d.run), **shapes},
             "square": run_doc(d.square), "candidates": d.candidates, "feasible": d.feasible,
             "parameters": {k: float(v) for k, v in p.items() if isinstance(v, (int, float))},
             "settings": settings, "versions": versions()}
+
+
+def _off_bench_clause(off: dict | None, limits: dict | None) -> str:
+    """What the design's run does on a bench whose J/B are off the given ones, when that breaks a limit."""
+    if not off or not limits:
+        return ""
+    broken = []
+    if off["saturated_share"] > limits["saturated_share"]:
+        broken.append(f"hold a voltage at its limit {100 * off['saturated_share']:.3g} % of the time")
+    if off["alpha_rad"] > limits["pitch_rad"]:
+        broken.append(f"swing the pitch to {off['alpha_rad']:.3g} rad")
+    if off["beta_rad"] > limits["yaw_rad"]:
+        broken.append(f"swing the yaw to {off['beta_rad']:.3g} rad")
+    if not broken:
+        return f" On a bench whose J/B are {100 * off['relative']:g} % off these, it keeps the limits too."
+    return (f" On a bench whose J/B are {100 * off['relative']:g} % off these, it would " + " and ".join(broken)
+            + ": plan from a previous estimate of this bench (--from result.json), and run it in simulation first.")
 
 
 def discrimination_sentence(d, duration_s: float) -> str:
