@@ -53,7 +53,8 @@ OBJECTIVES = ("worst", "d")
 SCREEN_HZ = 100.0
 CONFIRMED = 5
 #: with encoders, the choice is confirmed with their grids at these fractions of the quantum off zero, the worst
-#: kept (measured: a 120 s design at 4.8 % of the time at the voltage limit noise-free read 5.2 % on one grid)
+#: kept (measured: a 120 s design at 4.8 % of the time at the voltage limit noise-free read 5.2 % on one grid), and
+#: its predicted intervals are averaged over the loop simulated at each (fisher.encoder_covariance)
 GRID_OFFSETS = (0.0, 0.25, 0.5, 0.75)
 #: the effects design can plan for: the torque effects the refinement's kernel carries with exact sensitivities
 EFFECTS = tuple(EFFECT_SLOTS)

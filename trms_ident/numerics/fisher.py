@@ -92,7 +92,7 @@ def encoder_covariance(runs: list, dt_s: float, params: dict, law: str, noise_ra
     controller reads their rounded angles, and that changes the voltages it makes), the angles its noise-free
     ones, one run per place of the encoders' grid. For each, the information along its angles scaled to the
     rounding's spread (with_rounding); the variances averaged over the runs. (Rounding an encoder-free run instead
-    predicted J2 at 0.4-0.6x what estimate then reported on a held 120 s design at 1 kHz.)"""
+    predicted J2 at 0.4-0.6x what estimate then reported on one 120 s design at 1 kHz.)"""
     covs = []
     for u1, u2, a, b in runs:
         cov = covariance(u1, u2, a, b, dt_s, params, law, noise_rad, effect)
