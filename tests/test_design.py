@@ -63,7 +63,7 @@ def test_what_the_design_does_on_a_bench_off_the_given_one_is_simulated_and_said
     t = np.arange(3001) / 100.0
     a, b = planner.square(t, planner.Square(0.14, 2.0)), planner.square(t, planner.Square(0.28, 2.0), 0.25)
     r = planner.simulate_run(t, a, b, 100.0, p, "quadratic", noise, DEFAULT_PID, 2.5, planner.Limits())
-    off = planner.off_bench(r, 100.0, p, "quadratic", noise, DEFAULT_PID, 2.5)
+    off = planner.off_bench(r.t_s, r.alpha_ref_rad, r.beta_ref_rad, 100.0, p, "quadratic", noise, DEFAULT_PID, 2.5)
     sd = planner.voltage_noise_v(DEFAULT_PID, noise, 0.01)
     shares = []
     for f in (1.05, 0.95):
@@ -74,7 +74,22 @@ def test_what_the_design_does_on_a_bench_off_the_given_one_is_simulated_and_said
     limits = {"saturated_share": 0.05, "pitch_rad": 1.0, "yaw_rad": 3.0}
     assert "keeps the limits too" in _off_bench_clause({**off, "saturated_share": 0.01}, limits)
     said = _off_bench_clause({**off, "saturated_share": 0.117}, limits)
-    assert "5 % off these, it would hold a voltage at its limit 11.7 % of the time" in said and "--from" in said
+    assert "5 % off these, a voltage would be at its limit 11.7 % of the time (limit 5 %)" in said
+    assert "--from" in said and "--robust" in said
+
+
+def test_a_robust_design_keeps_its_limits_on_a_bench_off_the_given_one(tmp_path):
+    """--robust 0.05: the chosen references keep the limits on benches with J/B 5 % off too, and the sentence says
+    so; without it the same 20 s design sits at the limits of the given bench only."""
+    js = tmp_path / "d.json"
+    res = runner.invoke(app, ["design", "--duration", "20", "--rate", "100", "--robust", "0.05", "--no-report",
+                              "-o", str(tmp_path / "d.csv"), "--json", str(js)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(js.read_text())
+    off = doc["design"]["envelope"]["off_bench"]
+    assert off["relative"] == 0.05 and off["saturated_share"] <= 0.05 and off["beta_rad"] <= 3.0
+    assert "5 % off these, it keeps the limits too" in doc["sentence"]
+    assert doc["settings"]["limits"]["robust_rel"] == 0.05
 
 
 def test_a_design_keeps_its_limits_and_estimate_achieves_its_predicted_precision(tmp_path):
@@ -117,6 +132,7 @@ def test_a_design_keeps_its_limits_and_estimate_achieves_its_predicted_precision
     (["--effect", "coulomb_friction:pitch"], EXIT_USAGE, "--effect and --size go together"),
     (["--effect", "dead_zone:yaw", "--size", "0.1"], EXIT_USAGE, "--effect dead_zone:yaw: expected one of"),
     (["--from", "r.json", "--discriminate", "d.json"], EXIT_USAGE, "--discriminate and --from: the bench comes"),
+    (["--robust", "0.7"], EXIT_USAGE, "--robust 0.7: expected a relative J/B error in 0..0.5"),
 ])
 def test_bad_design_options_are_one_line_errors(tmp_path, args, code, message):
     res = runner.invoke(app, ["design", "--duration", "10", "--rate", "100", "-o", str(tmp_path / "d.csv"), *args])

@@ -655,6 +655,9 @@ def design(
                                                  "voltage at its limit (0..1).")] = 0.05,
     max_ref_rate: Annotated[Optional[float], typer.Option("--max-ref-rate", help="Largest rate of either reference "
                                                           "[rad/s] (default: none).")] = None,
+    robust: Annotated[float, typer.Option("--robust", help="The limits must also hold on benches whose J/B are "
+                                          "this far off the given ones (relative, e.g. 0.05; default 0: on the "
+                                          "given bench, what a bench 5 % off would do is said).")] = 0.0,
     objective: Annotated[str, typer.Option(help="worst: the largest relative 95 % half-width of J1, B1, J2, B2 "
                                            "(E-optimal); d: the determinant of their relative covariance.")] = "worst",
     effect: Annotated[Optional[str], typer.Option("--effect", help="Design to find this effect instead (NAME:AXIS, "
@@ -703,6 +706,8 @@ def design(
         raise SettingsError(f"--max-saturated {max_saturated:g}: expected a share in 0..1")
     if max_ref_rate is not None and not max_ref_rate > 0:
         raise SettingsError(f"--max-ref-rate {max_ref_rate:g}: expected > 0 [rad/s]")
+    if not 0 <= robust < 0.5:
+        raise SettingsError(f"--robust {robust:g}: expected a relative J/B error in 0..0.5 (e.g. 0.05)")
     if objective not in planner.OBJECTIVES:
         raise SettingsError(f"--objective {objective!r}: expected one of {', '.join(planner.OBJECTIVES)}")
     if (effect is None) != (size is None):
@@ -718,7 +723,7 @@ def design(
         raise SettingsError(f"thrust law must be one of {tuple(THRUST_LAWS)}, got {thrust_law!r}")
     from .commands import design_files
 
-    limits = planner.Limits(pitch_limit, yaw_limit, max_saturated, max_ref_rate)
+    limits = planner.Limits(pitch_limit, yaw_limit, max_saturated, max_ref_rate, robust)
     with progress_bar("design") as advance:
         out = design_files(duration, rate, limits, output, noise_std=noise_std, encoder_bits=encoder_bits,
                            params=params, from_result=from_result, controller=controller, objective=objective,

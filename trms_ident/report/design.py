@@ -57,20 +57,17 @@ def design_doc(d, p: dict, settings: dict) -> dict:
 
 
 def _off_bench_clause(off: dict | None, limits: dict | None) -> str:
-    """What the design's run does on a bench whose J/B are off the given ones, when that breaks a limit."""
+    """What the design's run does on a bench whose J/B are off the given ones: whether it keeps the limits."""
     if not off or not limits:
         return ""
-    broken = []
-    if off["saturated_share"] > limits["saturated_share"]:
-        broken.append(f"hold a voltage at its limit {100 * off['saturated_share']:.3g} % of the time")
-    if off["alpha_rad"] > limits["pitch_rad"]:
-        broken.append(f"swing the pitch to {off['alpha_rad']:.3g} rad")
-    if off["beta_rad"] > limits["yaw_rad"]:
-        broken.append(f"swing the yaw to {off['beta_rad']:.3g} rad")
+    from ..design import Limits, off_bench_breaks
+
+    broken = off_bench_breaks(off, Limits(**limits))
     if not broken:
         return f" On a bench whose J/B are {100 * off['relative']:g} % off these, it keeps the limits too."
-    return (f" On a bench whose J/B are {100 * off['relative']:g} % off these, it would " + " and ".join(broken)
-            + ": plan from a previous estimate of this bench (--from result.json), and run it in simulation first.")
+    return (f" On a bench whose J/B are {100 * off['relative']:g} % off these, " + "; ".join(broken)
+            + ": plan from a previous estimate of this bench (--from result.json) or with --robust, and run it in "
+            "simulation first.")
 
 
 def discrimination_sentence(d, duration_s: float) -> str:
