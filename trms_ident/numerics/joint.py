@@ -6,14 +6,15 @@ noise-weighted angle errors, with the unknowns eliminated level by level: per lo
 refine does), then that log's start states, leaving one 4 x 4 system in J/B summed over the logs
 (the normal equations of the pooled cost, eq. (1) simulated exactly as numerics/refine.py does).
 
-Each log's cost counts with a weight (Run.weight: the caller's; joint.py starts from 1 / noise_inflation and then
-takes efficient_weights), so that a log counts by the information it really carries. Intervals: a sandwich over
-independent logs, S^-1 (sum over logs of M_log) S^-1, with S the pooled normal matrix and M_log the variance of the
-log's J/B scores (its own nuisance unknowns projected out); Student's t on the total number of blocks. M_log is
-S_log C_log S_log when the log's own estimate gave a covariance C_log of all four (Run.cov_jb: batch means, widened
-by the rounding's spread on an encoder's grid), so that a pool of one log reports that log's own interval and a
-pool never rests on a second, noisier estimate of the same variance; else the batch-means variance of its scores
-at the pooled fit.
+Each log's cost counts with a weight (Run.weight: the caller's; joint.py gives 1 / noise_inflation), so that the
+output-error fit leans on each log by the information it really carries. From its optimum the pool then takes one
+efficient step (_efficient_step): the logs' score equations weighted by the inverse of their variances M_log, so
+that the pooled J/B is the precision-weighted mean of the logs' own estimates and its covariance
+(sum over logs of S_log M_log^-1 S_log)^-1; Student's t on the total number of blocks. M_log is S_log C_log S_log
+when the log's own estimate gave a covariance C_log of all four (Run.cov_jb: batch means, widened by the rounding's
+spread on an encoder's grid), so that a pool of one log reports that log's own interval and no pool is wider than
+any of its logs; else the batch-means variance of its scores at the pooled fit (its own nuisance unknowns
+projected out). A fit that did not converge keeps the sandwich S^-1 (sum of M_log) S^-1 of its last iterate.
 """
 from __future__ import annotations
 
