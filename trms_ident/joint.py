@@ -160,14 +160,9 @@ def _alone(log: Log, name: str, settings: Settings) -> LogVerdict:
 
 def _pooled(logs: list[Log], verdicts: list[LogVerdict], pool: list[int], params: dict, settings: Settings
             ) -> JointFit:
-    """The pooled fit over the logs in ``pool``: output error weighted by each log's noise inflation, then the
-    efficient combination of the logs' score equations (numerics/joint._efficient_step)."""
-    return _pooled_once(logs, verdicts, pool, params, settings)[0]
-
-
-def _pooled_once(logs: list[Log], verdicts: list[LogVerdict], pool: list[int], params: dict, settings: Settings
-                 ) -> tuple[JointFit, list[Run]]:
-    """The pooled fit over the logs in ``pool``, started where the logs' own fits agree best."""
+    """The pooled fit over the logs in ``pool``, started where the logs' own fits agree best: output error weighted
+    by each log's noise inflation, then the efficient combination of the logs' score equations
+    (numerics/joint._efficient_step)."""
     start = {}
     for j, k in enumerate(ESTIMATED):  # the precision-weighted mean of the logs that determine it, else the table
         pairs = [(verdicts[i].estimates[k], verdicts[i].cov[j, j]) for i in pool
@@ -183,7 +178,7 @@ def _pooled_once(logs: list[Log], verdicts: list[LogVerdict], pool: list[int], p
                         tm["t_s"], tm["switch_delay_s"], starts0,
                         1.0 / max(noise_inflation(r if res.headline == "refined" else None), 1e-6),
                         _own_cov(verdicts[i], res)))
-    return refine_joint(runs, params, settings.thrust_law, start), runs
+    return refine_joint(runs, params, settings.thrust_law, start)
 
 
 def _own_cov(v: LogVerdict, res: Result) -> np.ndarray | None:
