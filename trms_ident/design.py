@@ -5,9 +5,10 @@ Two families (numerics only, no I/O).  A multisine per axis: N_FREQUENCIES sines
 exactly over the run (multiples of 1 / duration), log-spaced from the lowest that fits twice into the run up to
 the axis' band edge, amplitudes falling as 1 / sqrt(f) (as the simulator's multisine) and Schroeder phases (a
 low crest factor: the most excitation for a given peak), scaled to a chosen peak [rad] and faded in over RAMP_S.
-A square wave per axis (the paper's shape at a chosen level and period; yaw a quarter period behind pitch).  The
-search: a grid over the two peaks and the two band edges (or the period), then the best feasible point's peaks
-refined; a candidate is judged by simulating the closed loop (sim/: eq. (1), the
+A square wave per axis (the paper's shape at a chosen level and period; the yaw's in phase with the pitch's, a
+quarter period behind or opposite).  The search: a grid over the two peaks and the two band edges (or the period
+and the yaw's lag), at SCREEN_HZ at most, then the best feasible point's peaks (and a square's period) refined; a
+candidate is judged by simulating the closed loop (sim/: eq. (1), the
 PID of eq. (9) with the lab's gains and voltage limit) noise-free and taking the Cramer-Rao covariance of the
 output-error estimate for that run (numerics/fisher.py).  A candidate that breaks a limit (an angle past its
 range, too much time at the voltage limit, a reference faster than allowed) is never chosen.
@@ -47,10 +48,16 @@ LOWEST_PEAK = 0.05
 REFINE_ROUNDS = 3
 REFINE_RATIO = 1.15
 OBJECTIVES = ("worst", "d")
-#: telling hypotheses apart: the search's highest rate [Hz]; then (and with encoders, whose rounding the controller
-#: reads) this many of the search's best are simulated again at the run's rate, with the encoders, until one keeps
-#: the limits
+#: the search's highest rate [Hz]; then (and with encoders, whose rounding the controller reads) this many of the
+#: search's best are simulated again at the run's rate, with the encoders, until one keeps the limits.  A candidate
+#: is ranked for a log of the run's samples (the information scales with them) and its time at the voltage limit
+#: judged with the voltage noise of the run's rate; measured, a square pair for 60 s: 4.70 % at the limit at 100 Hz,
+#: 4.64 % at 1 kHz, each half-width 3.17x the 1 kHz one (sqrt(10) = 3.16).  1 kHz had cost 10x per candidate.
 SCREEN_HZ = 100.0
+#: the design's simulations step at most this long [s] (at most one sample): the simulator's default 0.5 ms is for
+#: ground truth; measured at 100 Hz over 60 s, a square and a multisine pair give the same angles to 5 digits and
+#: the same half-widths to 4 at 0.5 ms and 10 ms, 0.06 s against 0.006 s a run
+MAX_STEP_S = 5e-3
 CONFIRMED = 5
 #: with encoders, the choice is confirmed with their grids at these fractions of the quantum off zero, the worst
 #: kept (measured: a 120 s design at 4.8 % of the time at the voltage limit noise-free read 5.2 % on one grid), and
@@ -88,15 +95,28 @@ class Multisine:
 
 @dataclass(frozen=True)
 class Square:
-    """One axis' reference: a square wave of this level [rad] and period [s]."""
+    """One axis' reference: a square wave of this level [rad] and period [s], ``lag_periods`` periods behind the
+    run's start (the yaw's: 0 in phase with the pitch, 0.25 a quarter behind, 0.5 opposite)."""
 
     peak_rad: float
     period_s: float
     kind: str = "square"
+    lag_periods: float = 0.0
 
 
-#: square-wave periods tried [s]
-PERIODS_S = (1.0, 2.0, 4.0, 8.0)
+#: square-wave periods tried [s]: log-spaced 1-8 s at ratio 2^(1/4).  The worst half-width is B1's on the
+#: benches of benchmarks/design.py, and it depends sharply on the period (measured, Table 1's bench, 60 s at 100 Hz,
+#: pitch +-0.5 rad, yaw opposite at +-0.3 rad: 5.8 % at 1.5 s, 0.61 % at 2 s, 0.42 % at 2.5 s, 0.15 % at 3 s,
+#: 0.60 % at 3.5 s, 0.91 % at 4 s): the closed loop's pitch resonance, where the damping shows most.  Octaves
+#: (1, 2, 4, 8 s) missed it; REFINE_PERIOD refines the best between grid points.
+PERIODS_S = tuple(float(x) for x in np.round(np.geomspace(1.0, 8.0, 13), 3))
+#: the yaw square's lag behind the pitch's [periods]: in phase, a quarter behind, opposite.  Which one keeps the
+#: yaw motor off its limit depends on the bench: the pitch rotor's reaction torque pushes the yaw, and a yaw
+#: reference that moves with that push asks less of the tail rotor (measured, bench C of benchmarks/design.py, pitch
+#: +-0.3 rad and yaw +-0.1 rad at 2 s: 1.8 % of the time at the limit in phase, 7.1 % a quarter behind)
+YAW_LAGS = (0.0, 0.25, 0.5)
+#: the period's refinement around the best square (each round tries it times and over this)
+REFINE_PERIOD = 1.06
 
 
 @dataclass
@@ -144,9 +164,10 @@ def multisine(t_s: np.ndarray, duration_s: float, m: Multisine, offset: int = 0)
     return y * (m.peak_rad / top) if top > 0 else y
 
 
-def square(t_s: np.ndarray, m: Square, lag_periods: float = 0.0) -> np.ndarray:
+def square(t_s: np.ndarray, m: Square, lag_periods: float | None = None) -> np.ndarray:
     """The axis' square wave [rad] at ``t_s``: +-m.peak_rad switching every half period, starting at 0 (from rest)
-    and ``lag_periods`` periods behind."""
+    and ``lag_periods`` (default: m.lag_periods) periods behind."""
+    lag_periods = m.lag_periods if lag_periods is None else lag_periods
     y = m.peak_rad * np.sign(np.sin(2 * np.pi * (t_s / m.period_s - lag_periods)))
     y[t_s < lag_periods * m.period_s] = 0.0
     return y
@@ -185,7 +206,7 @@ def saturated_with_noise(u1_v: np.ndarray, u2_v: np.ndarray, u_limit_v: float, s
 def shaped(t_s: np.ndarray, duration_s: float, m, yaw: bool) -> np.ndarray:
     """The reference [rad] of axis shape ``m`` (Multisine or Square) at ``t_s``."""
     if isinstance(m, Square):
-        return square(t_s, m, 0.25 if yaw else 0.0)
+        return square(t_s, m)
     return multisine(t_s, duration_s, m, offset=N_FREQUENCIES if yaw else 0)
 
 
@@ -197,7 +218,9 @@ def scaled(m, k: float):
 def describe(m) -> str:
     """An axis' reference shape (Multisine or Square) in words."""
     if isinstance(m, Square):
-        return f"square wave +-{m.peak_rad:.3g} rad, period {m.period_s:g} s"
+        lag = {0.0: "", 0.25: ", a quarter period behind the pitch", 0.5: ", opposite to the pitch"}.get(
+            m.lag_periods, f", {m.lag_periods:g} periods behind")
+        return f"square wave +-{m.peak_rad:.3g} rad, period {m.period_s:.3g} s{lag}"
     return f"multisine, peak {m.peak_rad:.3g} rad, up to {m.band_hz:g} Hz"
 
 
@@ -347,7 +370,8 @@ def _simulated(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, rat
                                 sample_rate_hz=rate_hz, thrust_law=law, u_limit_v=u_limit_v,
                                 overrides=dict(bench_of(params, discriminate)), pid=dict(pid),
                                 effects=_effects_of(effect, discriminate), quantization_rad=quantum_rad,
-                                quantization_offset_rad=(grid_rad, grid_rad)))
+                                quantization_offset_rad=(grid_rad, grid_rad),
+                                max_step_s=min(1.0 / rate_hz, MAX_STEP_S)))
 
 
 def _objective(cov: np.ndarray, params: dict, objective: str) -> float:
@@ -363,7 +387,7 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
                  law: str, noise_rad: dict, pid: dict, u_limit_v: float, limits: Limits, objective: str = "worst",
                  effect: tuple[str, float] | None = None, judged_anyway: bool = False,
                  discriminate: tuple[Hypothesis, tuple[str, ...]] | None = None, quantum_rad: float = 0.0,
-                 samples_scale: float = 1.0, grid_rad: float = 0.0) -> Run:
+                 samples_scale: float = 1.0, grid_rad: float = 0.0, noise_dt_s: float | None = None) -> Run:
     """The references (sampled at ``t_s`` [s], from 0, at ``rate_hz``) run through the closed loop noise-free,
     judged against ``limits`` and scored by ``objective``; ``effect`` = (key, size): the bench has that effect and
     the score is its parameter's standard error over its size.  A run that breaks a limit is never chosen, so its
@@ -375,14 +399,16 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
     12-bit encoders at 1 kHz), their grid ``grid_rad`` [rad] off zero.  Its angles are then rounded, so such a
     run is judged against the limits only (no information, no score).
     ``samples_scale``: the discrimination is judged for a log with this many times the samples (a screen at a
-    lower rate than the run's: white noise, the gap grows with the samples)."""
+    lower rate than the run's: white noise, the gap grows with the samples), and so is the objective (the
+    information grows with them).  ``noise_dt_s``: the run's sample step [s] when the screen's differs (the
+    controller's voltage noise is the run's)."""
     bench = dict(bench_of(params, discriminate))
     r = _simulated(t_s, alpha_ref, beta_ref, rate_hz, params, law, pid, u_limit_v, effect, discriminate, quantum_rad,
                    grid_rad)
     at_limit = (np.abs(r.u1_v) >= u_limit_v * (1 - 1e-9)) | (np.abs(r.u2_v) >= u_limit_v * (1 - 1e-9))
     dt = 1.0 / rate_hz
     # the angles' noise moves the voltages too (a run simulated with the encoders has its rounding in already)
-    sd_v = (0.0, 0.0) if quantum_rad > 0 else voltage_noise_v({**pid_defaults(), **pid}, noise_rad, dt)
+    sd_v = (0.0, 0.0) if quantum_rad > 0 else voltage_noise_v({**pid_defaults(), **pid}, noise_rad, noise_dt_s or dt)
     env = {"alpha_rad": float(np.max(np.abs(r.alpha_rad))), "beta_rad": float(np.max(np.abs(r.beta_rad))),
            "u1_v": float(np.max(np.abs(r.u1_v))), "u2_v": float(np.max(np.abs(r.u2_v))),
            "saturated_share": saturated_with_noise(r.u1_v, r.u2_v, u_limit_v, sd_v),
@@ -415,7 +441,8 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
                                       *discriminate, samples_scale=samples_scale)
                 if not np.isfinite(told["rivals"][told["closest"]]["gap"]):
                     raise FloatingPointError  # (z is -inf for a rival that mimics the truth exactly: a score)
-            cov = covariance(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, dt, bench, law, noise_rad, effect)
+            cov = covariance(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, dt, bench, law, noise_rad,
+                             effect) / samples_scale  # (white noise: the information grows with the samples)
             precision = precision_of(cov, bench)
             if told is not None:
                 score = -told["rivals"][told["closest"]]["z"]
@@ -544,23 +571,23 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     n = int(round(duration_s * rate_hz)) + 1
     t = np.arange(n) / rate_hz
     say = progress or (lambda f: None)
-    # telling hypotheses apart refits each rival per candidate: the search runs at SCREEN_HZ at most (each
-    # candidate judged for a log with the run's samples: white noise), the choice again at the run's rate
-    screen_hz = min(rate_hz, SCREEN_HZ) if discriminate is not None else rate_hz
+    # the search runs at SCREEN_HZ at most (each candidate judged for a log with the run's samples: white noise), the
+    # choice again at the run's rate
+    screen_hz = min(rate_hz, SCREEN_HZ)
     ts = np.arange(int(round(duration_s * screen_hz)) + 1) / screen_hz
 
     def run(a, b, times=ts, hz=screen_hz, **kw) -> Run:
         return simulate_run(times, shaped(times, duration_s, a, False), shaped(times, duration_s, b, True), hz,
                             params, law, noise_rad, pid, u_limit_v, limits, objective, effect,
-                            discriminate=discriminate, samples_scale=rate_hz / hz, **kw)
+                            discriminate=discriminate, samples_scale=rate_hz / hz, noise_dt_s=1.0 / rate_hz, **kw)
 
     peaks_a = np.geomspace(LOWEST_PEAK * limits.pitch_rad, limits.pitch_rad, PEAK_STEPS)
     peaks_b = np.geomspace(LOWEST_PEAK * limits.yaw_rad, limits.yaw_rad, PEAK_STEPS)
     grid = [(Multisine(float(pa), fa), Multisine(float(pb), fb)) for fa in BAND_EDGES_HZ for fb in BAND_EDGES_HZ
             for pa in peaks_a for pb in peaks_b]
-    grid += [(Square(float(pa), per), Square(float(pb), per)) for per in PERIODS_S if per <= duration_s / 2
-             for pa in peaks_a for pb in peaks_b]
-    total = len(grid) + REFINE_ROUNDS * 4
+    grid += [(Square(float(pa), per), Square(float(pb), per, lag_periods=lag)) for per in PERIODS_S
+             if per <= duration_s / 2 for lag in YAW_LAGS for pa in peaks_a for pb in peaks_b]
+    total = len(grid) + REFINE_ROUNDS * 6
     tried: dict = {}
     for i, (a, b) in enumerate(grid):
         keep(tried, (a, b), run(a, b))
@@ -573,12 +600,16 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
                          + "; ".join(gentlest.violations or ["its information matrix cannot be evaluated"]))
     for r in range(REFINE_ROUNDS):  # the peaks around the best: limits bind between grid points
         a, b = best
-        for cand in ((scaled(a, REFINE_RATIO), b), (scaled(a, 1 / REFINE_RATIO), b), (a, scaled(b, REFINE_RATIO)),
-                     (a, scaled(b, 1 / REFINE_RATIO))):
+        cands = [(scaled(a, REFINE_RATIO), b), (scaled(a, 1 / REFINE_RATIO), b), (a, scaled(b, REFINE_RATIO)),
+                 (a, scaled(b, 1 / REFINE_RATIO))]
+        if isinstance(a, Square):  # and the period: the precision peaks sharply at the loop's resonance
+            cands += [(replace(a, period_s=a.period_s * k), replace(b, period_s=b.period_s * k))
+                      for k in (REFINE_PERIOD, 1 / REFINE_PERIOD) if a.period_s * k <= duration_s / 2]
+        for cand in cands:
             if cand not in tried:
                 keep(tried, cand, run(*cand))
         best = min(tried, key=lambda k: tried[k].score)
-        say((len(grid) + 4 * (r + 1)) / total)
+        say((len(grid) + 6 * (r + 1)) / total)
     chosen = tried[best]
     if screen_hz != rate_hz or quantum_rad > 0:  # the choice confirmed at the run's own rate and with the encoders
         order = sorted((k for k in tried if math.isfinite(tried[k].score)), key=lambda k: tried[k].score)
