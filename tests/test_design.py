@@ -348,3 +348,15 @@ def test_a_square_reference_whose_run_diverges_is_said_without_a_number():
            "diverges." in doc["sentence"]
     page = render(doc, d, planner.Limits(), 2.5)
     assert "n/a (its run diverges)" in page and "nan %" not in page
+
+
+def test_the_search_gives_the_same_design_on_one_process_and_on_two():
+    """The grid and the refinement run on WORKERS processes; each candidate is judged on its own, so the chosen
+    references, their predicted intervals and the candidates counted are the same as on one."""
+    from sim.simulate import DEFAULT_PID
+    from trms_ident.params import defaults
+
+    args = (5.0, 40.0, defaults(), "quadratic", {"alpha": 2e-3, "beta": 2e-3}, DEFAULT_PID, 2.5, planner.Limits())
+    one, two = planner.design(*args, workers=1), planner.design(*args, workers=2)
+    assert (one.pitch, one.yaw, one.candidates, one.feasible) == (two.pitch, two.yaw, two.candidates, two.feasible)
+    assert one.run.precision == two.run.precision and one.candidates > 500

@@ -21,6 +21,7 @@ size, so the design is the one under which diagnose's output-error test is most 
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -63,6 +64,11 @@ CONFIRMED = 5
 #: kept (measured: a 120 s design at 4.8 % of the time at the voltage limit noise-free read 5.2 % on one grid), and
 #: its predicted intervals are averaged over the loop simulated at each (fisher.encoder_covariance)
 GRID_OFFSETS = (0.0, 0.25, 0.5, 0.75)
+#: processes the search's grid and refinement, and the encoders' grid places, run on (each candidate is simulated
+#: and judged on its own, so the answer does not depend on them: the same JSON on one and on two; measured on this
+#: 2-core machine, 60 s at 1 kHz: 53 s on one, 34 s on two; 20 s at 100 Hz: 19 s and 15 s; telling the two pitch
+#: offsets apart, 60 s at 1 kHz: 125 s and 103 s)
+WORKERS = min(2, os.cpu_count() or 1)
 #: the effects design can plan for: the torque effects the refinement's kernel carries with exact sensitivities
 EFFECTS = tuple(EFFECT_SLOTS)
 #: diagnose's family: its candidates and level (diagnosis/select.py), for the predicted power of an effect
@@ -346,19 +352,24 @@ def bench_of(params: dict, discriminate) -> dict:
 
 
 def _round_precision(r: "Run", rate_hz: float, params: dict, law: str, noise_rad: dict, pid: dict, u_limit_v: float,
-                     quantum_rad: float, effect, discriminate) -> np.ndarray:
+                     quantum_rad: float, effect, discriminate, screen: "_Screen | None" = None) -> np.ndarray:
     """r.precision (in place) as what estimate would report on r's references recorded with encoders of
     ``quantum_rad`` [rad]: the loop simulated with the encoders at each place of their grid (GRID_OFFSETS), then
-    fisher.encoder_covariance (returned)."""
-    runs = []
-    for g in GRID_OFFSETS:
-        x = _simulated(r.t_s, r.alpha_ref_rad, r.beta_ref_rad, rate_hz, params, law, pid, u_limit_v, effect,
-                       discriminate, quantum_rad, g * quantum_rad)
-        runs.append((x.u1_v, x.u2_v, x.true_state[:, 0], x.true_state[:, 2]))
-    bench = bench_of(params, discriminate)
-    cov = encoder_covariance(runs, 1.0 / rate_hz, bench, law, noise_rad, quantum_rad, effect)
-    r.precision = precision_of(cov, bench)
+    fisher.encoder_covariance (returned), the places on ``screen``'s processes when given."""
+    jobs = [(r.t_s, r.alpha_ref_rad, r.beta_ref_rad, rate_hz, params, law, noise_rad, pid, u_limit_v, quantum_rad,
+             g * quantum_rad, effect, discriminate) for g in GRID_OFFSETS]
+    covs = screen.jobs(_grid_covariance, jobs) if screen is not None else [_grid_covariance(j) for j in jobs]
+    cov = np.mean(covs, axis=0)
+    r.precision = precision_of(cov, bench_of(params, discriminate))
     return cov
+
+
+def _grid_covariance(job: tuple) -> np.ndarray:
+    """fisher.encoder_covariance of one run: the references through the loop with the encoders' grid at one place."""
+    t_s, a_ref, b_ref, rate_hz, params, law, noise_rad, pid, u_limit_v, quantum_rad, grid_rad, effect, discr = job
+    x = _simulated(t_s, a_ref, b_ref, rate_hz, params, law, pid, u_limit_v, effect, discr, quantum_rad, grid_rad)
+    return encoder_covariance([(x.u1_v, x.u2_v, x.true_state[:, 0], x.true_state[:, 2])], 1.0 / rate_hz,
+                              bench_of(params, discr), law, noise_rad, quantum_rad, effect)
 
 
 def _shape(key: tuple) -> tuple:
@@ -550,7 +561,8 @@ class Design:
 def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad: dict, pid: dict,
            u_limit_v: float, limits: Limits, objective: str = "worst", progress=None,
            effect: tuple[str, float] | None = None,
-           discriminate: tuple[Hypothesis, tuple[str, ...]] | None = None, quantum_rad: float = 0.0) -> Design:
+           discriminate: tuple[Hypothesis, tuple[str, ...]] | None = None, quantum_rad: float = 0.0,
+           workers: int = WORKERS) -> Design:
     """References for ``duration_s`` [s] at ``rate_hz`` [Hz] that keep ``limits`` and minimise ``objective``
     (OBJECTIVES) for the bench ``params`` under the PID ``pid`` (the simulator's names Kp1 ... Tf) limited to
     ``u_limit_v`` [V], with the logged angles' noise ``noise_rad``.  Raises ValueError when no candidate keeps the
@@ -561,7 +573,8 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     ``quantum_rad``: the encoders' quantum [rad] when the noise is their rounding: the choice must keep the limits
     with the controller reading rounded angles too (its envelope is that run's), and the design's and the square's
     predicted intervals are what estimate would report on the run recorded with them (fisher.encoder_covariance;
-    the search ranks by the white-noise bound at q / sqrt(12), one evaluation instead of 32 refinements)."""
+    the search ranks by the white-noise bound at q / sqrt(12), one evaluation instead of 32 refinements; for the
+    precision objective the most precise of the best CONFIRMED shapes by that prediction is chosen)."""
     if effect is not None and discriminate is not None:
         raise ValueError("design for an effect or to tell hypotheses apart, not both")
     if discriminate is not None:
@@ -583,10 +596,7 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     screen_hz = min(rate_hz, SCREEN_HZ)
     ts = np.arange(int(round(duration_s * screen_hz)) + 1) / screen_hz
 
-    def run(a, b, times=ts, hz=screen_hz, **kw) -> Run:
-        return simulate_run(times, shaped(times, duration_s, a, False), shaped(times, duration_s, b, True), hz,
-                            params, law, noise_rad, pid, u_limit_v, limits, objective, effect,
-                            discriminate=discriminate, samples_scale=rate_hz / hz, noise_dt_s=1.0 / rate_hz, **kw)
+    spec = (duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate)
 
     peaks_a = np.geomspace(LOWEST_PEAK * limits.pitch_rad, limits.pitch_rad, PEAK_STEPS)
     peaks_b = np.geomspace(LOWEST_PEAK * limits.yaw_rad, limits.yaw_rad, PEAK_STEPS)
@@ -596,27 +606,24 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
              if per <= duration_s / 2 for lag in YAW_LAGS for pa in peaks_a for pb in peaks_b]
     total = len(grid) + REFINE_ROUNDS * 6
     tried: dict = {}
-    for i, (a, b) in enumerate(grid):
-        keep(tried, (a, b), run(a, b))
-        say((i + 1) / total)
+    with _Screen(spec, ts, screen_hz, workers) as screen:
+        for i, (key, r) in enumerate(zip(grid, screen.map(grid))):
+            keep(tried, key, r)
+            say((i + 1) / total)
+        _refine(tried, grid, screen, duration_s, say, total)
+        return _chosen(tried, spec, t, screen, quantum_rad)
+
+
+def _chosen(tried: dict, spec: tuple, t: np.ndarray, screen: "_Screen", quantum_rad: float) -> Design:
+    """design()'s choice from the candidates ``tried`` at the screen's rate: confirmed at the run's rate ``t`` [s]
+    (and with the encoders), beside the paper's square."""
+    duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate = spec
+    screen_hz = screen.args[2]
+
+    def run(a, b, times, hz, **kw) -> Run:
+        return _candidate(spec, a, b, times, hz, **kw)
+
     best = min(tried, key=lambda k: tried[k].score)
-    if not math.isfinite(tried[best].score):
-        gentlest = tried[grid[0]]
-        raise ValueError("no reference of the family keeps the limits; the gentlest (peaks "
-                         f"{grid[0][0].peak_rad:.3g} and {grid[0][1].peak_rad:.3g} rad) breaks them: "
-                         + "; ".join(gentlest.violations or ["its information matrix cannot be evaluated"]))
-    for r in range(REFINE_ROUNDS):  # the peaks around the best: limits bind between grid points
-        a, b = best
-        cands = [(scaled(a, REFINE_RATIO), b), (scaled(a, 1 / REFINE_RATIO), b), (a, scaled(b, REFINE_RATIO)),
-                 (a, scaled(b, 1 / REFINE_RATIO))]
-        if isinstance(a, Square):  # and the period: the precision peaks sharply at the loop's resonance
-            cands += [(replace(a, period_s=a.period_s * k), replace(b, period_s=b.period_s * k))
-                      for k in (REFINE_PERIOD, 1 / REFINE_PERIOD) if a.period_s * k <= duration_s / 2]
-        for cand in cands:
-            if cand not in tried:
-                keep(tried, cand, run(*cand))
-        best = min(tried, key=lambda k: tried[k].score)
-        say((len(grid) + 6 * (r + 1)) / total)
     chosen = tried[best]
     ranked = quantum_rad > 0 and effect is None and discriminate is None
     if screen_hz != rate_hz or quantum_rad > 0:  # the choice confirmed at the run's own rate and with the encoders
@@ -641,7 +648,7 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
                 continue
             if ranked:
                 cov = _round_precision(chosen, rate_hz, params, law, noise_rad, pid, u_limit_v, quantum_rad, effect,
-                                       discriminate)
+                                       discriminate, screen)
                 chosen.score = _objective(cov[:4, :4], params, objective)
             confirmed.append((k, chosen))
             shapes.add(_shape(k))
@@ -659,7 +666,8 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     if quantum_rad > 0:
         for r in ((paper,) if ranked else (chosen, paper)):
             if r.precision:
-                _round_precision(r, rate_hz, params, law, noise_rad, pid, u_limit_v, quantum_rad, effect, discriminate)
+                _round_precision(r, rate_hz, params, law, noise_rad, pid, u_limit_v, quantum_rad, effect, discriminate,
+                                 screen)
     if "off_bench" not in chosen.envelope:  # (with --robust, simulate_run has it; an encoder run's envelope not)
         chosen.envelope["off_bench"] = off_bench(chosen.t_s, chosen.alpha_ref_rad, chosen.beta_ref_rad, rate_hz,
                                                  params, law, noise_rad, pid, u_limit_v, effect, discriminate,
@@ -667,6 +675,79 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     return Design(chosen, best[0], best[1], paper, len(tried),
                   sum(math.isfinite(v.score) for v in tried.values()))
 
+
+
+def _candidate(spec: tuple, a, b, times: np.ndarray, hz: float, **kw) -> Run:
+    """The reference pair (a, b) (axis shapes) at ``times`` [s] and ``hz`` [Hz] through simulate_run for the design
+    ``spec`` = (duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect,
+    discriminate): judged for a log with the run's samples and its voltage noise."""
+    duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate = spec
+    return simulate_run(times, shaped(times, duration_s, a, False), shaped(times, duration_s, b, True), hz, params,
+                        law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate=discriminate,
+                        samples_scale=rate_hz / hz, noise_dt_s=1.0 / rate_hz, **kw)
+
+
+_WORKER: tuple = ()
+
+
+def _start_worker(spec: tuple, times: np.ndarray, hz: float) -> None:
+    global _WORKER
+    _WORKER = (spec, times, hz)
+
+
+def _screened(key: tuple) -> Run:
+    spec, times, hz = _WORKER
+    return _candidate(spec, *key, times, hz)
+
+
+class _Screen:
+    """Candidates judged at the screen's rate, on ``workers`` processes when more than one (in order)."""
+
+    def __init__(self, spec: tuple, times: np.ndarray, hz: float, workers: int):
+        self.args, self.workers, self.pool = (spec, times, hz), max(int(workers), 1), None
+
+    def __enter__(self):
+        if self.workers > 1:
+            from concurrent.futures import ProcessPoolExecutor
+
+            self.pool = ProcessPoolExecutor(self.workers, initializer=_start_worker, initargs=self.args)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(cancel_futures=True)
+
+    def jobs(self, fn, jobs: list) -> list:
+        """fn (a module-level function) on each of ``jobs``, on the processes when there are more than one."""
+        return [fn(j) for j in jobs] if self.pool is None else list(self.pool.map(fn, jobs))
+
+    def map(self, keys: list):
+        if self.pool is None:
+            spec, times, hz = self.args
+            return (_candidate(spec, *k, times, hz) for k in keys)
+        return self.pool.map(_screened, keys, chunksize=max(1, min(16, len(keys) // (4 * self.workers))))
+
+
+def _refine(tried: dict, grid: list, screen: _Screen, duration_s: float, say, total: int) -> None:
+    """After the grid: raise when nothing keeps the limits, else refine the best's peaks (and a square's period)."""
+    best = min(tried, key=lambda k: tried[k].score)
+    if not math.isfinite(tried[best].score):
+        gentlest = tried[grid[0]]
+        raise ValueError("no reference of the family keeps the limits; the gentlest (peaks "
+                         f"{grid[0][0].peak_rad:.3g} and {grid[0][1].peak_rad:.3g} rad) breaks them: "
+                         + "; ".join(gentlest.violations or ["its information matrix cannot be evaluated"]))
+    for r in range(REFINE_ROUNDS):  # the peaks around the best: limits bind between grid points
+        a, b = best
+        cands = [(scaled(a, REFINE_RATIO), b), (scaled(a, 1 / REFINE_RATIO), b), (a, scaled(b, REFINE_RATIO)),
+                 (a, scaled(b, 1 / REFINE_RATIO))]
+        if isinstance(a, Square):  # and the period: the precision peaks sharply at the loop's resonance
+            cands += [(replace(a, period_s=a.period_s * k), replace(b, period_s=b.period_s * k))
+                      for k in (REFINE_PERIOD, 1 / REFINE_PERIOD) if a.period_s * k <= duration_s / 2]
+        new = list(dict.fromkeys(c for c in cands if c not in tried))
+        for cand, run in zip(new, screen.map(new)):
+            keep(tried, cand, run)
+        best = min(tried, key=lambda k: tried[k].score)
+        say((len(grid) + 6 * (r + 1)) / total)
 
 
 #: the controller file's gains (the simulator's names, PID per axis with the derivative through 1/(Tf s + 1))
