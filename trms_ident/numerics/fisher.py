@@ -20,8 +20,6 @@ from .refine import NAMES, _scaled_inverse, _schur
 from .stats import Z95
 from .refine import refine as oe_refine
 
-#: Gauss-Newton iterations of the refinement on each rounded run (with_rounding): it converges in 2-4
-ROUNDED_ITERATIONS = 10
 #: the motors' states where a planned run starts: at rest, as the simulator's runs do. The information is the
 #: Gauss-Newton matrix along the model's own trajectory from these states; refine's default start (the motors'
 #: steady state for the first voltages) differs from the run's when the first voltage is not 0, and a square
@@ -76,7 +74,7 @@ def with_rounding(cov: np.ndarray, u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad
     theta = {k: float(params[k]) for k in NAMES}
     spread, batch = rounding_covariance(u1_v, u2_v, np.column_stack([alpha_rad, beta_rad]), dt_s, params, law,
                                         theta, noise_rad, {"alpha": quantum_rad, "beta": quantum_rad},
-                                        iterations=ROUNDED_ITERATIONS, start_states0=start_states0)
+                                        start_states0=start_states0)
     ratio = np.ones(cov.shape[0])
     for i in range(4):
         target = max(spread[i, i], batch[i, i] if np.isfinite(batch[i, i]) else 0.0)
