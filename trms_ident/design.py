@@ -352,14 +352,13 @@ def bench_of(params: dict, discriminate) -> dict:
 
 
 def _round_precision(r: "Run", rate_hz: float, params: dict, law: str, noise_rad: dict, pid: dict, u_limit_v: float,
-                     quantum_rad: float, effect, discriminate, screen: "_Screen | None" = None) -> np.ndarray:
+                     quantum_rad: float, effect, discriminate, screen: "_Screen") -> np.ndarray:
     """r.precision (in place) as what estimate would report on r's references recorded with encoders of
     ``quantum_rad`` [rad]: the loop simulated with the encoders at each place of their grid (GRID_OFFSETS), then
-    fisher.encoder_covariance (returned), the places on ``screen``'s processes when given."""
+    fisher.encoder_covariance (returned), the places run on ``screen``'s processes."""
     jobs = [(r.t_s, r.alpha_ref_rad, r.beta_ref_rad, rate_hz, params, law, noise_rad, pid, u_limit_v, quantum_rad,
              g * quantum_rad, effect, discriminate) for g in GRID_OFFSETS]
-    covs = screen.jobs(_grid_covariance, jobs) if screen is not None else [_grid_covariance(j) for j in jobs]
-    cov = np.mean(covs, axis=0)
+    cov = np.mean(screen.jobs(_grid_covariance, jobs), axis=0)
     r.precision = precision_of(cov, bench_of(params, discriminate))
     return cov
 
@@ -619,10 +618,6 @@ def _chosen(tried: dict, spec: tuple, t: np.ndarray, screen: "_Screen", quantum_
     (and with the encoders), beside the paper's square."""
     duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate = spec
     screen_hz = screen.args[2]
-
-    def run(a, b, times, hz, **kw) -> Run:
-        return _candidate(spec, a, b, times, hz, **kw)
-
     best = min(tried, key=lambda k: tried[k].score)
     chosen = tried[best]
     ranked = quantum_rad > 0 and effect is None and discriminate is None
@@ -635,9 +630,9 @@ def _chosen(tried: dict, spec: tuple, t: np.ndarray, screen: "_Screen", quantum_
         for k in order[:(3 if ranked else 1) * CONFIRMED]:
             if ranked and _shape(k) in shapes:
                 continue
-            chosen = tried[k] if screen_hz == rate_hz and tried[k].u1_v.size else run(*k, times=t, hz=rate_hz)
+            chosen = tried[k] if screen_hz == rate_hz and tried[k].u1_v.size else _candidate(spec, *k, t, rate_hz)
             if math.isfinite(chosen.score) and quantum_rad > 0:  # the controller reads the rounded angles
-                reads = [run(*k, times=t, hz=rate_hz, quantum_rad=quantum_rad, grid_rad=g * quantum_rad)
+                reads = [_candidate(spec, *k, t, rate_hz, quantum_rad=quantum_rad, grid_rad=g * quantum_rad)
                          for g in GRID_OFFSETS]  # where the encoders' zero sits on their grid is unknown
                 read = max(reads, key=lambda x: (len(x.violations), x.envelope["saturated_share"]))
                 if read.violations:
