@@ -1,14 +1,16 @@
 """The next experiment, planned from the model (issue #35, precision objective): references for the lab's closed
 loop that keep the bench within its limits and make J1, B1, J2, B2 as precise as they can be.
 
-Two families (numerics only, no I/O).  A multisine per axis: N_FREQUENCIES sines at frequencies that repeat
+Three families (numerics only, no I/O).  A multisine per axis: N_FREQUENCIES sines at frequencies that repeat
 exactly over the run (multiples of 1 / duration), log-spaced from the lowest that fits twice into the run up to
 the axis' band edge, amplitudes falling as 1 / sqrt(f) (as the simulator's multisine) and Schroeder phases (a
 low crest factor: the most excitation for a given peak), scaled to a chosen peak [rad] and faded in over RAMP_S.
 A square wave per axis (the paper's shape at a chosen level and period; the yaw's in phase with the pitch's, a
-quarter period behind or opposite).  The search: a grid over the two peaks and the two band edges (or the period
-and the yaw's lag), at SCREEN_HZ at most, then the best feasible point's peaks (and a square's period) refined; a
-candidate is judged by simulating the closed loop (sim/: eq. (1), the
+quarter period behind or opposite).  For the precision objectives also a pitch square with the yaw following the
+pitch rotor's push (Follow: a gain times the yaw's path with its reference held at zero).  The search: a grid over
+the two peaks (a Follow's gain) and the two band edges (or the period and the yaw's lag), at SCREEN_HZ at most,
+then the best feasible point's peaks (and a square's period) refined; a candidate is judged by simulating the
+closed loop (sim/: eq. (1), the
 PID of eq. (9) with the lab's gains and voltage limit) noise-free and taking the Cramer-Rao covariance of the
 output-error estimate for that run (numerics/fisher.py).  A candidate that breaks a limit (an angle past its
 range, too much time at the voltage limit, a reference faster than allowed) is never chosen.
@@ -109,6 +111,22 @@ class Square:
     kind: str = "square"
     lag_periods: float = 0.0
 
+
+@dataclass(frozen=True)
+class Follow:
+    """The yaw's reference: ``gain`` times the path the yaw takes on the given bench when its reference is held at
+    zero while the pitch runs its own (followed()).  The pitch rotor's reaction torque pushes the yaw; a yaw
+    reference that moves with that push lets the tail rotor spend its voltage on the experiment instead of on
+    fighting it (measured, bench C of benchmarks/design.py, 30 s at 1 kHz with 12-bit encoders, a pitch square of
+    +-0.55 rad at 2.38 s: with the yaw held at zero 6.2 % of the time at the voltage limit; with the yaw following
+    at gain 1, 1.8 % and B1 to +-0.021 %, where the best square pair within 5 % read +-0.035 %)."""
+
+    gain: float
+    kind: str = "follow"
+
+
+#: gains of the yaw's Follow tried (the refinement scales them as it does the peaks)
+FOLLOW_GAINS = (0.5, 0.75, 1.0)
 
 #: square-wave periods tried [s]: log-spaced 1-8 s at ratio 2^(1/4).  The worst half-width is B1's on the
 #: benches of benchmarks/design.py, and it depends sharply on the period (measured, Table 1's bench, 60 s at 100 Hz,
@@ -217,12 +235,17 @@ def shaped(t_s: np.ndarray, duration_s: float, m, yaw: bool) -> np.ndarray:
 
 
 def scaled(m, k: float):
-    """Axis shape ``m`` (Multisine or Square) with its peak times ``k``."""
+    """Axis shape ``m`` (Multisine or Square) with its peak times ``k`` (a Follow: its gain)."""
+    if isinstance(m, Follow):
+        return replace(m, gain=m.gain * k)
     return replace(m, peak_rad=m.peak_rad * k)
 
 
 def describe(m) -> str:
     """An axis' reference shape (Multisine or Square) in words."""
+    if isinstance(m, Follow):
+        return (f"following the pitch rotor's push: {m.gain:.3g} times the yaw's path with its reference held at "
+                "zero")
     if isinstance(m, Square):
         lag = {0.0: "", 0.25: ", a quarter period behind the pitch", 0.5: ", opposite to the pitch"}.get(
             m.lag_periods, f", {m.lag_periods:g} periods behind")
@@ -551,7 +574,7 @@ class Design:
 
     run: Run
     pitch: Multisine | Square
-    yaw: Multisine | Square
+    yaw: Multisine | Square | Follow
     square: Run
     candidates: int
     feasible: int
@@ -603,6 +626,9 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
             for pa in peaks_a for pb in peaks_b]
     grid += [(Square(float(pa), per), Square(float(pb), per, lag_periods=lag)) for per in PERIODS_S
              if per <= duration_s / 2 for lag in YAW_LAGS for pa in peaks_a for pb in peaks_b]
+    if effect is None and discriminate is None:  # (the other objectives' benchmarks ran without; see docs/design.md)
+        grid += [(Square(float(pa), per), Follow(g)) for per in PERIODS_S if per <= duration_s / 2
+                 for g in FOLLOW_GAINS for pa in peaks_a]
     total = len(grid) + REFINE_ROUNDS * 6
     tried: dict = {}
     with _Screen(spec, ts, screen_hz, workers) as screen:
@@ -677,9 +703,23 @@ def _candidate(spec: tuple, a, b, times: np.ndarray, hz: float, **kw) -> Run:
     ``spec`` = (duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect,
     discriminate): judged for a log with the run's samples and its voltage noise."""
     duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate = spec
-    return simulate_run(times, shaped(times, duration_s, a, False), shaped(times, duration_s, b, True), hz, params,
-                        law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate=discriminate,
-                        samples_scale=rate_hz / hz, noise_dt_s=1.0 / rate_hz, **kw)
+    a_ref = shaped(times, duration_s, a, False)
+    if isinstance(b, Follow):
+        b_ref = followed(times, a_ref, hz, b, params, law, pid, u_limit_v, effect, discriminate)
+    else:
+        b_ref = shaped(times, duration_s, b, True)
+    return simulate_run(times, a_ref, b_ref, hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect,
+                        discriminate=discriminate, samples_scale=rate_hz / hz, noise_dt_s=1.0 / rate_hz, **kw)
+
+
+def followed(t_s: np.ndarray, alpha_ref: np.ndarray, rate_hz: float, m: Follow, params: dict, law: str, pid: dict,
+             u_limit_v: float, effect=None, discriminate=None) -> np.ndarray:
+    """The yaw reference [rad] of ``m`` at ``t_s``: m.gain times the yaw's noise-free path in the closed loop on
+    the given bench when the pitch runs ``alpha_ref`` [rad] and the yaw's reference is held at zero (it starts at
+    zero, from rest, and moves only as the pitch rotor's reaction torque pushes it)."""
+    x = _simulated(t_s, alpha_ref, np.zeros_like(alpha_ref), rate_hz, params, law, pid, u_limit_v, effect,
+                   discriminate)
+    return m.gain * np.asarray(x.beta_rad, dtype=float)
 
 
 _WORKER: tuple = ()
@@ -736,7 +776,8 @@ def _refine(tried: dict, grid: list, screen: _Screen, duration_s: float, say, to
         cands = [(scaled(a, REFINE_RATIO), b), (scaled(a, 1 / REFINE_RATIO), b), (a, scaled(b, REFINE_RATIO)),
                  (a, scaled(b, 1 / REFINE_RATIO))]
         if isinstance(a, Square):  # and the period: the precision peaks sharply at the loop's resonance
-            cands += [(replace(a, period_s=a.period_s * k), replace(b, period_s=b.period_s * k))
+            cands += [(replace(a, period_s=a.period_s * k),
+                       replace(b, period_s=b.period_s * k) if isinstance(b, Square) else b)
                       for k in (REFINE_PERIOD, 1 / REFINE_PERIOD) if a.period_s * k <= duration_s / 2]
         new = list(dict.fromkeys(c for c in cands if c not in tried))
         for cand, run in zip(new, screen.map(new)):
