@@ -24,6 +24,9 @@ def test_multisine_peaks_where_asked_repeats_over_the_run_and_starts_at_rest():
     sq = planner.square(t, planner.Square(0.2, 4.0), lag_periods=0.25)
     assert set(np.unique(sq)) == {-0.2, 0.0, 0.2} and np.all(sq[t < 1.0] == 0.0)  # yaw waits a quarter period
     assert np.mean(sq[t > 1.0] > 0) == pytest.approx(0.5, abs=0.01)
+    faded = planner.square(t, planner.Square(0.2, 4.0, fade_s=5.0))  # its level grows linearly over 5 s
+    assert np.allclose(np.abs(faded[(t > 0) & (t < 5)]), 0.2 * t[(t > 0) & (t < 5)] / 5.0)
+    assert np.all(np.abs(faded[t >= 5]) == 0.2)
 
 
 def test_a_yaw_that_follows_the_pitch_rotors_push_asks_less_of_the_tail_rotor():
@@ -127,6 +130,9 @@ def test_a_design_keeps_its_limits_and_estimate_achieves_its_predicted_precision
     env = doc["design"]["envelope"]
     assert env["alpha_rad"] <= 1.0 and env["beta_rad"] <= 1.0 and env["saturated_share"] <= 0.02
     assert doc["design"]["violations"] == [] and doc["settings"]["limits"]["yaw_rad"] == 1.0
+    # the references never ask for more than the axes' ranges (the refinement scales peaks up to them only)
+    refs = np.genfromtxt(ref, delimiter=",", names=True)
+    assert np.max(np.abs(refs["alpha_ref"])) <= 1.0 + 1e-12 and np.max(np.abs(refs["beta_ref"])) <= 1.0 + 1e-12
     assert doc["square"]["violations"]  # the paper's square holds a voltage at its limit most of the time
     page = (tmp_path / "d.html").read_text()  # the page beside the references
     assert "The next experiment: 20 s at 100 Hz" in page and page.count("data:image/png;base64") == 2
