@@ -68,7 +68,7 @@ CONFIRMED = 5
 GRID_OFFSETS = (0.0, 0.25, 0.5, 0.75)
 #: processes the search's grid and refinement, and the encoders' grid places, run on (each candidate is simulated
 #: and judged on its own, so the answer does not depend on them: the same JSON on one and on two; measured on this
-#: 2-core machine, 60 s at 1 kHz: 53 s on one, 34 s on two; 20 s at 100 Hz: 19 s and 15 s; telling the two pitch
+#: 2-core machine, 60 s at 1 kHz: 53 s on one, 34 s on two, 44 s on two with the Follow family; 20 s at 100 Hz: 19 s and 15 s; telling the two pitch
 #: offsets apart, 60 s at 1 kHz: 125 s and 103 s)
 WORKERS = min(2, os.cpu_count() or 1)
 #: the effects design can plan for: the torque effects the refinement's kernel carries with exact sensitivities
