@@ -10,14 +10,15 @@ from trms_ident.io.csv_log import truth_path, write_csv_log
 from trms_ident.log import validated
 
 
-#: the long end-to-end scenarios: 20 s or more each on the 2-core CI machine (pytest --durations=0, 27 Nov 2026;
-#: seconds beside each), every one a capability a faster test also exercises.  The README's test command leaves
-#: them out (pyproject.toml's addopts: -m "not slow"); ``pytest -q -n 2 -m slow`` runs them (about 13 minutes),
-#: ``-m ""`` runs everything.  Run them before changing diagnose's or estimate's numerics.
+#: the long end-to-end scenarios: 18 s or more each on the 2-core CI machine (pytest --durations=0, 27 Nov 2026;
+#: seconds beside each), every one a capability a faster test also exercises (the sparse correction through the
+#: command line, diagnose and the CE150's published values on the other real recording, the profiles of input
+#: modifications, ...).  The README's test command leaves them out (pyproject.toml's addopts: -m "not slow");
+#: ``pytest -q -n 2 -m slow`` runs them (about 11 minutes), ``-m ""`` runs everything.  Run them before changing
+#: diagnose's or estimate's numerics.
 SLOW = {
     "test_real_recordings.py::test_real_ce150_recordings_get_an_honest_verdict[Data100_ea_a0]": 162,
     "test_diagnose.py::test_an_input_modification_is_fitted_again_given_the_later_findings": 134,
-    "test_sparse_correction.py::test_cli_reports_the_correction_in_words_and_json": 125,
     "test_sparse_correction.py::test_outside_the_library_is_described_and_raises_the_fit": 112,
     "test_real_recordings.py::test_real_ce150_recordings_with_the_ce150s_published_values[Data100_ea_a0-pitch]": 110,
     "test_known_values.py::test_the_known_value_wins_over_effects_that_need_more_parameters": 96,
@@ -26,8 +27,6 @@ SLOW = {
     "test_diagnose.py::test_output_error_fit_decides_between_close_rivals": 50,
     "test_convergence.py::test_two_first_runs_in_parallel_on_an_empty_cache_agree_with_one_alone": 48,
     "test_diagnose.py::test_each_model_predicts_from_its_own_motor_start_states": 48,
-    "test_real_recordings.py::test_real_ce150_recordings_with_the_ce150s_published_values"
-    "[Data100_ea_e675_aN130toP130-yaw]": 40,
     "test_mat.py::test_batch_of_real_ce150_files_marks_what_is_not_credible": 37,
     "test_second_order_motor.py::test_a_second_order_yaw_motor_is_named_with_its_lag_and_nothing_else": 36,
     "test_diagnose.py::test_concealed_effect_is_named_fitted_and_improves_the_fit[thrust_asymmetry-yaw-0.3-square]": 35,
