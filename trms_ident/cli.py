@@ -679,8 +679,9 @@ def design(
     no_report: Annotated[bool, typer.Option("--no-report", help="Do not write the HTML page (<output>.html: the "
                                             "references, predicted angles and voltages, the intervals).")] = False,
 ) -> None:
-    """Plan the next experiment: references for the lab's closed loop (multisines or square waves) that keep the
-    limits and make J1, B1, J2, B2 as precise as they can be, predicted beside the paper's square reference."""
+    """Plan the next experiment: references for the lab's closed loop (multisines, square waves, or a pitch square
+    with the yaw following the pitch rotor's push) that keep the limits and make J1, B1, J2, B2 as precise as they
+    can be, predicted beside the paper's square reference."""
     from . import design as planner
 
     if not duration > 0 or not rate > 0:
