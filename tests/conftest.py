@@ -35,7 +35,8 @@ SLOW = {
     "test_robustness.py::test_odd_logs_never_crash[weak-40.0]": 29,
     "test_sensor_lag.py::test_on_a_long_log_the_lag_is_tested_on_the_head_first": 27,
     "test_robustness.py::test_odd_logs_never_crash[noise-40.0]": 25,
-    "test_sensor_lag.py::test_diagnose_tells_an_acquisition_lag_from_an_input_delay[sensor_lag-0.05-square-500.0-13]": 25,
+    "test_sensor_lag.py::test_diagnose_tells_an_acquisition_lag_from_an_input_delay"
+    "[sensor_lag-0.05-square-500.0-13]": 25,
     "test_mat_objects.py::test_no_library_warning_on_stderr_for_any_real_file[ce150/Data100_ea_a0.mat]": 23,
     "test_model_room.py::test_a_torque_effect_declared_in_one_entry_is_found_fitted_and_reported": 21,
     "test_real_recordings.py::test_known_values_off_the_table_given_right_and_wrong": 21,

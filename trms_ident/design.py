@@ -68,8 +68,8 @@ CONFIRMED = 5
 GRID_OFFSETS = (0.0, 0.25, 0.5, 0.75)
 #: processes the search's grid and refinement, and the encoders' grid places, run on (each candidate is simulated
 #: and judged on its own, so the answer does not depend on them: the same JSON on one and on two; measured on this
-#: 2-core machine, 60 s at 1 kHz: 53 s on one, 34 s on two, 44 s on two with the Follow family; 20 s at 100 Hz: 19 s and 15 s; telling the two pitch
-#: offsets apart, 60 s at 1 kHz: 125 s and 103 s)
+#: 2-core machine, 60 s at 1 kHz: 53 s on one, 34 s on two (44 s on two since the Follow family); 20 s at 100 Hz:
+#: 19 s and 15 s; telling the two pitch offsets apart, 60 s at 1 kHz: 125 s and 103 s)
 WORKERS = min(2, os.cpu_count() or 1)
 #: the effects design can plan for: the torque effects the refinement's kernel carries with exact sensitivities
 EFFECTS = tuple(EFFECT_SLOTS)
@@ -246,14 +246,14 @@ def shaped(t_s: np.ndarray, duration_s: float, m, yaw: bool) -> np.ndarray:
 
 
 def scaled(m, k: float):
-    """Axis shape ``m`` (Multisine or Square) with its peak times ``k`` (a Follow: its gain)."""
+    """Axis shape ``m`` (Multisine, Square or Follow) with its peak (a Follow: its gain) times ``k``."""
     if isinstance(m, Follow):
         return replace(m, gain=m.gain * k)
     return replace(m, peak_rad=m.peak_rad * k)
 
 
 def describe(m) -> str:
-    """An axis' reference shape (Multisine or Square) in words."""
+    """An axis' reference shape (Multisine, Square or Follow) in words."""
     if isinstance(m, Follow):
         return (f"following the pitch rotor's push: {m.gain:.3g} times the yaw's path with its reference held at "
                 "zero")
