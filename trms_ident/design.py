@@ -668,9 +668,10 @@ def _chosen(tried: dict, spec: tuple, t: np.ndarray, screen: "_Screen", quantum_
         for k in order[:(3 if ranked else 1) * CONFIRMED]:
             if ranked and _shape(k) in shapes:
                 continue
-            chosen = tried[k] if screen_hz == rate_hz and tried[k].u1_v.size else _candidate(spec, *k, t, rate_hz)
+            refs = _references(spec, *k, t, rate_hz)  # (a Follow's is a simulation: made once, run five times)
+            chosen = tried[k] if screen_hz == rate_hz and tried[k].u1_v.size else _judged(spec, *refs, t, rate_hz)
             if math.isfinite(chosen.score) and quantum_rad > 0:  # the controller reads the rounded angles
-                reads = [_candidate(spec, *k, t, rate_hz, quantum_rad=quantum_rad, grid_rad=g * quantum_rad)
+                reads = [_judged(spec, *refs, t, rate_hz, quantum_rad=quantum_rad, grid_rad=g * quantum_rad)
                          for g in GRID_OFFSETS]  # where the encoders' zero sits on their grid is unknown
                 read = max(reads, key=lambda x: (len(x.violations), x.envelope["saturated_share"]))
                 if read.violations:
@@ -714,12 +715,21 @@ def _candidate(spec: tuple, a, b, times: np.ndarray, hz: float, **kw) -> Run:
     """The reference pair (a, b) (axis shapes) at ``times`` [s] and ``hz`` [Hz] through simulate_run for the design
     ``spec`` = (duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect,
     discriminate): judged for a log with the run's samples and its voltage noise."""
-    duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate = spec
+    return _judged(spec, *_references(spec, a, b, times, hz), times, hz, **kw)
+
+
+def _references(spec: tuple, a, b, times: np.ndarray, hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """The axis shapes (a, b) as reference arrays [rad] at ``times`` (a Follow yaw simulated on ``spec``'s bench)."""
+    duration_s, _, params, law, _, pid, u_limit_v, _, _, effect, discriminate = spec
     a_ref = shaped(times, duration_s, a, False)
     if isinstance(b, Follow):
-        b_ref = followed(times, a_ref, hz, b, params, law, pid, u_limit_v, effect, discriminate)
-    else:
-        b_ref = shaped(times, duration_s, b, True)
+        return a_ref, followed(times, a_ref, hz, b, params, law, pid, u_limit_v, effect, discriminate)
+    return a_ref, shaped(times, duration_s, b, True)
+
+
+def _judged(spec: tuple, a_ref: np.ndarray, b_ref: np.ndarray, times: np.ndarray, hz: float, **kw) -> Run:
+    """The references through simulate_run for the design ``spec``, judged for a log with the run's samples."""
+    duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate = spec
     return simulate_run(times, a_ref, b_ref, hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect,
                         discriminate=discriminate, samples_scale=rate_hz / hz, noise_dt_s=1.0 / rate_hz, **kw)
 
