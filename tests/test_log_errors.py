@@ -37,10 +37,12 @@ HEADER = "t,u1,u2,alpha,beta"
     (lambda r: [HEADER] + r[:4] + ["0.040000,0.5,-0.2,,0.2"] + r[5:], r"line 6 \(t = 0.04 s\): alpha is nan"),
     (lambda r: [HEADER] + r[:5] + [r[4]] + r[6:], r"line 7 .*repeats the previous time"),
     (lambda r: [HEADER] + r[:5] + [r[3]] + r[6:], r"line 7 .*goes back in time"),
-    (lambda r: [HEADER] + r[:20] + r[25:], r"line 22 .*a gap of 0.06 s after t = 0.19 s; expected steps of 0.01 s with at most ±25% jitter"),
+    (lambda r: [HEADER] + r[:20] + r[25:], r"line 22 \(t = 0.25 s\): a gap of 0.06 s after t = 0.19 s; each of its 2 parts is "
+                                           r"shorter than the reaction lag Tp \(2 s; the longest is 0.24 s\)"),
     (lambda r: [HEADER] + r[:20] + ["0.193000" + r[20][8:]] + r[21:], r"line 22 .*a step of 0.003 s after t = 0.19 s"),
-    (lambda r: [HEADER] + [",".join(x.split(",")[:3] + [str(float(x.split(",")[3]) * 57.3 + 30), x.split(",")[4]])
-                           for x in r], r"alpha = .* exceeds 1.57 rad; the angles look like degrees"),
+    (lambda r: [HEADER] + [",".join(x.split(",")[:3] + [str(float(x.split(",")[3]) * 57.3 + 300), x.split(",")[4]])
+                           for x in r], r"the angles are in no unit this tool can tell: alpha reaches 30\d\.\d+, beyond "
+                                        r"the pitch's \+-1.57 rad and its \+-180 deg; expected radians"),
     (lambda r: [HEADER] + r[:5], r"only 5 samples; expected at least 10"),
     (lambda r: [HEADER] + r[:5] + [r[5] + ",1,2"] + r[6:], r"Expected 5 fields in line 7, saw 7"),
 ])

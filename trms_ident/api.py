@@ -351,24 +351,32 @@ def estimate_joint(logs, *, params: dict | str | Path | None = None, names: list
     return estimate_joint_with(entries, settings, names)
 
 
-def estimate_joint_with(entries: list, settings: Settings, names: list[str] | None = None) -> JointEstimate:
-    """:func:`estimate_joint` with ready settings; ``entries``: io.manifest.Entry items, DataFrames or Logs."""
+def estimate_joint_with(entries: list, settings: Settings, names: list[str] | None = None,
+                        strict_gaps: bool = False) -> JointEstimate:
+    """:func:`estimate_joint` with ready settings; ``entries``: io.manifest.Entry items, DataFrames or Logs.
+    A file that breaks into parts (runs joined end to end, gaps in its stamps) gives each part as a log; parts
+    shorter than the slowest time constant are left out and named (``doc["joint"]["split"]``);
+    ``strict_gaps``: a gap is refused instead (LogFormatError)."""
     from .errors import JoinedRunsError, TrmsError
     from .io.manifest import Entry
     from .io.readers import read_log
     from .joint import identify_joint
     from .report.joint import joint_doc
 
-    logs, labels = [], []
+    logs, labels, split = [], [], []
     for i, e in enumerate(entries):
         if isinstance(e, Entry):
             try:
                 logs.append(read_log(e.path, angle_unit=e.angle_unit, signals=e.signals, time_unit=e.time_unit,
                                      rate_hz=e.rate_hz))
                 labels.append(e.label)
-            except JoinedRunsError as exc:  # runs joined end to end in one file: each a log of the joint estimate
-                logs += exc.runs
-                labels += [f"{e.label} run {k + 1}" for k in range(len(exc.runs))]
+            except JoinedRunsError as exc:  # runs joined end to end, or gaps: each part a log of the joint estimate
+                if strict_gaps and exc.gaps:
+                    raise
+                kept, said = usable_parts(exc, settings)
+                logs += kept
+                labels += [f"{e.label} {' '.join(r.source.split(' ')[-2:])}" for r in kept]
+                split.append(said)
             except TrmsError as exc:
                 if e.where:  # a manifest's line
                     raise type(exc)(f"{e.where}: {exc}") from None
@@ -377,4 +385,29 @@ def estimate_joint_with(entries: list, settings: Settings, names: list[str] | No
             logs.append(_as_log(e, {}))
             labels.append(logs[-1].source if logs[-1].source != "<memory>" else f"log {i + 1}")
     result = identify_joint(logs, settings, names or labels)
-    return JointEstimate(logs, result, joint_doc(result, logs))
+    doc = joint_doc(result, logs)
+    if split:
+        doc["joint"]["split"] = split
+    return JointEstimate(logs, result, doc)
+
+
+def usable_parts(exc, settings: Settings) -> tuple[list[Log], dict]:
+    """The parts of a file that broke into parts (errors.JoinedRunsError) long enough to estimate from (at least
+    the slowest time constant of the known values: identify's own rule), and what was done, for the result:
+    {"file", "found", "gaps": [{"after_s", "length_s", "where"}], "parts", "left_out": [{"part", "from_s", "to_s",
+    "why"}]}.  None long enough: LogFormatError naming the parts' lengths and the length needed."""
+    from .errors import LogFormatError
+    from .identify import slowest_time_constant_s
+    from .params import merge
+
+    need, name = slowest_time_constant_s(merge(settings.overrides, source="parameter overrides"))
+    kept = [r for r in exc.runs if r.duration_s >= need]
+    left = [{"part": r.source, "from_s": float(r.t_s[0]), "to_s": float(r.t_s[-1]),
+             "why": f"{r.duration_s:.3g} s long, shorter than {name} ({need:.3g} s): too short to estimate from"}
+            for r in exc.runs if r.duration_s < need]
+    if not kept:
+        raise LogFormatError(f"{exc.found}; each of its {len(exc.runs)} parts is shorter than {name} ({need:.3g} s; "
+                             f"the longest is {max(r.duration_s for r in exc.runs):.3g} s): expected a part at least "
+                             "that long to estimate from")
+    return kept, {"file": exc.runs[0].source.rsplit(" ", 2)[0], "found": exc.found, "gaps": exc.gaps,
+                  "parts": len(exc.runs), "left_out": left}

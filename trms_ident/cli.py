@@ -157,6 +157,8 @@ RateOpt = Annotated[Optional[float], typer.Option("--rate", help="MATLAB logs wi
                                                   "rate [Hz].")]
 TimeSourceOpt = Annotated[str, typer.Option("--time-source", help="MCAP message time: auto (header.stamp when "
                                             "present, else log time), header, log or publish.")]
+StrictGapsOpt = Annotated[bool, typer.Option("--strict-gaps", help="Refuse a log with a gap in its stamps (rows "
+                                             "lost, a logger's pause) instead of estimating its parts jointly.")]
 VoltageTimeOpt = Annotated[str, typer.Option("--voltage-time", help="MCAP: when a voltage message takes effect: "
                                              "'stamp' (at its own time, inside the angle interval where it falls) or "
                                              "'next-sample' (from the next angle sample on).")]
@@ -261,6 +263,7 @@ def estimate(
     time_source: TimeSourceOpt = "auto",
     voltage_time: VoltageTimeOpt = "stamp",
     rate: RateOpt = None,
+    strict_gaps: StrictGapsOpt = False,
 ) -> None:
     """Estimate J1, B1, J2, B2 from a log and write a report (--joint: one bench from several logs)."""
     settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit, refine,
@@ -268,7 +271,7 @@ def estimate(
     logs = list(logs or [])
     if joint or manifest:
         return _estimate_joint(logs, manifest, settings, out, json_path, no_report, strict, signal, rate,
-                               angle_unit, time_unit)
+                               angle_unit, time_unit, strict_gaps)
     if len(logs) != 1:
         raise SettingsError(f"estimate takes one log ({len(logs)} given): add --joint to estimate one bench from "
                             "several logs together, or use `trms-ident batch` for one estimate per log")
@@ -292,12 +295,13 @@ def estimate(
     try:
         res = _estimate_one(log, settings, out_dir, angle_unit, time_unit, no_report, truth, signal, time_source,
                             voltage_time, rate, on_stage)
-    except JoinedRunsError as exc:  # several runs in one file: estimated as runs of one bench, jointly
+    except JoinedRunsError as exc:  # runs joined in one file, or gaps in its stamps: its parts estimated jointly
         if progress:
             sys.stderr.write("\r\033[K")
-        say(f"note: {exc.found}: estimated jointly, as runs of one bench")
-        return _estimate_joint([log], None, settings, out, json_path, no_report, strict, signal, rate, angle_unit,
-                               time_unit)
+        if strict_gaps and exc.gaps:
+            raise
+        return _estimate_joint([log], None, settings, out_dir, json_path, no_report, strict, signal, rate,
+                               angle_unit, time_unit)
     if progress:
         sys.stderr.write("\r\033[K")
     _say_estimate(res, log, json_path, strict)
@@ -851,7 +855,7 @@ def _batch_joint(manifest: Path | None, joint_by: str | None, inputs, out: Path,
 
 def _estimate_joint(logs: list[Path], manifest: Path | None, settings: Settings, out: Path | None,
                     json_path: str | None, no_report: bool, strict: bool, signal, rate, angle_unit: str,
-                    time_unit: str) -> None:
+                    time_unit: str, strict_gaps: bool = False) -> None:
     """estimate --joint: read, pool, test, write; the verdict first, then the pooled and per-log numbers."""
     from .api import estimate_joint_with
     from .io.manifest import Entry, read_manifest
@@ -865,10 +869,15 @@ def _estimate_joint(logs: list[Path], manifest: Path | None, settings: Settings,
     progress = stage_reporter(f"{len(entries)} logs")
     if progress:
         progress("each alone, then pooled")
-    est = estimate_joint_with(entries, settings)
+    est = estimate_joint_with(entries, settings, strict_gaps=strict_gaps)
     if progress:
         sys.stderr.write("\r\033[K")
     j = est.doc["joint"]
+    for split in j.get("split", []):  # a file that broke into parts: what was found, what was left out
+        say(f"note: {split['found']}: " + (f"its {split['parts'] - len(split['left_out'])} parts estimated jointly"
+                                           if split["gaps"] else "estimated jointly") + ", as runs of one bench")
+        for left in split["left_out"]:
+            say(f"note: {left['part']} (t = {left['from_s']:.6g} to {left['to_s']:.6g} s) left out: {left['why']}")
     say(("LOGS DISAGREE: " if j["consistent"] is False else "AGREEMENT NOT TESTED: " if j["consistent"] is None
          else "LOG(S) LEFT OUT: " if j["outliers"] else "LOGS AGREE: ") + j["sentence"])
     for lg in j["logs"]:

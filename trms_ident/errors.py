@@ -33,14 +33,16 @@ class LogFormatError(TrmsError, ValueError):
 
 
 class JoinedRunsError(LogFormatError):
-    """The file holds several runs joined end to end (time restarts, or the angles jump farther in one sample
-    than the bench can move): ``runs`` holds each run as a validated Log, for a joint estimate; ``found`` says
-    what was found ("log.csv: holds 3 runs joined end to end (line ...: time restarts; ...)")."""
+    """The file breaks into parts: several runs joined end to end (time restarts, or the angles jump farther in
+    one sample than the bench can move), or gaps in its stamps (rows lost, a logger's pause).  ``runs`` holds
+    each part as a validated Log, for a joint estimate; ``found`` says what was found ("log.csv: holds 3 runs
+    joined end to end (line ...: time restarts; ...)"); ``gaps``: each gap's {"after_s", "length_s", "where"}
+    (empty for joined runs)."""
 
-    def __init__(self, found: str, runs: list):
-        super().__init__(f"{found}; expected one run: estimate them as runs of one bench with --joint, or split "
-                         "the file")
-        self.found, self.runs = found, runs
+    def __init__(self, found: str, runs: list, expected: str = "expected one run: estimate them as runs of one "
+                 "bench with --joint, or split the file", gaps: list | None = None):
+        super().__init__(f"{found}; {expected}")
+        self.found, self.runs, self.gaps = found, runs, list(gaps or [])
 
 
 class ParameterFileError(TrmsError, ValueError):

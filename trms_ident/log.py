@@ -2,11 +2,13 @@
 
 Stamps may jitter (up to JITTER_TOLERANCE of the median step) and a few samples may be missing
 (steps up to MAX_GAP_STEPS median steps): the voltages are held over each actual interval
-downstream.  The measured jitter is in ``Log.meta["sampling"]``; units that were assumed rather
-than given are in ``Log.meta["assumed"]``.
+downstream.  A longer gap (a logger that lost rows or paused) splits the log into parts, as runs
+joined end to end do: JoinedRunsError carries each part as a Log, for a joint estimate.  The
+measured jitter is in ``Log.meta["sampling"]``; units that were told from the values rather than
+given (stamps in ms, angles in degrees) are in ``Log.meta["assumed"]``.
 
 Validation is pure (arrays in, LogFormatError out); readers of each file format pass a
-``locate`` function so that messages name the file's own line numbers.
+``locate`` function that names the file's own row ("line 57"); messages add the time in seconds.
 """
 from __future__ import annotations
 
@@ -41,6 +43,9 @@ INPUTS_ASSUMED = ("V (assumed: eq. (1) takes volts and the log does not say; inp
 PITCH_LIMIT_RAD = math.pi / 2
 #: |beta| beyond this (four turns) is not a yaw angle in rad on a cabled bench
 YAW_LIMIT_RAD = 8 * math.pi
+#: |alpha| up to this is a pitch angle in degrees (the beam's stops lie within +-90 deg; a CE150's elevation
+#: reaches 90.1 deg); beyond it (and beyond YAW_LIMIT_RAD in degrees for beta) the angles are neither unit
+PITCH_LIMIT_DEG = 180.0
 
 
 @dataclass(frozen=True)
@@ -115,14 +120,18 @@ WRAP_TOLERANCE_RAD = 0.3
 
 
 def _joins(t: np.ndarray, alpha: np.ndarray, beta: np.ndarray, step: float) -> list[tuple[int, str]]:
-    """Where runs were joined end to end: (sample index, why), a chunk at a time (no array the size of the log);
-    ``t`` and the median ``step`` in seconds."""
+    """Where the log breaks into parts: runs joined end to end, or a gap in the stamps longer than MAX_GAP_STEPS
+    steps (samples lost); (sample index, why), a chunk at a time (no array the size of the log); ``t`` and the
+    median ``step`` in seconds.  A gap's why starts with "a gap"."""
     jump = max(JUMP_RAD, JUMP_RATE_RAD_S * step)
     out = {}
     for i in range(0, t.size - 1, STEP_CHUNK):
         sl = slice(i, i + STEP_CHUNK + 1)
-        for k in np.flatnonzero(np.diff(t[sl]) < -RESTART_STEPS * step):
+        dt = np.diff(t[sl])
+        for k in np.flatnonzero(dt < -RESTART_STEPS * step):
             out.setdefault(i + int(k) + 1, "time restarts")
+        for k in np.flatnonzero(dt > MAX_GAP_STEPS * step):
+            out.setdefault(i + int(k) + 1, f"a gap of {dt[k]:.6g} s after t = {t[i + k]:.9g} s")
         for name, x in (("alpha", alpha), ("beta", beta)):
             d = np.diff(x[sl])
             turns = np.round(d / (2 * math.pi))
@@ -167,35 +176,76 @@ def _step_statistics(t: np.ndarray, mean: float) -> tuple[float, float, int | No
     return lo, hi, back, math.sqrt(acc / steps), median
 
 
-def _default_locate(i: int, t: np.ndarray) -> str:
-    return f"sample {i} (t = {t[i]:.6g} s)"
+def _default_locate(i: int) -> str:
+    return f"sample {i}"
+
+
+def _placed(locate: Callable[[int], str], t: np.ndarray) -> Callable[[int], str]:
+    """``locate``'s row with its time in seconds, ``t`` in seconds: "line 57 (t = 0.056 s)", and how far into
+    the log when its clock does not start at 0 ("line 57 (t = 30.056 s, 0.056 s from the start)")."""
+    t0 = float(t[0])
+
+    def where(i: int) -> str:
+        into = "" if t0 == 0.0 else f", {t[i] - t0:.6g} s from the start"
+        return f"{locate(i)} (t = {t[i]:.6g} s{into})"
+
+    return where
+
+
+def _peak(a: np.ndarray) -> int:
+    """The index of a's largest magnitude."""
+    return max(int(np.argmax(a)), int(np.argmin(a)), key=lambda j: abs(a[j]))
+
+
+def angle_unit_of(alpha: np.ndarray, beta: np.ndarray) -> tuple[str | None, str]:
+    """The unit of angles logged without one, told from their values: ("rad", "") when both lie within the
+    bench's range in radians; ("deg", why) when the pitch cannot be radians (beyond +-pi/2) and both lie within
+    the range in degrees, the only reading left; (None, why) when neither reading is possible, or when both are
+    (a yaw beyond four turns in radians beside a pitch that stays within +-pi/2: the yaw may have drifted)."""
+    ia, ib = _peak(alpha), _peak(beta)
+    a, b = abs(float(alpha[ia])), abs(float(beta[ib]))
+    if a <= PITCH_LIMIT_RAD and b <= YAW_LIMIT_RAD:
+        return "rad", ""
+    in_deg = a <= PITCH_LIMIT_DEG and math.radians(b) <= YAW_LIMIT_RAD
+    if a > PITCH_LIMIT_RAD and in_deg:
+        return "deg", (f"alpha reaches {alpha[ia]:.6g}, beyond the pitch's +-{PITCH_LIMIT_RAD:.3g} rad and within "
+                       f"its +-{PITCH_LIMIT_DEG:g} deg")
+    if a > PITCH_LIMIT_RAD:
+        return None, (f"alpha reaches {alpha[ia]:.6g}, beyond the pitch's +-{PITCH_LIMIT_RAD:.3g} rad"
+                      + ("" if a <= PITCH_LIMIT_DEG else f" and its +-{PITCH_LIMIT_DEG:g} deg")
+                      + ("" if in_deg or a > PITCH_LIMIT_DEG else
+                         f", and beta reaches {beta[ib]:.6g}, beyond +-{math.degrees(YAW_LIMIT_RAD):g} deg"))
+    return None, (f"beta reaches {beta[ib]:.6g}, beyond {YAW_LIMIT_RAD:.3g} rad (four turns), while alpha stays "
+                  f"within +-{PITCH_LIMIT_RAD:.3g}: degrees, or a yaw that drifted")
 
 
 def validated(t, u1, u2, alpha, beta, *, source: str = "<memory>", sha256: str | None = None,
               locate: Callable[[int], str] | None = None, meta: dict | None = None,
               angle_unit: str = "auto", time_unit: str = "auto", u_switch_s: np.ndarray | None = None) -> Log:
-    """Check a recording and return it as a Log; the first problem raises LogFormatError.
+    """Check a recording and return it as a Log; a problem raises LogFormatError (JoinedRunsError where the
+    log breaks into parts: runs joined end to end, or gaps in its stamps).
 
-    ``locate(i)`` renders sample i's position for messages (e.g. "line 57 (t = 0.055 s)").
-    ``angle_unit``: "auto" refuses angles that look like degrees; "rad" or "deg" (the reader has converted
-    them) says the unit was given, and no guess is made.  ``time_unit``: "s", "ms" or "us" scales the stamps;
-    "auto" tells the unit from the median step (TIME_UNIT_BY_STEP) and records the assumption.
+    ``locate(i)`` names sample i's row for messages (e.g. "line 57"); the messages add its time in seconds.
+    ``angle_unit``: "auto" tells the unit from the values (angle_unit_of: radians unless they can only be
+    degrees, which are converted and said); "rad" or "deg" (the reader has converted them) says the unit was
+    given, and no guess is made.  ``time_unit``: "s", "ms" or "us" scales the stamps; "auto" tells the unit
+    from the median step (TIME_UNIT_BY_STEP) and records the assumption.
     """
     arrays = {name: np.ascontiguousarray(v, dtype=float) for name, v in zip(COLUMNS, (t, u1, u2, alpha, beta))}
     meta = dict(meta or {})
     assumed = dict(meta.pop("assumed", {}))
     n = arrays["t"].size
     t = arrays["t"]
-    where = locate or (lambda i: _default_locate(i, t))
+    row = locate or _default_locate
+    if angle_unit not in ANGLE_UNITS:
+        raise LogFormatError(f"{source}: angle unit {angle_unit!r}; expected one of {', '.join(ANGLE_UNITS)}")
     if any(a.shape != (n,) for a in arrays.values()):
         raise LogFormatError(f"{source}: columns have different lengths; expected one value per column per row")
     if n < MIN_SAMPLES:
         raise LogFormatError(f"{source}: only {n} samples; expected at least {MIN_SAMPLES}")
-    for name, a in arrays.items():
-        bad = np.flatnonzero(~np.isfinite(a))
-        if bad.size:
-            raise LogFormatError(f"{source}: {where(int(bad[0]))}: {name} is {a[bad[0]]}; "
-                                 f"expected a finite number in {COLUMN_UNITS[name]}")
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise LogFormatError(f"{source}: {row(int(bad[0]))}: t is {t[bad[0]]}; expected a finite number in s")
     mean = float((t[-1] - t[0]) / (n - 1))
     lo, hi, back, spread, step = _step_statistics(t, mean)
     if time_unit == "auto":
@@ -211,34 +261,60 @@ def validated(t, u1, u2, alpha, beta, *, source: str = "<memory>", sha256: str |
         t = arrays["t"] = t * factor
         u_switch_s = None if u_switch_s is None else np.asarray(u_switch_s, dtype=float) * factor
         lo, hi, mean, spread, step = (v * factor for v in (lo, hi, mean, spread, step))
-        where = locate or (lambda i: _default_locate(i, t))
+    where = _placed(row, t)  # every message from here on names the time in seconds
+    for name, a in arrays.items():
+        bad = np.flatnonzero(~np.isfinite(a))
+        if bad.size:
+            raise LogFormatError(f"{source}: {where(int(bad[0]))}: {name} is {a[bad[0]]}; "
+                                 f"expected a finite number in {COLUMN_UNITS[name]}")
+    if angle_unit == "auto":
+        told, why = angle_unit_of(arrays["alpha"], arrays["beta"])
+        if told is None:
+            raise LogFormatError(f"{source}: the angles are in no unit this tool can tell: {why}; expected radians "
+                                 "(pass --angle-unit deg to convert degrees, or --angle-unit rad if they are "
+                                 "radians)")
+        if told == "deg":
+            arrays["alpha"], arrays["beta"] = np.radians(arrays["alpha"]), np.radians(arrays["beta"])
+            assumed["angle_unit"] = (f"angles read as degrees and converted to rad ({why}); pass --angle-unit rad "
+                                     "if they are radians")
+            meta["units"] = {"angles": f"deg (told from the values: {why}), converted to rad",
+                             **meta.get("units", {})}
+            angle_unit = "deg"
     joins = _joins(t, arrays["alpha"], arrays["beta"], step)
     if joins:
         edges = [0, *[i for i, _ in joins], n]
+        gaps_only = all(why.startswith("a gap") for _, why in joins)
+        part = "part" if gaps_only else "run"
+        units = {"angles": ANGLE_UNIT_SAID[angle_unit], **meta.get("units", {})}  # the angles are checked: as said
         runs = [validated(arrays["t"][a:b], arrays["u1"][a:b], arrays["u2"][a:b], arrays["alpha"][a:b],
-                          arrays["beta"][a:b], source=f"{source} run {k + 1}",
-                          locate=(lambda i, a=a: where(i + a)), meta=dict(meta, assumed=assumed),
-                          angle_unit=angle_unit, time_unit="s",
+                          arrays["beta"][a:b], source=f"{source} {part} {k + 1}",
+                          locate=(lambda i, a=a: row(i + a)), meta=dict(meta, assumed=assumed, units=units),
+                          angle_unit="rad", time_unit="s",
                           u_switch_s=None if u_switch_s is None else np.asarray(u_switch_s)[a:b])
                 for k, (a, b) in enumerate(zip(edges[:-1], edges[1:]))]
         said = "; ".join(f"{where(i)}: {why}" for i, why in joins)
-        raise JoinedRunsError(f"{source}: holds {len(runs)} runs joined end to end ({said})", runs)
+        gaps = [{"after_s": float(t[i - 1]), "length_s": float(t[i] - t[i - 1]), "where": where(i)}
+                for i, why in joins if why.startswith("a gap")]
+        if gaps_only:
+            found = f"{source}: {said}" if len(joins) == 1 else f"{source}: {len(joins)} gaps in its stamps ({said})"
+            expected = (f"expected steps of {step:.6g} s with at most ±{JITTER_TOLERANCE:.0%} jitter (or up to "
+                        f"{MAX_GAP_STEPS:g} steps where samples were dropped): estimate the {len(runs)} parts "
+                        "jointly (trms-ident estimate does, unless --strict-gaps), or split the log there")
+        else:
+            found = f"{source}: holds {len(runs)} runs joined end to end ({said})"
+            expected = "expected one run: estimate them as runs of one bench with --joint, or split the file"
+        raise JoinedRunsError(found, runs, expected=expected, gaps=gaps)
     if back is not None:
         i = back
         what = "repeats the previous time" if t[i] == t[i - 1] else "goes back in time"
         raise LogFormatError(f"{source}: {where(i)}: t = {t[i]:.9g} s {what} (t = {t[i - 1]:.9g} s); "
                              "expected strictly increasing time")
-    if lo < step * (1.0 - JITTER_TOLERANCE) or hi > step * MAX_GAP_STEPS:
+    if lo < step * (1.0 - JITTER_TOLERANCE):  # a step too short for jitter (a gap too long is a join, above)
         dt = np.diff(t)
-        rel = dt / step
-        short = np.flatnonzero(rel < 1.0 - JITTER_TOLERANCE)
-        gap = np.flatnonzero(rel > MAX_GAP_STEPS)
-        i = int(min(short[0] if short.size else n, gap[0] if gap.size else n)) + 1
-        kind = "a gap" if dt[i - 1] > step else "a step"
+        i = int(np.flatnonzero(dt / step < 1.0 - JITTER_TOLERANCE)[0]) + 1
         raise LogFormatError(
-            f"{source}: {where(i)}: {kind} of {dt[i - 1]:.6g} s after t = {t[i - 1]:.9g} s; expected steps of "
-            f"{step:.6g} s with at most ±{JITTER_TOLERANCE:.0%} jitter (or up to {MAX_GAP_STEPS:g} steps where "
-            "samples were dropped); split the log there")
+            f"{source}: {where(i)}: a step of {dt[i - 1]:.6g} s after t = {t[i - 1]:.9g} s; expected steps of "
+            f"{step:.6g} s with at most ±{JITTER_TOLERANCE:.0%} jitter")
     if hi > step * (1.0 + JITTER_TOLERANCE):  # dropped samples: counted, and left out of the jitter figure
         rel = np.diff(t) / step
         dropped = rel > 1.0 + JITTER_TOLERANCE
@@ -252,18 +328,6 @@ def validated(t, u1, u2, alpha, beta, *, source: str = "<memory>", sha256: str |
         "uniform": bool(hi - mean <= UNIFORM_TOLERANCE * mean and mean - lo <= UNIFORM_TOLERANCE * mean),
         "median_step_s": step, "min_step_over_median": lo / step, "max_step_over_median": hi / step,
         "jitter_rms_percent": jitter, "dropped_samples": n_dropped, "time_unit": unit}
-    if angle_unit not in ANGLE_UNITS:
-        raise LogFormatError(f"{source}: angle unit {angle_unit!r}; expected one of {', '.join(ANGLE_UNITS)}")
-    for name, limit in (("alpha", PITCH_LIMIT_RAD), ("beta", YAW_LIMIT_RAD)):
-        if angle_unit != "auto":
-            break
-        a = arrays[name]
-        i = max(int(np.argmax(a)), int(np.argmin(a)), key=lambda j: abs(a[j]))
-        if abs(a[i]) > limit:
-            raise LogFormatError(
-                f"{source}: {where(i)}: {name} = {a[i]:.6g} exceeds {limit:.3g} rad; the angles look like "
-                "degrees, expected radians (pass --angle-unit deg to convert, or --angle-unit rad if they are "
-                "radians)")
     meta["units"] = {"angles": ANGLE_UNIT_SAID[angle_unit], **meta.get("units", {})}
     meta["units"].setdefault("inputs", INPUTS_ASSUMED)
     if assumed:

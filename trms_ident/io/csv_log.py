@@ -95,9 +95,11 @@ def _mapped(names: list[str], signals: list[str] | None, path: Path) -> list[str
 
 
 def read_csv_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "auto",
-                 signals: list[str] | None = None) -> Log:
+                 signals: list[str] | None = None, held: dict[str, float] | None = None) -> Log:
     """Read and validate a CSV log; ``angle_unit="deg"`` converts angle columns from degrees, "rad" says they
-    are radians (no guess); ``time_unit`` s, ms, us or auto (see log.validated).  A unit row overrides both."""
+    are radians (no guess); ``time_unit`` s, ms, us or auto (see log.validated).  A unit row overrides both.
+    ``held``: inputs not logged, held at a constant [V] (io.signals.held_constants: ``--signal u2=0``)."""
+    held = held or {}
     path = Path(path)
     check_readable(path)
     hasher = Sha256Thread(path)
@@ -115,10 +117,13 @@ def read_csv_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "a
     header = lines[0]
     delim = max((",", ";", "\t"), key=header.count)
     names = _mapped([c.strip().strip('"').strip().lower() for c in header.split(delim)], signals, path)
-    missing = [c for c in COLUMNS if c not in names]
+    missing = [c for c in COLUMNS if c not in names and c not in held]
     if missing:
+        off = [c for c in missing if c in ("u1", "u2")]
         raise LogFormatError(f"{path}: line 1: missing column(s) {', '.join(missing)}; expected a header "
-                             f"with {','.join(COLUMNS)} (found: {','.join(names) or 'nothing'})")
+                             f"with {','.join(COLUMNS)} (found: {','.join(names) or 'nothing'})"
+                             + (f"; map a column with --signal NAME=COLUMN, or {off[0]}=0 if that motor was off "
+                                "and its input not logged" if off else ""))
     dup = sorted({c for c in names if names.count(c) > 1 and c in COLUMNS})
     if dup:
         raise LogFormatError(f"{path}: line 1: column(s) {', '.join(dup)} appear twice; expected each once")
@@ -130,7 +135,7 @@ def read_csv_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "a
     if len(lines) > 1:
         tokens = [x.strip() for x in lines[1].split(delim)]
         if tokens and not any(_is_number(x) for x in tokens if x):
-            for c in COLUMNS:
+            for c in (c for c in COLUMNS if c not in held):
                 unit = tokens[names.index(c)].strip("[]() ").lower() if names.index(c) < len(tokens) else ""
                 if unit not in UNIT_SCALE[c]:
                     raise LogFormatError(f"{path}: line 2: unit {unit!r} for column {c}; expected one of "
@@ -142,15 +147,19 @@ def read_csv_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "a
             angles = (ua if ua == ub else f"alpha {ua}, beta {ub}") + " (the file's units row)"
             meta["units"] = {"angles": angles + (", converted to rad" if "deg" in (ua, ub) else ""),
                              "inputs": "V (the file's units row)"}
-    wanted = COLUMNS + ((VOLTAGE_TIME,) if VOLTAGE_TIME in names else ())
+    wanted = tuple(c for c in COLUMNS if c not in held) + ((VOLTAGE_TIME,) if VOLTAGE_TIME in names else ())
     parsed = _parse_fast(path, names, delim, first_data_line, wanted)
     if parsed is None:  # something is off: the slow parser names the line and cell
         parsed = _parse_located(path, delim, first_data_line, wanted, names)
+    if held:
+        from .signals import held_note
+
+        parsed.update({c: np.full(parsed["t"].size, v) for c, v in held.items()})
+        meta.update(held_note(held))
     cols = [parsed[c] * scale[c] if scale[c] != 1.0 else parsed[c] for c in COLUMNS]
-    t = cols[0]
     t_u = parsed.get(VOLTAGE_TIME)
     return validated(*cols, source=str(path), sha256=hasher.result(),
-                     locate=lambda i: f"line {i + first_data_line} (t = {t[i]:.6g} s)",
+                     locate=lambda i: f"line {i + first_data_line}",
                      meta=meta, angle_unit=angle_unit, time_unit=time_unit,
                      u_switch_s=None if t_u is None else np.repeat((t_u * scale["t"])[:, None], 2, axis=1))
 
@@ -257,10 +266,10 @@ def _parse_located(path: Path, delim: str, first_data_line: int, wanted: tuple =
                                      f"{cells.iloc[i]!r}; expected a number")
         raise LogFormatError(f"{path}: cannot parse as numbers; expected numeric columns {','.join(COLUMNS)}")
     frame.columns = names or [c.strip().lower() for c in frame.columns]
-    blank = np.flatnonzero(frame[list(COLUMNS)].isna().all(axis=1).to_numpy())
+    blank = np.flatnonzero(frame[list(wanted)].isna().all(axis=1).to_numpy())
     if blank.size:
         raise LogFormatError(f"{path}: line {int(blank[0]) + first_data_line} is empty; expected "
-                             f"{len(COLUMNS)} numbers")
+                             f"{len(wanted)} numbers")
     return {c: frame[c].to_numpy(dtype=float) for c in wanted}
 
 

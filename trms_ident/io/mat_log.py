@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import LogFormatError, SettingsError
-from ..log import JITTER_TOLERANCE, Log, validated
+from ..log import JITTER_TOLERANCE, Log, angle_unit_of, validated
 from .csv_log import Sha256Thread, check_readable
 from .mat_tree import MatReadFailure, Series, Struct, Undecoded, load
 
@@ -179,14 +179,18 @@ def _tree(path: Path) -> tuple[Struct, list[str]]:
 
 
 def read_mat_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "auto",
-                 signals: list[str] | None = None, rate_hz: float | None = None) -> Log:
+                 signals: list[str] | None = None, rate_hz: float | None = None,
+                 held: dict[str, float] | None = None) -> Log:
     """Read a MATLAB log (see the module docstring); ``signals``: NAME=PATH mappings; ``rate_hz``: the sample
-    rate when the file has no time base."""
+    rate when the file has no time base; ``held``: inputs not logged, held at a constant [V] (``--signal u2=0``).
+    What the file needs that no option gave (a signal's mapping, the rate, the angles' unit) is said in one
+    error, each with the option to pass."""
     path = Path(path)
     check_readable(path)
     hasher = Sha256Thread(path)
     hasher.start()
     tree, warned = _tree(path)
+    held = held or {}
     chosen = {}
     for text in signals or []:
         name, sep, where = text.partition("=")
@@ -196,18 +200,27 @@ def read_mat_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "a
                                 "(PATH: var, var:COLUMN, struct.field, out.logsout.NAME or yout.signals[i])")
         chosen[name] = where.strip()
     entries = _entries(tree)
-    cols, times = {}, {}
+    cols, times, problems = {}, {}, []
     for name in SIGNALS:
+        if name in held:
+            continue
         if name not in chosen:
-            chosen[name] = _auto(entries, tree, name, path)
+            where, problem = _auto(entries, tree, name)
+            if where is None:
+                problems.append(problem)
+                continue
+            chosen[name] = where
         cols[name], own, note = _resolve(tree, chosen[name], path)
         if own is not None:
             times[name] = (own, note)
-    n = cols["alpha"].size
-    for name, a in cols.items():
-        if a.size != n:
-            raise LogFormatError(f"{path}: {chosen[name]} has {a.size} samples, {chosen['alpha']} has {n}; "
+    lengths = {name: a.size for name, a in cols.items()}
+    first = next(iter(cols), None)
+    for name, size in lengths.items():
+        if size != lengths[first]:
+            raise LogFormatError(f"{path}: {chosen[name]} has {size} samples, {chosen[first]} has {lengths[first]}; "
                                  "expected one value per sample for every signal")
+    n = lengths[first] if first else 0
+    t = t_where = None
     if rate_hz is not None:
         if not rate_hz > 0:
             raise SettingsError(f"--rate {rate_hz}: expected a sample rate > 0 [Hz]")
@@ -222,30 +235,50 @@ def read_mat_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "a
     else:
         t_where, candidates = _find(entries, "t")
         if t_where is None:
-            why = (f"several match equally ({', '.join(candidates)}): map one with --signal t=PATH" if candidates else
-                   f"looked for {', '.join(ALIASES['t'])}; pass the sample rate with --rate HZ")
-            raise LogFormatError(f"{path}: no time vector ({why})")
-        t, _, _ = _resolve(tree, t_where, path)
+            problems.append(f"no time vector (several match equally: {', '.join(candidates)}; map one with --signal "
+                            "t=PATH)" if candidates else
+                            f"no time vector (looked for {', '.join(ALIASES['t'])}): pass the sample rate with "
+                            "--rate HZ")
+        else:
+            t, _, _ = _resolve(tree, t_where, path)
+    if angle_unit == "auto" and "alpha" in cols and "beta" in cols:
+        told, why = angle_unit_of(cols["alpha"], cols["beta"])
+        if told is None:
+            problems.append(f"the angles are in no unit this tool can tell ({why}): pass --angle-unit deg or "
+                            "--angle-unit rad")
+        elif told == "deg" and problems:  # said beside what must be settled, so the next run is the last
+            problems.append(f"the angles will be read as degrees ({why}; --angle-unit rad if they are radians)")
+    if problems:
+        raise LogFormatError(f"{path}: " + ("; ".join(problems) if len(problems) == 1 else
+                                            f"{len(problems)} things to settle: " +
+                                            "; ".join(f"({k + 1}) {p}" for k, p in enumerate(problems))))
     if angle_unit == "deg":
         cols["alpha"], cols["beta"] = np.radians(cols["alpha"]), np.radians(cols["beta"])
-    meta = {"format": "mat", "signals": " ".join(f"{k}={chosen[k]}" for k in SIGNALS), "time": t_where}
+    meta = {"format": "mat", "signals": " ".join(f"{k}={chosen[k]}" for k in SIGNALS if k in chosen), "time": t_where}
+    for name, value in held.items():
+        cols[name] = np.full(n, value)
+    if held:
+        from .signals import held_note
+
+        meta.update(held_note(held))
     if warned:
         meta["reader_warnings"] = warned
     return validated(t, cols["u1"], cols["u2"], cols["alpha"], cols["beta"], source=str(path),
                      sha256=hasher.result(), meta=meta, angle_unit=angle_unit, time_unit=time_unit)
 
 
-def _auto(entries: list[Entry], tree: Struct, name: str, path: Path) -> str:
+def _auto(entries: list[Entry], tree: Struct, name: str) -> tuple[str | None, str]:
+    """The path a signal's aliases find, or None and what to do about it."""
     where, candidates = _find(entries, name)
     if where is not None:
-        return where
+        return where, ""
     if candidates:
-        raise LogFormatError(f"{path}: several signals could be {name} ({', '.join(candidates)}); map one with "
-                             f"--signal {name}=PATH")
+        return None, f"several signals could be {name} ({', '.join(candidates)}); map one with --signal {name}=PATH"
     broken = _undecoded(tree)
     extra = ("; could not decode " + ", ".join(f"{p} (class {u.klass})" for p, u in broken)) if broken else ""
-    raise LogFormatError(f"{path}: no variable for {name} (looked for {', '.join(ALIASES[name])}); signals: "
-                         f"{_listing(entries)}{extra}; map it with --signal {name}=PATH")
+    hint = " (or u{0}=0 if that motor was off and its input not logged)".format(name[1]) if name in ("u1", "u2") else ""
+    return None, (f"no variable for {name} (looked for {', '.join(ALIASES[name])}; signals: {_listing(entries)}"
+                  f"{extra}): map it with --signal {name}=PATH{hint}")
 
 
 def _shared_time(times: dict, chosen: dict, path: Path) -> tuple[np.ndarray, str]:

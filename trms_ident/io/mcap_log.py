@@ -390,8 +390,11 @@ def _defaults_for(path: Path) -> dict[str, SignalSource]:
 
 
 def read_mcap_log(path: str | Path, angle_unit: str = "auto", signals: list[str] | None = None,
-                  time_source: str = "auto", voltage_time: str = "stamp") -> Log:
+                  time_source: str = "auto", voltage_time: str = "stamp", held: dict[str, float] | None = None) -> Log:
+    """Read an MCAP log: the angles' topic is the time grid, the voltages held on it (see align); ``held``:
+    inputs not logged, held at a constant [V] (``--signal u2=0``).  Topics missing are named together."""
     path = Path(path)
+    held = held or {}
     if time_source not in TIME_SOURCES:
         raise SettingsError(f"--time-source {time_source!r}: expected one of {', '.join(TIME_SOURCES)}")
     if voltage_time not in VOLTAGE_TIMES:
@@ -402,14 +405,17 @@ def read_mcap_log(path: str | Path, angle_unit: str = "auto", signals: list[str]
     sources = mapping(signals, _defaults_for(path) if _needs_defaults(signals) else DEFAULT_ROS2)
     wanted: dict[str, list[SignalSource]] = {}
     for name in SIGNALS:
-        wanted.setdefault(sources[name].topic, []).append(sources[name])
+        if name not in held:
+            wanted.setdefault(sources[name].topic, []).append(sources[name])
     s = scan(path, wanted, time_source)
     topics = {ch.topic for ch in s.channels.values()}
+    absent = [f"no topic {topic} (needed for {', '.join(x.signal for x in srcs)})"
+              for topic, srcs in wanted.items() if topic not in topics]
+    if absent:
+        note = f" ({s.warnings[0]})" if s.warnings else ""
+        raise LogFormatError(f"{path}: {'; '.join(absent)}; topics: {', '.join(sorted(topics)) or 'none'}; map others "
+                             f"with --signal (u2=0 for a motor that was off and not logged){note}")
     for topic, srcs in wanted.items():
-        if topic not in topics:
-            note = f" ({s.warnings[0]})" if s.warnings else ""
-            raise LogFormatError(f"{path}: no topic {topic} (needed for {', '.join(x.signal for x in srcs)}); "
-                                 f"topics: {', '.join(sorted(topics)) or 'none'}; map others with --signal{note}")
         if not s.series[topic].time_ns:
             raise LogFormatError(f"{path}: topic {topic} has no messages (needed for "
                                  f"{', '.join(x.signal for x in srcs)})")
@@ -425,8 +431,11 @@ def read_mcap_log(path: str | Path, angle_unit: str = "auto", signals: list[str]
             t, v = t[order], v[:, order]
         for j, src in enumerate(srcs):
             per_signal[src.signal] = (topic, t, v[j])
+    for name, value in held.items():  # on the angles' own stamps
+        topic_a, t_a, _ = per_signal["alpha"]
+        per_signal[name] = (topic_a, t_a, np.full(t_a.size, value))
     clocks = {topic: s.series[topic].clock for topic in wanted}
-    return align(path, per_signal, angle_unit, hasher.result(), s.warnings, voltage_time, clocks)
+    return align(path, per_signal, angle_unit, hasher.result(), s.warnings, voltage_time, clocks, held)
 
 
 def _needs_defaults(signals: list[str] | None) -> bool:
@@ -434,7 +443,7 @@ def _needs_defaults(signals: list[str] | None) -> bool:
 
 
 def align(path: Path, per_signal: dict, angle_unit: str, sha: str, warnings: list[str],
-          voltage_time: str = "stamp", clocks: dict | None = None) -> Log:
+          voltage_time: str = "stamp", clocks: dict | None = None, held: dict | None = None) -> Log:
     """Angles' times are the grid; every other signal is held (ZOH), with gap checks.
 
     ``voltage_time="stamp"``: a voltage takes effect at its own message time, inside the angle interval where
@@ -507,10 +516,14 @@ def align(path: Path, per_signal: dict, angle_unit: str, sha: str, warnings: lis
     meta = {"format": "mcap", "start_time_ns": t0, "time_topic": topic_a,
             "signals": " ".join(f"{k}={v[0]}" for k, v in per_signal.items()),
             "voltage_timing": _timing_doc(voltage_time, offsets, step_ns, clocks or {})}
+    if held:
+        from .signals import held_note
+
+        meta.update(held_note(held))
     if warnings:
         meta["warnings"] = "; ".join(warnings)
     return validated(t_s, cols["u1"], cols["u2"], cols["alpha"], cols["beta"], source=str(path), sha256=sha,
-                     locate=lambda i: where(i + first_valid), meta=meta, angle_unit=angle_unit, time_unit="s",
+                     locate=lambda i: f"{topic_a} message {i + first_valid}", meta=meta, angle_unit=angle_unit, time_unit="s",
                      u_switch_s=sw if voltage_time == "stamp" else None)
 
 

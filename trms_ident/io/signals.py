@@ -5,6 +5,7 @@ FIELD is a path into the message: ``position[pitch]`` (JointState: by joint name
 """
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 
@@ -76,6 +77,38 @@ def split_signals(texts: list[str] | None) -> list[str] | None:
     if texts is None:
         return None
     return [x.strip() for t in texts for x in _NEXT_SIGNAL.split(t) if x.strip()]
+
+
+#: the signals a --signal NAME=NUMBER may hold at a constant: a motor's input (an angle is always measured)
+HELD = ("u1", "u2")
+
+
+def held_constants(texts: list[str] | None) -> tuple[list[str] | None, dict[str, float]]:
+    """``--signal`` items split into the mappings a reader resolves and the inputs held at a constant:
+    ``u2=0`` says the tail motor was off, so its input was not logged (the value in the input's unit, V)."""
+    rest, held = [], {}
+    for text in texts or []:
+        name, eq, source = (x.strip() for x in text.partition("="))
+        try:
+            value = float(source) if eq else None
+        except ValueError:
+            value = None
+        if value is None:
+            rest.append(text)
+            continue
+        if name not in HELD or not math.isfinite(value):
+            raise SettingsError(f"--signal {text!r}: a constant is for a motor that was off and not logged: expected "
+                                f"{' or '.join(f'{k}=VALUE' for k in HELD)}, a finite number in V (e.g. u2=0)")
+        held[name] = value
+    return (rest if texts is not None else None), held
+
+
+def held_note(held: dict[str, float]) -> dict:
+    """What a Log's meta says of the inputs held at a constant (merged into the reader's meta)."""
+    said = ", ".join(f"{k} = {v:g} V" for k, v in held.items())
+    return {"held_inputs": dict(held),
+            "assumed": {"held_inputs": f"{said} throughout: not logged, held at the value --signal gave (a motor "
+                                      "that was off)"}}
 
 
 def mapping(texts: list[str] | None, defaults: dict[str, SignalSource]) -> dict[str, SignalSource]:

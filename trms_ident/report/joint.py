@@ -127,6 +127,10 @@ def render(doc: dict, result: JointResult, logs: list[Log]) -> str:
         + f"<td>{_g(lg['against_others']['p'], '-', '.3g')}</td>"
         f"<td>{VERDICT[lg['model_check']['adequate']] if lg['model_check'] else '-'}</td></tr>"
         for lg in j["logs"])
+    split = "".join(  # a file that broke into parts: gaps or runs joined, and the parts left out
+        f"<p class='note'>{html.escape(x['found'])}: its parts are the logs below"
+        + "".join(f"; {html.escape(lo['part'])} (t = {lo['from_s']:.6g} to {lo['to_s']:.6g} s) left out: "
+                  f"{html.escape(lo['why'])}" for lo in x["left_out"]) + ".</p>" for x in j.get("split", []))
     figures = "".join(
         f"<h3>{html.escape(v.name)}</h3><img alt='measured and simulated angles, pooled model' "
         f"src='{compare_figure(log, result.fit.runs[k]['prediction'], v.model_check)}'>"
@@ -137,7 +141,7 @@ def render(doc: dict, result: JointResult, logs: list[Log]) -> str:
 <div style="background:{colour};padding:0.6em 1em;border-radius:6px"><h2 style="margin-top:0.2em">
 Do the logs agree?</h2><p>{html.escape(j['sentence'])}</p>
 <p>Pooled model on each pooled log: {', '.join(f"{html.escape(lg['name'])} {VERDICT[lg['model_check']['adequate']]}"
-                                              for lg in j['logs'] if lg['model_check'])}.</p></div>
+                                              for lg in j['logs'] if lg['model_check'])}.</p>{split}</div>
 <h2>Pooled estimate</h2><table><tr><th>parameter</th><th>unit</th><th>estimate</th><th>95 % interval</th>
 <th>identifiability</th></tr>{rows}</table>
 <p class="note">{html.escape(j['fit']['method'])}; {j['fit']['iterations']} Gauss-Newton iteration(s), converged:
