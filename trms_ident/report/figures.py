@@ -94,31 +94,34 @@ def compare_figure(log: Log, simulated: np.ndarray, check: dict) -> str:
     return png_data_uri(compare_plot(log, simulated, check))
 
 
-def residual_figure(log: Log, simulated: np.ndarray, dt_s: float) -> str:
-    """Residual autocorrelation and residual-input cross-correlation with their 99 % bands (as ``resid``)."""
+def residual_figure(log: Log, simulated: np.ndarray, dt_s: float, skip: tuple = ()) -> str:
+    """Residual autocorrelation and residual-input cross-correlation with their 99 % bands (as ``resid``), one
+    row per axis but those in ``skip`` (where the tests do not apply: adequacy.model_check)."""
     from ..numerics.adequacy import LAGS, correlation_functions, decimation
 
     m = simulated.shape[0]
     step = decimation(dt_s)
-    fig, ax = plt.subplots(2, 3, figsize=(11, 5.5))
+    rows = [(j, y, axis) for j, (y, axis) in enumerate(((log.alpha_rad, "pitch"), (log.beta_rad, "yaw")))
+            if axis not in skip]
+    fig, ax = plt.subplots(len(rows), 3, figsize=(11, 0.5 + 2.5 * len(rows)), squeeze=False)
     lags = np.arange(-LAGS, LAGS + 1) * step * dt_s
-    for j, (y, axis) in enumerate(((log.alpha_rad, "pitch"), (log.beta_rad, "yaw"))):
+    for row, (j, y, axis) in enumerate(rows):
         e = (y[:m] - simulated[:, j])[::step]
         for i, u in enumerate((log.u1_v, log.u2_v)):
             ud = np.add.reduceat(u[:m], np.arange(0, m, step))[:e.size] / step
             auto, cross, band = correlation_functions(e, ud)
             if i == 0:
-                a = ax[j, 0]
+                a = ax[row, 0]
                 a.stem(np.arange(LAGS + 1) * step * dt_s, auto, basefmt=" ")
                 a.axhspan(-band, band, color="tab:blue", alpha=0.15, lw=0)
                 a.set_title(f"{axis}: residual autocorrelation", fontsize=9)
-            a = ax[j, 1 + i]
+            a = ax[row, 1 + i]
             a.stem(lags, cross, basefmt=" ")
             a.axhspan(-band, band, color="tab:blue", alpha=0.15, lw=0)
             a.set_title(f"{axis}: residual x u{i + 1} (u leads for lag > 0)", fontsize=9)
     for a in ax.ravel():
         a.grid(alpha=0.3)
-    for a in ax[1]:
+    for a in ax[-1]:
         a.set_xlabel("lag [s]")
     fig.suptitle(f"Residual tests on the residual decimated to every {step}th sample (99 % band shaded)")
     fig.tight_layout()

@@ -40,11 +40,16 @@ def _timing(inp: dict) -> str:
 
 
 def _white(w: dict) -> str:
-    return f"Q = {w['ljung_box_q']:.3g} (<= {w['threshold']:.3g})"
+    if not w.get("applies", True):
+        return "does not apply (no measurable noise)"
+    return f"Q = {w['ljung_box_q']:.3g} (<= {w['threshold']:.3g})" + ("" if w["white"] else ": not white")
 
 
 def _cross(c: dict) -> str:
-    return ", ".join(f"{k} {x:.3g}" for k, x in c["statistic"].items()) + f" (<= {c['threshold']:.3g})"
+    if not c.get("applies", True):
+        return "does not apply (no measurable noise)"
+    return (", ".join(f"{k} {x:.3g}" for k, x in c["statistic"].items()) + f" (<= {c['threshold']:.3g})"
+            + ("" if c["uncorrelated"] else ": correlated"))
 
 
 def _verdict(doc: dict) -> str:
@@ -66,14 +71,27 @@ def _verdict(doc: dict) -> str:
 
 
 def _fit_figures(result: Result, log: Log) -> str:
-    from .figures import compare_figure, residual_figure
+    from .figures import compare_figure
 
     if result.simulated is None:
         return ""
     return (f'<h2>Model against measurement</h2><img alt="measured and simulated angles" '
             f'src="{compare_figure(log, result.simulated, result.model_check)}">'
-            f'<h2>Residual tests</h2><img alt="residual correlations" '
-            f'src="{residual_figure(log, result.simulated, result.sample_time_s)}">')
+            + _residual_section(result, log))
+
+
+def _residual_section(result: Result, log: Log) -> str:
+    """The residual tests' figure for the axes where they apply; where none does, why not, and no figure."""
+    from .figures import residual_figure
+
+    axes = result.model_check["axes"]
+    off = {axis: v["whiteness"]["why_not"] for axis, v in axes.items() if not v["whiteness"].get("applies", True)}
+    said = "".join(f'<p class="note">{html.escape(axis)}: the residual tests do not apply: {html.escape(why)}.</p>'
+                   for axis, why in off.items())
+    if len(off) == len(axes):
+        return f"<h2>Residual tests</h2>{said}"
+    return (f'<h2>Residual tests</h2>{said}<img alt="residual correlations" '
+            f'src="{residual_figure(log, result.simulated, result.sample_time_s, skip=tuple(off))}">')
 
 
 def _refined_cell(refined: dict | None, k: str) -> str:
