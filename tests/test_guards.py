@@ -1,0 +1,64 @@
+"""Guards held at their edge: each threshold that decides a verdict has a case just inside and just outside it,
+so a threshold loosened (or tightened) in a copy of the project makes this file fail."""
+import math
+
+import numpy as np
+import pytest
+
+from trms_ident import design as planner
+from trms_ident import joint
+from trms_ident import known_values
+from trms_ident.params import ESTIMATED, defaults
+
+
+def _verdict(name: str, j1: float, sd: float) -> joint.LogVerdict:
+    """A log that determines J1 alone [kg m^2], with standard deviation ``sd``."""
+    cov = np.full((4, 4), np.nan)
+    cov[0, 0] = sd ** 2
+    estimates = {k: (j1 if k == "J1" else None) for k in ESTIMATED}
+    return joint.LogVerdict(name, None, estimates, {k: (math.nan, math.nan) for k in ESTIMATED}, cov)
+
+
+@pytest.mark.parametrize("z, consistent", [(2.0, True), (3.0, False)])
+def test_the_joint_consistency_test_rejects_a_run_three_standard_deviations_off_and_keeps_one_two_off(z, consistent):
+    """Three logs of J1, each with a 0.5 % standard deviation; the third is ``z`` standard deviations of the
+    difference off the other two (1.2 % and 1.8 %: beyond PRACTICAL_REL both, so only the level decides).  At
+    joint.LEVEL = 0.05, Bonferroni over three logs (0.0167 each), 2 sd (p = 0.046) agrees and 3 sd (p = 0.0027)
+    does not; a level of 1e-12 would pass both, a level of 0.2 would reject both."""
+    j1, sd = 0.068, 0.068 * 0.005
+    off = z * sd * math.sqrt(1.5)  # the difference's sd: its own and the other two's mean, sd^2 (1 + 1/2)
+    assert off / j1 >= joint.PRACTICAL_REL
+    logs = [_verdict("a", j1, sd), _verdict("b", j1, sd), _verdict("c", j1 + off, sd)]
+    test = joint._test(logs, [0, 1, 2], fit=None)
+    assert logs[2].z["J1"] == pytest.approx(z, rel=1e-9)
+    assert test["level"] == 0.05 and test["consistent"] is consistent
+
+
+@pytest.mark.parametrize("peak_rad, share, refused", [(0.165, (0.02, 0.05), False), (0.185, (0.06, 0.12), True)])
+def test_design_refuses_a_run_at_the_voltage_limit_8_percent_of_the_time_and_keeps_one_at_3(peak_rad, share, refused):
+    """A square pair (pitch ``peak_rad``, yaw twice that, 2 s period, 20 s at 100 Hz) with 2 mrad angle noise on
+    Table 1's bench: at 0.165 rad a voltage is at its limit about 3 % of the time (kept, within the 5 % limit), at
+    0.185 rad about 8 % (refused, with the share said)."""
+    from sim.simulate import DEFAULT_PID
+
+    t = np.arange(2001) / 100.0
+    a = planner.square(t, planner.Square(peak_rad, 2.0))
+    b = planner.square(t, planner.Square(2 * peak_rad, 2.0), 0.25)
+    r = planner.simulate_run(t, a, b, 100.0, defaults(), "quadratic", {"alpha": 2e-3, "beta": 2e-3}, DEFAULT_PID,
+                             2.5, planner.Limits())
+    measured = r.envelope["saturated_share"]
+    assert share[0] < measured < share[1]
+    assert planner.Limits().saturated_share == 0.05
+    said = [v for v in r.violations if "at its 2.5 V limit" in v]
+    assert bool(said) is refused
+    if refused:
+        assert f"{100 * measured:.3g} % of the time with the angles' noise (limit 5 %)" in said[0]
+
+
+@pytest.mark.parametrize("factor, plausible", [(5.0, True), (0.2, True), (20.0, False), (0.05, False), (-1.0, False)])
+def test_a_known_value_refitted_20_times_off_the_table_is_not_a_finding(factor, plausible):
+    """A refitted known value within 10x of the value given (either way) is plausible; 20x, 1/20 or the other
+    sign is a fit run off to a number no bench has, never reported as the bench's value."""
+    for given in (defaults()["Mg"], defaults()["kc"]):
+        assert known_values._plausible_value(factor * given, given) is plausible
+    assert known_values._plausible_value(math.nan, 0.32) is False
