@@ -44,6 +44,14 @@ SLOW = {
     "test_known_values.py::test_a_smoothed_recording_is_judged_against_a_black_box_not_its_unmeasurable_floor": 20,
     "test_robustness.py::test_odd_logs_never_crash[sweep-40.0]": 20,
     "test_mat.py::test_real_ce150_mat_files_load_with_a_rate_and_get_a_verdict[Data100_ea_a0]": 18,
+    # 27 Nov 2026, issue #49 (the README's test command under 10 minutes), each covered in the fast tier by the test
+    # named: the .mat read and verdict of this recording (test_mat_objects' real-file run asserts them), a yaw
+    # cable named by diagnose (the README's tour on concealed_effect.csv, test_api), a motor lag found by its
+    # output-error profile (the pitch motor lag through the whole of diagnose, test_diagnose's concealed effects)
+    "test_mat.py::test_real_ce150_mat_files_load_with_a_rate_and_get_a_verdict[Data100_ea_e675_aN130toP130]": 25,
+    "test_diagnose.py::test_concealed_effect_is_named_fitted_and_improves_the_fit[cable_stiffness-yaw-0.005-steps]": 24,
+    "test_diagnose.py::test_output_error_profile_fits_an_input_modification_and_leaves_a_clean_log_alone"
+    "[motor_lag-yaw-1.3-multisine-0.0]": 26,
 }
 
 

@@ -67,6 +67,31 @@ def test_runnable_examples_run_as_written(page, tmp_path):
             pytest.fail(f"{page.name}: a runnable example in {language!r}; expected sh or python")
 
 
+def _shown_block(block: str) -> list[tuple[str, list[str]]]:
+    """Every ``$ command`` of an sh block with the output lines under it (white space folded)."""
+    out = []
+    for ln in block.splitlines():
+        if ln.startswith("$ "):
+            out.append((ln[2:].strip(), []))
+        elif out and ln.strip():
+            out[-1][1].append(_fold(ln))
+    return out
+
+
+def test_an_example_shown_beside_a_runnable_one_says_what_it_prints():
+    """A command the README shows without running it (to keep the test command short) prints, in the runnable
+    example of the same command on another page, every line the README shows."""
+    ran = {cmd: lines for page in PAGES for language, block in _examples(page) if language == "sh"
+           for cmd, lines in _shown_block(block)}
+    checked = 0
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    for cmd, lines in (x for block in re.findall(r"```sh\n(.*?)\n```", readme, re.S) for x in _shown_block(block)):
+        if cmd in ran and lines:
+            assert set(lines) <= set(ran[cmd]), f"README shows {cmd} printing lines its runnable twin does not check"
+            checked += 1
+    assert checked >= 1
+
+
 def test_the_readme_has_runnable_examples_and_stays_short():
     readme = ROOT / "README.md"
     assert len(readme.read_text(encoding="utf-8").splitlines()) <= 200

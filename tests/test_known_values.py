@@ -1,6 +1,7 @@
 """Known values as hypotheses (issue #32): one engine for estimate and diagnose, the simplest explanation wins."""
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,7 +14,6 @@ from trms_ident.diagnosis import weigh
 from trms_ident.diagnosis.discriminate import MIN_COST_GAP, tell_offsets_apart
 from trms_ident.diagnosis.run import diagnose
 from trms_ident.identify import Settings, identify
-from trms_ident.io.csv_log import write_csv_log
 from trms_ident.numerics import safe
 from trms_ident.params import defaults
 
@@ -29,18 +29,22 @@ def _sim(overrides: dict, ref="multisine", rate=100.0, duration=40.0, seed=5, ef
                                 effects=[dict(e) for e in effects], start_s=start))
 
 
-@pytest.fixture(scope="module")
-def kc_half_csv(tmp_path_factory):
-    """A bench whose reaction gain kc is half the table's, nothing else different (the issue's case)."""
-    path = tmp_path_factory.mktemp("kv") / "kc_half.csv"
-    r = _sim({"kc": -0.1})
-    write_csv_log(path, r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad)
-    return path
+#: a bench whose reaction gain kc is half the table's, nothing else different (the issue's case): the README's
+#: sample, whose diagnose lines the README shows (this test checks them)
+ROOT = Path(__file__).resolve().parents[1]
+OTHER_BENCH = ROOT / "sample_logs" / "other_bench.csv"
 
 
-def test_estimate_and_diagnose_name_the_same_known_value(kc_half_csv, capfd):
-    est = runner.invoke(app, ["estimate", str(kc_half_csv), "--json", "-"])
-    diag = runner.invoke(app, ["diagnose", str(kc_half_csv), "--json", "-"])
+def _readme_lines(command: str) -> list[str]:
+    """The output lines the README shows under ``$ command``."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = text[text.index(f"$ {command}\n") + len(command) + 3:]
+    return [ln.strip() for ln in block[:block.index("```")].splitlines() if ln.strip()]
+
+
+def test_estimate_and_diagnose_name_the_same_known_value(tmp_path, capfd):
+    est = runner.invoke(app, ["estimate", str(OTHER_BENCH), "-o", str(tmp_path / "e"), "--json", "-"])
+    diag = runner.invoke(app, ["diagnose", str(OTHER_BENCH), "-o", str(tmp_path / "d"), "--json", "-"])
     assert est.exit_code == 0 and diag.exit_code == 0, (est.output, diag.output)
     err = capfd.readouterr().err  # the process' own stderr (LAPACK writes there, below Python)
     assert "DLASCL" not in err and "illegal value" not in err and "Warning" not in err, err
@@ -57,6 +61,9 @@ def test_estimate_and_diagnose_name_the_same_known_value(kc_half_csv, capfd):
     # the same search, read by both: estimate's sentence points to diagnose for the rest
     assert "trms-ident diagnose" in e["model_check"]["sentence"]
     assert d["seed_model_check"]["known_values"]["named"] == "kc"
+    said = " ".join(diag.stderr.split())
+    shown = _readme_lines("trms-ident diagnose sample_logs/other_bench.csv")
+    assert shown and all(" ".join(line.split()) in said for line in shown), diag.stderr  # the README's lines hold
 
 
 def test_a_known_value_names_itself_only_when_it_reaches_the_noise_floor():

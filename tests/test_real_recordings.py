@@ -255,7 +255,8 @@ def test_real_ce150_recordings_with_the_ce150s_published_values(tmp_path, name, 
 
 def test_diagnose_verdicts_on_the_sample_logs():
     root = Path(__file__).resolve().parents[1] / "sample_logs"
-    for name, expected in (("concealed_effect.csv", "explained"), ("paper_sine_200hz.csv", "consistent")):
+    # concealed_effect.csv's "explained" is checked by the README's runnable tour and test_api's diagnose
+    for name, expected in (("paper_sine_200hz.csv", "consistent"),):
         res = runner.invoke(app, ["diagnose", str(root / name), "--json", "-"])
         assert res.exit_code == 0, res.output
         doc = json.loads(res.stdout)
