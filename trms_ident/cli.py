@@ -135,9 +135,9 @@ HeadlineOpt = Annotated[str, typer.Option("--headline", help=f"Which number is t
                                           "falls back to 'offline' when the refinement is skipped or not used).")]
 RefineOpt = Annotated[str, typer.Option("--refine", help="Prediction-error refinement after DREM: 'auto' (logs up to "
                                         "~17 min at 1 kHz), 'on' or 'off'.")]
-AngleOpt = Annotated[str, typer.Option("--angle-unit", help="Unit of the logged angles: auto (radians; angles "
-                                       "beyond +-pi/2 pitch or +-8 pi yaw are refused as likely degrees), rad (no "
-                                       "guess) or deg.")]
+AngleOpt = Annotated[str, typer.Option("--angle-unit", help="Unit of the logged angles: auto (radians, or degrees "
+                                       "where the pitch cannot be radians (beyond +-pi/2) and both angles lie within "
+                                       "the bench's range in degrees: converted and said), rad (no guess) or deg.")]
 TimeUnitOpt = Annotated[str, typer.Option("--time-unit", help="Unit of CSV time stamps: auto (told from the median "
                                           "step: <= 0.15 s, ms up to 150, else us; said on stderr), s, ms or us.")]
 FreeOpt = Annotated[str, typer.Option("--free", help="Known values to estimate with J/B by the refinement, e.g. "
@@ -152,7 +152,8 @@ SignalOpt = Annotated[Optional[list[str]], typer.Option("--signal", help="MCAP: 
                                                         "MATLAB: NAME=VARIABLE, e.g. alpha=psi, alpha=data[2], "
                                                         "alpha=yout.signals[0]; CSV: NAME=COLUMN, e.g. "
                                                         "alpha=pitch_rad (repeatable, or several comma-separated: "
-                                                        "alpha=psi,beta=phi; see `inspect`).")]
+                                                        "alpha=psi,beta=phi; see `inspect`). u2=0 (u1=0): that motor "
+                                                        "was off and its input not logged, held at 0 V.")]
 RateOpt = Annotated[Optional[float], typer.Option("--rate", help="MATLAB logs without a time vector: the sample "
                                                   "rate [Hz].")]
 TimeSourceOpt = Annotated[str, typer.Option("--time-source", help="MCAP message time: auto (header.stamp when "
