@@ -198,3 +198,24 @@ def test_residual_tests_do_not_apply_where_the_noise_floor_cannot_be_measured(tm
             assert (axis["whiteness"]["white"] is None) is not noisy
         assert ("does not apply (no measurable noise)" in page) is not noisy
         assert ('alt="residual correlations"' in page) is noisy
+
+
+def test_batch_estimates_a_log_with_lost_samples_as_its_parts(tmp_path):
+    r = sim_cached("multisine", 200.0, 45.0, quantization=Q12, seed=6)
+    keep = _dropped(r, [(20.0, 20.3)])
+    folder = tmp_path / "lab"
+    folder.mkdir()
+    write_csv_log(folder / "lost.csv", r.t_s[keep], r.u1_v[keep], r.u2_v[keep], r.alpha_rad[keep], r.beta_rad[keep])
+    write_csv_log(folder / "whole.csv", r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad)
+    res = runner.invoke(app, ["batch", str(folder), "-o", str(tmp_path / "out"), "--no-report", "--json", "-"])
+    assert res.exit_code == 0, res.output
+    rows = {Path(f["path"]).name: f for f in json.loads(res.stdout)["files"]}
+    assert rows["lost.csv"]["status"] == "ok" and "a gap of" in rows["lost.csv"]["error"]
+    assert "estimated jointly as its parts" in rows["lost.csv"]["error"]
+    _close(rows["lost.csv"]["estimates"], _truth(r))
+    assert json.loads((tmp_path / "out" / "lost" / "result.json").read_text())["joint"]["split"]
+    strict = runner.invoke(app, ["batch", str(folder), "-o", str(tmp_path / "s"), "--no-report", "--strict-gaps",
+                                 "--json", "-"])
+    assert strict.exit_code == 8  # some failed: the log with a gap, refused
+    rows = {Path(f["path"]).name: f for f in json.loads(strict.stdout)["files"]}
+    assert rows["lost.csv"]["status"] == "failed" and "expected steps of 0.005 s" in rows["lost.csv"]["error"]

@@ -16,7 +16,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Callable, Iterable
 
-from .errors import SettingsError, TrmsError
+from .errors import JoinedRunsError, SettingsError, TrmsError
 from .io.atomic import write_text
 from .io.readers import LOG_SUFFIXES
 from .settings import Settings
@@ -84,17 +84,25 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
             try:
                 if json.loads(stamp.read_text()) == key:
                     doc = json.loads((out / "result.json").read_text())
-                    row.update(status="ok", skipped=True, estimates=doc["estimates"],
-                               adequate=doc.get("model_check", {}).get("adequate"),
+                    parts = doc.get("joint")  # a log estimated as its parts (gaps, runs joined)
+                    row.update(status="ok", skipped=True, estimates=(parts or doc)["estimates"],
+                               adequate=parts["adequate"] if parts else doc.get("model_check", {}).get("adequate"),
                                not_credible=doc.get("not_credible", {}),
                                report=str(out / "report.html") if (out / "report.html").exists() else None)
                     return row
             except (ValueError, KeyError):
                 pass
-        res = estimate_file(path_p, settings, out, html=options.get("html", True), angle_unit=options.get("angle_unit", "auto"),
-                            time_unit=options.get("time_unit", "auto"),
-                            signals=options.get("signals"), time_source=options.get("time_source", "auto"),
-                            voltage_time=options.get("voltage_time", "stamp"), rate_hz=options.get("rate_hz"))
+        try:
+            res = estimate_file(path_p, settings, out, html=options.get("html", True),
+                                angle_unit=options.get("angle_unit", "auto"), time_unit=options.get("time_unit", "auto"),
+                                signals=options.get("signals"), time_source=options.get("time_source", "auto"),
+                                voltage_time=options.get("voltage_time", "stamp"), rate_hz=options.get("rate_hz"))
+        except JoinedRunsError as exc:  # gaps in its stamps, or runs joined: its parts estimated jointly
+            if options.get("strict_gaps") and exc.gaps:
+                raise
+            row.update(_parts_jointly(path_p, out, settings, options))
+            write_text(stamp, json.dumps(key, indent=1))
+            return row
         write_text(stamp, json.dumps(key, indent=1))
         row.update(status="ok", estimates=res.summary["estimates"], adequate=res.summary["model_check"]["adequate"],
                    not_credible=res.summary["not_credible"],
@@ -106,6 +114,23 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
     except Exception as exc:  # noqa: BLE001 - one broken log must not stop the batch
         row["error"] = f"internal error: {type(exc).__name__}: {exc}"
     return row
+
+
+def _parts_jointly(path: Path, out: Path, settings: Settings, options: dict) -> dict:
+    """A log that broke into parts estimated as runs of one bench (api.estimate_joint_with, as `estimate` does),
+    written to ``out``; the summary row's fields, with what was found and left out as its note."""
+    from .api import estimate_joint_with
+    from .io.manifest import Entry
+
+    est = estimate_joint_with([Entry(path, options.get("signals"), options.get("rate_hz"),
+                                     options.get("angle_unit", "auto"), options.get("time_unit", "auto"))], settings)
+    est.save(out, html=options.get("html", True))
+    j = est.doc["joint"]
+    said = "; ".join(f"{x['found']}: estimated jointly as its parts"
+                     + "".join(f"; {lo['part']} left out ({lo['why']})" for lo in x["left_out"])
+                     for x in j.get("split", []))
+    return {"status": "ok", "estimates": j["estimates"], "adequate": j["adequate"], "error": f"note: {said}",
+            "report": str(out / "report.html") if options.get("html", True) else None}
 
 
 def run(paths: list[Path], out_dir: Path, settings: Settings, options: dict, jobs: int = 1,

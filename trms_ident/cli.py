@@ -401,6 +401,7 @@ def batch(
     time_source: TimeSourceOpt = "auto",
     voltage_time: VoltageTimeOpt = "stamp",
     rate: RateOpt = None,
+    strict_gaps: StrictGapsOpt = False,
 ) -> None:
     """Estimate every CSV, MCAP and MATLAB log under folders or globs; carry on past bad files; write a summary.
 
@@ -420,7 +421,7 @@ def batch(
     if not paths:
         raise SettingsError(f"no .csv, .mcap or .mat logs found in {' '.join(inputs)}")
     options = {"html": not no_report, "signals": signal, "time_source": time_source, "angle_unit": angle_unit,
-               "time_unit": time_unit, "voltage_time": voltage_time, "rate_hz": rate}
+               "time_unit": time_unit, "voltage_time": voltage_time, "rate_hz": rate, "strict_gaps": strict_gaps}
     if force:
         options["force_token"] = os.urandom(8).hex()
     bar = None
