@@ -109,9 +109,9 @@ def test_what_the_design_does_on_a_bench_off_the_given_one_is_simulated_and_said
 
 def test_a_robust_design_keeps_its_limits_on_a_bench_off_the_given_one(tmp_path):
     """--robust 0.05: the chosen references keep the limits on benches with J/B 5 % off too, and the sentence says
-    so; without it the same 20 s design sits at the limits of the given bench only."""
+    so (a 10 s design)."""
     js = tmp_path / "d.json"
-    res = runner.invoke(app, ["design", "--duration", "20", "--rate", "100", "--robust", "0.05", "--no-report",
+    res = runner.invoke(app, ["design", "--duration", "10", "--rate", "100", "--robust", "0.05", "--no-report",
                               "-o", str(tmp_path / "d.csv"), "--json", str(js)])
     assert res.exit_code == 0, res.output
     doc = json.loads(js.read_text())
@@ -296,7 +296,7 @@ def test_a_design_to_tell_look_alikes_apart_predicts_each_rivals_gap_beside_the_
     dia, js = tmp_path / "diagnosis.json", tmp_path / "d.json"
     _diagnosis(dia, {"effect": "sensor_offset", "axis": "pitch", "parameter": {"name": "delta", "value": 0.03}},
                ["com_offset:pitch", "dead_zone:pitch"])
-    res = runner.invoke(app, ["design", "--duration", "20", "--rate", "50", "--discriminate", str(dia),
+    res = runner.invoke(app, ["design", "--duration", "10", "--rate", "50", "--discriminate", str(dia),
                               "-o", str(tmp_path / "d.csv"), "--json", str(js)])
     assert res.exit_code == 0, res.output
     doc = json.loads(js.read_text())
@@ -309,7 +309,7 @@ def test_a_design_to_tell_look_alikes_apart_predicts_each_rivals_gap_beside_the_
     assert doc["sentence"].startswith("Within the limits, on the bench with sensor_offset:pitch = 0.03, the design "
                                       "predicts that com_offset:pitch, refitted, leaves a noise-weighted squared "
                                       "angle error")
-    if told["rivals"]["com_offset:pitch"]["power"] < 0.9:  # 20 s at 50 Hz is short: the tool says what would do
+    if told["rivals"]["com_offset:pitch"]["power"] < 0.9:  # 10 s at 50 Hz is short: the tool says what would do
         assert "That is not enough to decide: a 90 % chance needs a gap of 22" in doc["sentence"]
     assert set(sq["rivals"]) == {"com_offset:pitch"}
     assert "Telling the look-alikes apart" in (tmp_path / "d.html").read_text()
