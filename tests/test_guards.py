@@ -62,3 +62,37 @@ def test_a_known_value_refitted_20_times_off_the_table_is_not_a_finding(factor, 
     for given in (defaults()["Mg"], defaults()["kc"]):
         assert known_values._plausible_value(factor * given, given) is plausible
     assert known_values._plausible_value(math.nan, 0.32) is False
+
+
+@pytest.mark.parametrize("over_noise, verdict", [(1.2, "explained"), (3.0, "partly_explained")])
+def test_findings_whose_predictions_stay_3x_the_noise_are_not_called_explained(over_noise, verdict):
+    """diagnose's verdict when the output-error simulation cannot carry the findings: their 2 s predictions within
+    EXPLAINED_RMS_OVER_NOISE (1.5x) of the noise floor explain the log, 3x does not.  The angles have a standard
+    deviation 100x the floor, so a prediction fit of 100 - r % is r times the floor."""
+    from trms_ident.diagnosis.run import EXPLAINED_RMS_OVER_NOISE, _verdict
+    from trms_ident.log import validated
+
+    assert EXPLAINED_RMS_OVER_NOISE == 1.5
+    t = np.arange(2000) * 0.01
+    wave = 0.1 * math.sqrt(2.0) * np.sin(2 * np.pi * 0.5 * t)  # standard deviation 0.1 rad
+    log = validated(t, 0 * t, 0 * t, wave, wave, source="x")
+    seed = {"adequate": False, "axes": {a: {"noise_floor_rad": 1e-3} for a in ("pitch", "yaw")}}
+    fit = {"pitch": 100.0 - over_noise, "yaw": 100.0 - 1.0}
+    got, sentence = _verdict(log, seed, ["a finding"], fit, {}, None)
+    assert got == verdict
+    if verdict == "partly_explained":
+        assert "the pitch prediction error is still 3x its noise level" in sentence
+
+
+@pytest.mark.parametrize("over_noise, verdict", [(1.1, "explained"), (1.4, "partly_explained")])
+def test_findings_whose_simulation_stays_above_1_2x_the_noise_are_not_called_explained(over_noise, verdict):
+    """With the output-error simulation of the findings' model (estimate's adequacy threshold, 1.2x)."""
+    from trms_ident.diagnosis.run import EXPLAINED_OE_OVER_NOISE, _verdict
+    from trms_ident.log import validated
+
+    assert EXPLAINED_OE_OVER_NOISE == 1.2
+    t = np.arange(2000) * 0.01
+    log = validated(t, 0 * t, 0 * t, 0.1 * np.sin(t), 0.1 * np.cos(t), source="x")
+    seed = {"adequate": False, "axes": {}}
+    got, _ = _verdict(log, seed, ["a finding"], {}, {}, {"alpha": over_noise, "beta": 1.0}, {"alpha": "noise"})
+    assert got == verdict
