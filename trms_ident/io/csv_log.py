@@ -266,10 +266,11 @@ def _parse_located(path: Path, delim: str, first_data_line: int, wanted: tuple =
                                      f"{cells.iloc[i]!r}; expected a number")
         raise LogFormatError(f"{path}: cannot parse as numbers; expected numeric columns {','.join(COLUMNS)}")
     frame.columns = names or [c.strip().lower() for c in frame.columns]
-    blank = np.flatnonzero(frame[list(wanted)].isna().all(axis=1).to_numpy())
+    logged = [c for c in wanted if c in COLUMNS]  # an input held at a constant (--signal u2=0) is not in the file
+    blank = np.flatnonzero(frame[logged].isna().all(axis=1).to_numpy())
     if blank.size:
         raise LogFormatError(f"{path}: line {int(blank[0]) + first_data_line} is empty; expected "
-                             f"{len(wanted)} numbers")
+                             f"{len(logged)} numbers")
     return {c: frame[c].to_numpy(dtype=float) for c in wanted}
 
 
