@@ -52,12 +52,13 @@ def test_ms_stamps_and_degrees_without_a_unit_row_estimate_to_the_truth_and_say_
     (1.2, 2.5, "rad"),  # plausible either way: radians, as always
     (45.0, 10.0, "deg"),  # a pitch of 45 rad cannot be; 45 deg is ordinary
     (90.1, 0.5, "deg"),  # a CE150's elevation at its top
+    (30.0, 1516.0, "deg"),  # degrees by the pitch; the yaw drifted 4.2 turns (a blind benchmark's bench)
     (400.0, 1.0, None),  # neither: refused
     (1.0, 30.0, None),  # a yaw beyond four turns beside a small pitch: degrees, or a yaw that drifted
 ])
 def test_the_angle_unit_is_told_only_where_the_values_allow_one_reading(alpha_peak, beta_peak, unit):
     t = np.linspace(0.0, 1.0, 101)
-    alpha, beta = alpha_peak * np.sin(2 * np.pi * t), beta_peak * np.cos(2 * np.pi * t)
+    alpha, beta = alpha_peak * np.sin(2 * np.pi * t), beta_peak * t  # the yaw drifts to its peak
     assert angle_unit_of(alpha, beta)[0] == unit
     if unit is None:
         with pytest.raises(LogFormatError, match=r"the angles are in no unit this tool can tell: .* --angle-unit deg"):

@@ -44,7 +44,7 @@ PITCH_LIMIT_RAD = math.pi / 2
 #: |beta| beyond this (four turns) is not a yaw angle in rad on a cabled bench
 YAW_LIMIT_RAD = 8 * math.pi
 #: |alpha| up to this is a pitch angle in degrees (the beam's stops lie within +-90 deg; a CE150's elevation
-#: reaches 90.1 deg); beyond it (and beyond YAW_LIMIT_RAD in degrees for beta) the angles are neither unit
+#: reaches 90.1 deg); beyond it the angles are in neither unit
 PITCH_LIMIT_DEG = 180.0
 
 
@@ -199,22 +199,23 @@ def _peak(a: np.ndarray) -> int:
 
 def angle_unit_of(alpha: np.ndarray, beta: np.ndarray) -> tuple[str | None, str]:
     """The unit of angles logged without one, told from their values: ("rad", "") when both lie within the
-    bench's range in radians; ("deg", why) when the pitch cannot be radians (beyond +-pi/2) and both lie within
-    the range in degrees, the only reading left; (None, why) when neither reading is possible, or when both are
-    (a yaw beyond four turns in radians beside a pitch that stays within +-pi/2: the yaw may have drifted)."""
+    bench's range in radians; ("deg", why) when the pitch cannot be radians (beyond +-pi/2) and lies within its
+    range in degrees, the only reading left (the yaw then may turn any number of times: beyond four turns it
+    drifted, in either unit, and the reason says so); (None, why) when the pitch is in neither range, or when
+    both readings are possible (a yaw beyond four turns in radians beside a pitch within +-pi/2: degrees, or a
+    yaw that drifted)."""
     ia, ib = _peak(alpha), _peak(beta)
     a, b = abs(float(alpha[ia])), abs(float(beta[ib]))
     if a <= PITCH_LIMIT_RAD and b <= YAW_LIMIT_RAD:
         return "rad", ""
-    in_deg = a <= PITCH_LIMIT_DEG and math.radians(b) <= YAW_LIMIT_RAD
-    if a > PITCH_LIMIT_RAD and in_deg:
+    if PITCH_LIMIT_RAD < a <= PITCH_LIMIT_DEG:
+        turns = math.radians(b) / (2 * math.pi)
         return "deg", (f"alpha reaches {alpha[ia]:.6g}, beyond the pitch's +-{PITCH_LIMIT_RAD:.3g} rad and within "
-                       f"its +-{PITCH_LIMIT_DEG:g} deg")
+                       f"its +-{PITCH_LIMIT_DEG:g} deg" + (f"; the yaw turns {turns:.3g} times, a drift"
+                                                           if math.radians(b) > YAW_LIMIT_RAD else ""))
     if a > PITCH_LIMIT_RAD:
-        return None, (f"alpha reaches {alpha[ia]:.6g}, beyond the pitch's +-{PITCH_LIMIT_RAD:.3g} rad"
-                      + ("" if a <= PITCH_LIMIT_DEG else f" and its +-{PITCH_LIMIT_DEG:g} deg")
-                      + ("" if in_deg or a > PITCH_LIMIT_DEG else
-                         f", and beta reaches {beta[ib]:.6g}, beyond +-{math.degrees(YAW_LIMIT_RAD):g} deg"))
+        return None, (f"alpha reaches {alpha[ia]:.6g}, beyond the pitch's +-{PITCH_LIMIT_RAD:.3g} rad and its "
+                      f"+-{PITCH_LIMIT_DEG:g} deg")
     return None, (f"beta reaches {beta[ib]:.6g}, beyond {YAW_LIMIT_RAD:.3g} rad (four turns), while alpha stays "
                   f"within +-{PITCH_LIMIT_RAD:.3g}: degrees, or a yaw that drifted")
 
