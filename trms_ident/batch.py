@@ -94,7 +94,8 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
                 pass
         try:
             res = estimate_file(path_p, settings, out, html=options.get("html", True),
-                                angle_unit=options.get("angle_unit", "auto"), time_unit=options.get("time_unit", "auto"),
+                                angle_unit=options.get("angle_unit", "auto"),
+                                time_unit=options.get("time_unit", "auto"),
                                 signals=options.get("signals"), time_source=options.get("time_source", "auto"),
                                 voltage_time=options.get("voltage_time", "stamp"), rate_hz=options.get("rate_hz"))
         except JoinedRunsError as exc:  # gaps in its stamps, or runs joined: its parts estimated jointly

@@ -263,7 +263,7 @@ def validated(t, u1, u2, alpha, beta, *, source: str = "<memory>", sha256: str |
         u_switch_s = None if u_switch_s is None else np.asarray(u_switch_s, dtype=float) * factor
         lo, hi, mean, spread, step = (v * factor for v in (lo, hi, mean, spread, step))
     where = _placed(row, t)  # every message from here on names the time in seconds
-    for name, a in arrays.items():
+    for name, a in ((k, arrays[k]) for k in COLUMNS[1:]):  # t is finite (checked above)
         bad = np.flatnonzero(~np.isfinite(a))
         if bad.size:
             raise LogFormatError(f"{source}: {where(int(bad[0]))}: {name} is {a[bad[0]]}; "

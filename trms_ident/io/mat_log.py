@@ -241,12 +241,13 @@ def read_mat_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "a
                             "--rate HZ")
         else:
             t, _, _ = _resolve(tree, t_where, path)
-    if angle_unit == "auto" and "alpha" in cols and "beta" in cols:
+    if problems and angle_unit == "auto" and "alpha" in cols and "beta" in cols:
+        # said beside what must be settled, so the next run is the last (alone, validated tells and says it)
         told, why = angle_unit_of(cols["alpha"], cols["beta"])
         if told is None:
             problems.append(f"the angles are in no unit this tool can tell ({why}): pass --angle-unit deg or "
                             "--angle-unit rad")
-        elif told == "deg" and problems:  # said beside what must be settled, so the next run is the last
+        elif told == "deg":
             problems.append(f"the angles will be read as degrees ({why}; --angle-unit rad if they are radians)")
     if problems:
         raise LogFormatError(f"{path}: " + ("; ".join(problems) if len(problems) == 1 else

@@ -390,7 +390,8 @@ def _defaults_for(path: Path) -> dict[str, SignalSource]:
 
 
 def read_mcap_log(path: str | Path, angle_unit: str = "auto", signals: list[str] | None = None,
-                  time_source: str = "auto", voltage_time: str = "stamp", held: dict[str, float] | None = None) -> Log:
+                  time_source: str = "auto", voltage_time: str = "stamp",
+                  held: dict[str, float] | None = None) -> Log:
     """Read an MCAP log: the angles' topic is the time grid, the voltages held on it (see align); ``held``:
     inputs not logged, held at a constant [V] (``--signal u2=0``).  Topics missing are named together."""
     path = Path(path)
@@ -523,7 +524,8 @@ def align(path: Path, per_signal: dict, angle_unit: str, sha: str, warnings: lis
     if warnings:
         meta["warnings"] = "; ".join(warnings)
     return validated(t_s, cols["u1"], cols["u2"], cols["alpha"], cols["beta"], source=str(path), sha256=sha,
-                     locate=lambda i: f"{topic_a} message {i + first_valid}", meta=meta, angle_unit=angle_unit, time_unit="s",
+                     locate=lambda i: f"{topic_a} message {i + first_valid}", meta=meta, angle_unit=angle_unit,
+                     time_unit="s",
                      u_switch_s=sw if voltage_time == "stamp" else None)
 
 

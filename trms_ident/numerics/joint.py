@@ -12,9 +12,10 @@ efficient step (_efficient_step): the logs' score equations weighted by the inve
 that the pooled J/B is the precision-weighted mean of the logs' own estimates and its covariance
 (sum over logs of S_log M_log^-1 S_log)^-1; Student's t on the total number of blocks. M_log is S_log C_log S_log
 when the log's own estimate gave a covariance C_log of all four (Run.cov_jb: batch means, widened by the rounding's
-spread on an encoder's grid; joint.py hands its diagonal, the variances, so the weights are per parameter), so that a pool of one log reports that log's own interval and no pool is wider than
-any of its logs; else the batch-means variance of its scores at the pooled fit (its own nuisance unknowns
-projected out). A fit that did not converge keeps the sandwich S^-1 (sum of M_log) S^-1 of its last iterate.
+spread on an encoder's grid; joint.py hands its diagonal, the variances, so the weights are per parameter), so
+that a pool of one log reports that log's own interval and no pool is wider than any of its logs; else the
+batch-means variance of its scores at the pooled fit (its own nuisance unknowns projected out). A fit that did
+not converge keeps the sandwich S^-1 (sum of M_log) S^-1 of its last iterate.
 """
 from __future__ import annotations
 
@@ -212,10 +213,10 @@ def _efficient_step(jb: np.ndarray, system: list, meats: list) -> tuple[np.ndarr
     Where M = S C S (the log's own covariance C), S M^-1 S = C^-1 and S^-1 r is the step to that log's own optimum,
     so theta is the precision-weighted mean of the logs' own estimates, weights C^-1, and its covariance
     (sum C^-1)^-1 is no wider than any log's own in any direction (joint.py hands a diagonal C, the log's
-    variances: its batch means' correlations are too noisy to weight by, joint._own_cov). A scalar weight per log cannot do that when the
-    logs' noise is coloured differently (one log's J1 is best, another's B1): with the best scalar weights the
-    pooled J1 and B1 of one benchmark bench were both 1.25x the best single log's. The step is the estimate only if
-    it stays positive; else the output-error fit with its sandwich covariance is kept."""
+    variances: its batch means' correlations are too noisy to weight by, joint._own_cov). A scalar weight per log
+    cannot do that when the logs' noise is coloured differently (one log's J1 is best, another's B1): with the best
+    scalar weights the pooled J1 and B1 of one benchmark bench were both 1.25x the best single log's. The step is
+    the estimate only if it stays positive; else the output-error fit with its sandwich covariance is kept."""
     infos, rhs = [], []
     for e, meat in zip(system, meats):
         s_m = e.s_gg @ _scaled_inverse(meat)  # the weights w cancel: (w S)(w^2 M)^-1 (w S) = S M^-1 S
