@@ -15,7 +15,7 @@ from __future__ import annotations
 import hashlib
 import math
 import threading
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any, Callable
 
@@ -146,7 +146,7 @@ def _settings_and_read(params: dict | str | Path | None, options: dict) -> tuple
     """The library's keyword options split into validated Settings (known values from ``params``, a dict or a
     TOML file whose declared input unit is kept) and the reader's options; an unknown option is refused."""
     from .errors import SettingsError
-    from .params import load_parameter_file, parameter_file_inputs_unit
+    from .params import bench_settings
 
     options = dict(options)
     unknown = set(options) - _SETTINGS - set(_READ)
@@ -155,10 +155,11 @@ def _settings_and_read(params: dict | str | Path | None, options: dict) -> tuple
                             f"{', '.join(sorted(_SETTINGS - {'overrides'}))} or {', '.join(_READ)}")
     read = {k: options.pop(k) for k in _READ if k in options}
     if isinstance(params, (str, Path)):
-        path, params = params, load_parameter_file(params)
-        unit = parameter_file_inputs_unit(path)
-        if unit:
-            options.setdefault("inputs_unit", unit)
+        bench = bench_settings(params)
+        params = bench.pop("overrides")
+        for k, v in bench.items():
+            if v:
+                options.setdefault(k, v)
     settings = Settings(overrides=dict(params or {}), **{k: (tuple(v) if k == "free" else v)
                                                           for k, v in options.items()})
     settings.validate()
@@ -246,7 +247,43 @@ def diagnose(log, *, params: dict | str | Path | None = None, thrust_law: str = 
     if isinstance(params, (str, Path)):
         path, params = params, load_parameter_file(params)
         data = with_inputs_unit(data, parameter_file_inputs_unit(path))
-    return run(data, dict(params or {}), thrust_law, filter_a_rad_s, progress=progress)
+    d = run(data, dict(params or {}), thrust_law, filter_a_rad_s, progress=progress)
+    if progress is not None:
+        progress("J/B under the findings' model", 0.99)
+    return replace(d, with_findings=under_findings(data, d, dict(params or {}), thrust_law))
+
+
+def under_findings(log, d, overrides: dict, thrust_law: str) -> dict | None:
+    """J/B estimated as ``estimate --params`` would under the bench file ``export`` writes from diagnosis ``d``:
+    the known-value findings' refits among the known values, the effect findings in the model, the same 95 %
+    intervals, identifiability and adequacy verdict (identify); None without findings."""
+    from .errors import TrmsError
+    from .identify import identify, model_name
+    from .model.bench import known_keys
+    from .report.summary import interval_text
+
+    if not d.findings:
+        return None
+    known = dict(overrides)
+    effects = {}
+    for f in d.findings:
+        if f.effect == "known_value":
+            known[f.parameter["name"]] = float(f.parameter["value"])
+        elif f"{f.effect}:{f.axis}" in known_keys():
+            effects[f"{f.effect}:{f.axis}"] = float(f.parameter["value"])
+    settings = Settings(thrust_law=thrust_law, overrides=known, effects=effects)
+    try:
+        res = identify(log, settings)
+    except (TrmsError, np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
+        return {"model": model_name(settings), "estimates": None, "error": str(exc)}
+    iv = res.intervals
+    return {"model": model_name(settings), "headline": res.headline,
+            "estimates": {k: res.estimates[k] for k in iv},
+            "ci95": {k: [iv[k].low, iv[k].high] if math.isfinite(iv[k].low) else None for k in iv},
+            "identifiable": {k: iv[k].identifiable for k in iv}, "identifiability": {k: iv[k].reason for k in iv},
+            "adequate": res.model_check["adequate"], "sentence": res.model_check["sentence"],
+            "text": "  ".join(f"{k} {res.estimates[k]:.6g} {interval_text(iv[k].low, iv[k].high, res.estimates[k])}"
+                              if res.estimates[k] is not None else f"{k} not identifiable" for k in iv)}
 
 
 def simulate(ref: str = "square", **options):

@@ -29,8 +29,8 @@ from . import __version__
 from .errors import (EXIT_ALL_FAILED, EXIT_INADEQUATE, EXIT_INTERNAL, EXIT_SOME_FAILED, EXIT_UNDECIDED,
                      JoinedRunsError, SettingsError, TrmsError)
 from .settings import GAIN_CONVENTIONS, HEADLINES, Settings
-from .params import (ESTIMATED, THRUST_LAWS, UNITS, bench_names, load_parameter_file, marked,
-                     parameter_file_inputs_unit)
+from .params import (ESTIMATED, THRUST_LAWS, UNITS, bench_names, bench_settings, load_parameter_file, marked,
+                     parameter_file_inputs_unit, unit_of)
 
 app = typer.Typer(
     name="trms-ident",
@@ -181,9 +181,7 @@ def build_settings(a: str, b: str, gain_convention: str, gamma: str, settle: flo
     settings = Settings(filter_a_rad_s=parse_auto("--a", a), filter_b_rad_s=parse_auto("--b", b),
                         gain_convention=gain_convention, gamma=parse_gamma(gamma), settle_time_s=settle,
                         thrust_law=thrust_law, headline=headline, refine=refine,
-                        free=tuple(x.strip() for x in free.split(",") if x.strip()),
-                        overrides=load_parameter_file(params) if params else {},
-                        inputs_unit=parameter_file_inputs_unit(params) if params else None)
+                        free=tuple(x.strip() for x in free.split(",") if x.strip()), **bench_settings(params))
     settings.validate()
     return settings
 
@@ -339,6 +337,8 @@ def _say_estimate(res, log: Path, json_path: str | None, strict: bool) -> None:
         say("  " + timing_line)
     say(f"  filters: a = {res.result.settings.filter_a_rad_s:g} rad/s, b = {res.result.settings.filter_b_rad_s:g} rad/s"
         f" ({'designed from the log' if res.result.design else 'given'})")
+    if s["model"]["effects"]:
+        say(f"  model: {s['model']['equation']}")
     say(f"  estimate: {res.result.headline}; {res.result.refine_note}")
     tv = s.get("truth", {})
     for k in ESTIMATED:
@@ -356,7 +356,7 @@ def _say_estimate(res, log: Path, json_path: str | None, strict: bool) -> None:
             line += f"   truth {tv['values'][k]:.6g}, error {tv['error_percent'][k]:+.3f} %"
         say(line)
     for k, v in ((s.get("refined") or {}).get("known_values_estimated") or {}).items():
-        say(f"  {k} = {v['estimate']:<11.6g} {UNITS[k]:<10} 95 % {interval_text(*v['ci95'], v['estimate'])}   "
+        say(f"  {k} = {v['estimate']:<11.6g} {unit_of(k):<10} 95 % {interval_text(*v['ci95'], v['estimate'])}   "
             f"(estimated with --free; given {v['table_or_file_value']:.6g})")
     say("wrote " + ", ".join(str(p) for p in res.written))
     if json_path:
@@ -499,6 +499,12 @@ def diagnose(
         data = with_inputs_unit(data, parameter_file_inputs_unit(params))
     for note in data.meta.get("assumed", {}).values():
         say(f"note: {note}")
+    from .params import parameter_file_effects
+
+    given = [e.key for e in parameter_file_effects(params)] if params else []
+    if given:
+        say(f"note: {params} holds effects ({', '.join(given)}); diagnose starts from eq. (1) with its known values "
+            "and searches the whole library, those included (it does not yet take them as given)")
     if progress:
         sys.stderr.write("\r\033[K")
     with progress_bar(str(log)) as advance:  # a bar on a terminal, nothing when stderr is piped
@@ -523,6 +529,12 @@ def diagnose(
             say(f"     fit {fit_change(f.fit_before, f.fit_after)}; {f.evidence}")
         say("  estimates  " + "  ".join(f"{k} {marked(k, d.nominal[k])} -> {marked(k, d.augmented[k])}"
                                         for k in ESTIMATED))
+        w = d.with_findings
+        if w is not None and w.get("estimates") is not None:
+            fits = {True: "fits", False: "does NOT fit", None: "fit not decided"}[w["adequate"]]
+            say(f"  under the findings' model ({fits}; `trms-ident export` writes it for --params), 95 %: {w['text']}")
+        elif w is not None:
+            say(f"  under the findings' model: no estimate ({w['error']})")
     if d.held_out is not None:
         say("  " + held_out_sentence(d.held_out, bool(d.findings)))
     for r in d.refused:
@@ -551,6 +563,23 @@ def parse_effect(text: str) -> dict:
         return spec
     except ValueError:
         raise SettingsError(f"--effect {text!r}: expected NAME=VALUE or NAME:AXIS=VALUE") from None
+
+
+def _sim_effects(params: Path | None, given: list[str] | None) -> list[dict]:
+    """The simulator's effects: the parameter file's [effects] (the bench as diagnosed), then --effect (which
+    replaces the file's value of the same effect and axis)."""
+    from sim.effects import EFFECTS
+
+    from .model.bench import simulator_specs
+    from .params import parameter_file_effects
+
+    specs = {f"{x['effect']}:{x['axis']}": x for x in
+             (simulator_specs({e.key: e.value for e in parameter_file_effects(params)}) if params else [])}
+    for text in given or []:
+        spec = parse_effect(text)
+        known = EFFECTS.get(spec["effect"])
+        specs[f"{spec['effect']}:{spec.get('axis', known.axes[0] if known else '')}"] = spec  # unknown: sim says
+    return list(specs.values())
 
 
 @app.command(short_help="Simulate the bench in closed loop; write a log and its ground truth.")
@@ -610,7 +639,7 @@ def simulate(
     options = dict(duration_s=duration, sample_rate_hz=rate, seed=seed, noise_std_rad=noise,
                    quantization_rad=quantization, thrust_law=thrust_law, u_limit_v=u_limit,
                    overrides=load_parameter_file(params, allow_estimated=True) if params else {},
-                   effects=[parse_effect(e) for e in effect or []], jitter=jitter, start_s=start,
+                   effects=_sim_effects(params, effect), jitter=jitter, start_s=start,
                    voltage_offset=voltage_offset)
     if table is not None:
         options["ref_table"] = (table.t_s, table.alpha_ref_rad, table.beta_ref_rad)
@@ -882,6 +911,8 @@ def _estimate_joint(logs: list[Path], manifest: Path | None, settings: Settings,
             say(f"note: {left['part']} (t = {left['from_s']:.6g} to {left['to_s']:.6g} s) left out: {left['why']}")
     say(("LOGS DISAGREE: " if j["consistent"] is False else "AGREEMENT NOT TESTED: " if j["consistent"] is None
          else "LOG(S) LEFT OUT: " if j["outliers"] else "LOGS AGREE: ") + j["sentence"])
+    if j["model"]["effects"]:
+        say(f"  model: {j['model']['equation']}")
     for lg in j["logs"]:
         check = lg["model_check"]
         say(f"  {lg['name']}: " + ("left out of the pool" if not lg["in_pool"] else
@@ -917,17 +948,32 @@ def mat_signal_line(s: dict) -> str:
 @app.command()
 @handled
 def export(
-    result: Annotated[Path, typer.Argument(help="A result.json written by estimate.", show_default=False)],
+    result: Annotated[Path, typer.Argument(help="A result.json written by estimate, or a diagnosis.json written by "
+                                          "diagnose.", show_default=False)],
     output: Annotated[Optional[Path], typer.Option("--output", "-o", help="TOML file to write [default: model.toml "
-                                                   "beside the result].")] = None,
+                                                   "beside a result.json, bench.toml beside a diagnosis.json].")] = None,
 ) -> None:
-    """Write the identified model as a TOML parameter file (known values + identified J/B) for simulate and
-    --params."""
+    """Write the identified model as a TOML parameter file for --params: from a result.json its known values
+    and J/B; from a diagnosis.json the bench as diagnosed (known values with the refitted ones, the findings as
+    [effects], the findings' model's J/B)."""
+    from .errors import InputNotFoundError
     from .io.atomic import write_text
     from .params import to_toml
 
-    from .commands import read_result
+    from .commands import bench_from_diagnosis, read_result
 
+    if not result.is_file():
+        raise InputNotFoundError(f"{result}: no such file")
+    bench = bench_from_diagnosis(result)
+    if bench is not None:  # a diagnosis.json: the bench as diagnosed
+        path = output or result.with_name("bench.toml")
+        write_text(path, to_toml(bench["known"], bench["identified"], bench["header"], bench["effects"],
+                                 bench["sources"]))
+        for w in bench["warnings"]:
+            say(f"warning: {w}")
+        what = ", ".join(e.key for e in bench["effects"]) or "no effect"
+        say(f"wrote {path} ({what}; known values {'with refits' if bench['sources'] else 'as given'})")
+        return
     doc, known, freed, estimates = read_result(result)
     check = doc["model_check"]
     missing = [k for k in ESTIMATED if estimates.get(k) is None]

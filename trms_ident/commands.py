@@ -52,13 +52,71 @@ def read_result(result: Path) -> tuple[dict, dict, dict, dict]:
         doc = json.loads(result.read_text(encoding="utf-8"))
         known = {k: v["value"] for k, v in doc["parameters"].items()}
         freed = ((doc.get("refined") or {}).get("known_values_estimated") or {})
-        known.update({k: v["estimate"] for k, v in freed.items()})
+        known.update({k: v["estimate"] for k, v in freed.items() if k in known})  # an effect's: its [effects]
         estimates, _ = doc["estimates"], doc["model_check"]["adequate"]
     except FileNotFoundError:
         raise InputNotFoundError(f"{result}: no such file") from None
     except (ValueError, KeyError, TypeError, AttributeError) as exc:
         raise LogFormatError(f"{result}: not a result.json of trms-ident estimate ({exc})") from None
     return doc, known, freed, estimates
+
+
+def bench_from_diagnosis(path: Path) -> dict | None:
+    """The bench file ``export`` writes from a diagnosis.json of diagnose, or None when the file is not one:
+    {"known": the known values given with the known-value findings' refits, "sources": name -> where from,
+    "effects": the findings as model.bench.BenchEffect, "identified": J/B of the findings' model, "header",
+    "warnings": what cannot go into the file or does not hold}.  One-line errors naming the file."""
+    import json
+
+    from .errors import LogFormatError
+    from .model.bench import BenchEffectError, known_keys, parse_effect
+
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (ValueError, UnicodeDecodeError):
+        return None
+    if not (isinstance(doc, dict) and "findings" in doc and "verdict" in doc):
+        return None
+    try:
+        given = doc["settings"]["known_values"]
+        known = {k: float(v["value"]) for k, v in given.items()}
+        sources = {k: "given to diagnose (--params)" for k, v in given.items() if v.get("source") == "override"}
+        where = f"diagnose of {doc['input']['path']} (sha256 {str(doc['input']['sha256'])[:12]})"
+        effects, warnings = [], []
+        for f in doc["findings"]:
+            if f["effect"] == "known_value":
+                name = f["parameter"]["name"]
+                known[name] = float(f["parameter"]["value"])
+                sources[name] = f"refitted by {where}; the table's {f['parameter'].get('table')}"
+                continue
+            key = f"{f['effect']}:{f['axis']}"
+            if key not in known_keys():
+                warnings.append(f"{key}: not an effect a bench file can hold; left out")
+                continue
+            try:
+                effects.append(parse_effect(key, {"from": where, f["parameter"]["name"]: f["parameter"]["value"]}))
+            except BenchEffectError as exc:
+                warnings.append(f"{exc}; left out")
+        jb = (doc["estimates"].get("with_findings") or {}).get("estimates") or doc["estimates"]["augmented"]
+        verdict = doc["verdict"]
+    except (KeyError, TypeError, AttributeError) as exc:
+        raise LogFormatError(f"{path}: a diagnosis.json, but not one this version can export (missing {exc}); "
+                             "run trms-ident diagnose again") from None
+    if doc.get("corrections"):
+        warnings.append("outside the library: " + "; ".join(c["sentence"] for c in doc["corrections"]) +
+                        " (a description, not a model: not in the file)")
+    if verdict not in ("explained", "consistent"):
+        warnings.append(f"the diagnosis is {verdict.replace('_', ' ')}: the findings do not bring the model to the "
+                        "noise level, so this model still misses something")
+    header = [f"the bench as diagnosed by trms-ident {doc.get('versions', {}).get('trms-ident', '?')}: {where}",
+              f"verdict: {verdict}; findings: " + (", ".join(
+                  f"{f['effect']}:{f['axis']}" if f["effect"] != "known_value" else f["parameter"]["name"]
+                  for f in doc["findings"]) or "none"),
+              "estimate, simulate and design read it with --params; the J/B below are diagnose's (simulate takes "
+              "them as the true values, estimate ignores them)"]
+    identified = {k: v for k, v in (jb or {}).items() if isinstance(v, (int, float)) and v > 0}
+    return {"known": known, "sources": sources, "effects": tuple(effects), "identified": identified,
+            "header": header, "warnings": warnings}
 
 
 def read_diagnosis(path: Path) -> tuple[dict, object, tuple, dict, dict]:

@@ -91,6 +91,50 @@ def on_uniform_grid(log: Log, params: dict) -> tuple[Log, tuple | None]:
                    beta_rad=ang[:, 1], u_switch_s=None), motor
 
 
+def under_model(log: Log, params: dict, effects: dict) -> tuple[Log, dict]:
+    """The log and known values as the bench's model sees them (model/bench.py): the voltages through its input
+    modifications (dead zone, saturation, transport delay, second-order motor), a motor time constant in place of
+    T11 or T21, the angles with an acquisition lag undone (diagnosis.model.observed_log).  Its torque effects are
+    the refinement's (model_kw).  Unchanged without modifications."""
+    from .model.bench import MODIFICATION_KEYS
+    from .model.effects import SENSOR_LAG
+
+    mods = {k: v for k, v in effects.items() if k in MODIFICATION_KEYS}
+    if not mods:
+        return log, params
+    from .diagnosis.model import modified_inputs, observed_log
+
+    lag = mods.pop(SENSOR_LAG, None)
+    if lag is not None:
+        log = observed_log(log, lag)
+    u1, u2, changes = modified_inputs(log, mods)
+    return replace(log, u1_v=np.array(u1, dtype=float), u2_v=np.array(u2, dtype=float)), {**params, **changes}
+
+
+def model_name(settings: Settings) -> str:
+    """'eq. (1)', or 'eq. (1) + a second-order tail motor (T2 = 0.463 s)' under a bench file's effects."""
+    from .model.bench import BenchEffect, describe
+
+    return describe(tuple(BenchEffect(k, float(v)) for k, v in settings.effects.items()))
+
+
+def refined_free(settings: Settings) -> tuple:
+    """The values the refinement estimates with J/B: known values and torque effects (--free); an input
+    modification's value freed is profiled outside it (model_profile.py)."""
+    from .model.bench import MODIFICATION_KEYS
+
+    return tuple(k for k in settings.free if k not in MODIFICATION_KEYS)
+
+
+def model_kw(settings: Settings, values: dict | None = None) -> dict:
+    """refine's ``effects``: the bench's torque effects at their values (``values``: freed ones' estimates in
+    their place); empty under eq. (1) alone."""
+    from .model.bench import TORQUE_KEYS
+
+    effects = {k: (values or {}).get(k, v) for k, v in settings.effects.items() if k in TORQUE_KEYS}
+    return {"effects": effects} if effects else {}
+
+
 def timing(log: Log, n: int | None = None) -> dict:
     """The refinement's view of the first n samples' time: stamps when they jitter, voltage switch delays
     when the voltages act at their own times (refine's ``t_s`` and ``switch_delay_s``)."""
@@ -103,7 +147,15 @@ def identify(log: Log, settings: Settings | None = None) -> Result:
     """Estimate J1, B1, J2, B2 from a validated log with the DREM procedure (eqs. 3-8)."""
     settings = settings or Settings()
     settings.validate()
+    from .model.bench import MODIFICATION_KEYS
+
+    profiled = [k for k in settings.free if k in MODIFICATION_KEYS]
+    if profiled:  # an input modification's value freed: profiled over it (model_profile.py)
+        from .model_profile import with_profiles
+
+        return with_profiles(log, settings, profiled, identify)
     params = merge(settings.overrides, source="parameter overrides")
+    log, params = under_model(log, params, settings.effects)
     _long_enough(log, params)
     grid_log, motor = on_uniform_grid(log, params)
     settings, design = resolve_filters(grid_log, settings)
@@ -191,7 +243,7 @@ def _refine_first(log: Log, n: int, params: dict, settings: Settings, start: dic
     """The refinement on the log's first n samples, with its stamps and voltage switch times; ``options``:
     refine's (window_s, start_states0)."""
     return refine(log.u1_v[:n], log.u2_v[:n], log.alpha_rad[:n], log.beta_rad[:n], log.sample_time_s, params,
-                  settings.thrust_law, start, noise, free=free, **timing(log, n), **options)
+                  settings.thrust_law, start, noise, free=free, **model_kw(settings), **timing(log, n), **options)
 
 
 #: motor and reaction-lag start states at rest, a second way into the fit when the steady state of the first
@@ -219,8 +271,8 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
     """The adequacy verdict from the best fit the model reaches: the refinement's simulation when it ran,
     else an output-error fit made for the check alone over at most CHECK_MAX_STEPS integration steps."""
     dt = log.sample_time_s
-    scope = (f"output-error simulation of eq. (1) at the refined parameters, in {WINDOW_S:g} s windows from "
-             "fitted starts (start states estimated)")
+    scope = (f"output-error simulation of {model_name(settings)} at the refined parameters, in {WINDOW_S:g} s "
+             "windows from fitted starts (start states estimated)")
     n = len(log) if r is not None else min(len(log), max(CHECK_MAX_STEPS // substeps(dt), 10))
     noise = _noise(log, n)
     if r is None:
@@ -231,7 +283,7 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
             return {"adequate": False, "axes": {}, "simulation": "none", "caution": None,
                     "sentence": f"The model could not be fitted to this log for the adequacy check ({e}); treat "
                                 "every number as unverified."}, None
-        scope = (f"output-error fit of eq. (1) made for this check over the first {n * dt:.6g} s (of "
+        scope = (f"output-error fit of {model_name(settings)} made for this check over the first {n * dt:.6g} s (of "
                  f"{log.duration_s:.6g} s), in {WINDOW_S:g} s windows from fitted starts; the headline estimate "
                  "is not this fit")
     y = np.column_stack([log.alpha_rad[:n], log.beta_rad[:n]])
@@ -295,7 +347,7 @@ def _blame(check: dict, log: Log, settings: Settings, params: dict) -> None:
     log's first SUSPECT_MAX_STEPS integration steps; a value is named only if freeing it alone makes the model
     fit.  ``check["known_values"]`` keeps the search for diagnose, which reads this same result."""
     fit, noise, n = known_value_fit(log, settings, check)
-    free = tuple(settings.free)
+    free = refined_free(settings)
     try:
         found = known_values.search(fit, params, noise, n, free=free)
     except (np.linalg.LinAlgError, FloatingPointError, ValueError, ZeroDivisionError):
@@ -316,7 +368,7 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
     steps = len(log) * substeps(dt)
     if settings.refine == "off":
         return None, "refinement off (--refine off)", False
-    if settings.refine == "auto" and steps > REFINE_AUTO_MAX_STEPS and not settings.free:
+    if settings.refine == "auto" and steps > REFINE_AUTO_MAX_STEPS and not settings.free and not model_kw(settings):
         return None, (f"refinement skipped: the log needs {steps:,} integration steps, more than the automatic "
                       f"limit of {REFINE_AUTO_MAX_STEPS:,} (use --refine on to force it); DREM's offline "
                       "optimum is the estimate"), False
@@ -331,7 +383,7 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
                               " (DREM's offline optimum is no start: a value is not positive)"),
          {k: params[k] for k in ESTIMATED})]
     r, origin = None, ""
-    free = tuple(settings.free)
+    free = refined_free(settings)
     try:
         for name, start in starts:
             cand = _refine_first(log, len(log), params, settings, start, noise, free)
@@ -388,10 +440,12 @@ def _with_rounding(log: Log, settings: Settings, params: dict, r: Refined, noise
     if not any(q > 0 for q in quantum.values()):
         return r, ""
     freed = {k: v["estimate"] for k, v in r.freed.items()}
+    known = {k: v for k, v in freed.items() if k in params}
     try:
-        cov, _ = rounding_covariance(log.u1_v, log.u2_v, r.prediction, log.sample_time_s, {**params, **freed},
+        cov, _ = rounding_covariance(log.u1_v, log.u2_v, r.prediction, log.sample_time_s, {**params, **known},
                                      settings.thrust_law, r.estimate, noise, quantum, free=tuple(freed),
-                                     start_states0=r.start_states, **timing(log, len(log)))
+                                     start_states0=r.start_states, **model_kw(settings, freed),
+                                     **timing(log, len(log)))
     except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
         return r, "; the encoder's rounding spread could not be evaluated (intervals: batch means only)"
     ci95, ratio, wider = dict(r.ci95), np.ones(4), []

@@ -24,7 +24,7 @@ import numpy as np
 from scipy.special import chdtrc, stdtrit
 
 from .errors import IdentificationError
-from .identify import MOTORS_AT_REST, Result, _noise, identify, timing
+from .identify import MOTORS_AT_REST, Result, _noise, identify, model_kw, model_name, timing, under_model
 from .log import Log
 from .numerics.adequacy import model_check
 from .numerics.joint import JointFit, Run, noise_inflation, refine_joint
@@ -98,6 +98,9 @@ def identify_joint(logs: list[Log], settings: Settings | None = None, names: lis
     names = names or [log.source for log in logs]
     params = merge(settings.overrides, source="parameter overrides")
     verdicts = [_alone(log, name, settings) for log, name in zip(logs, names)]
+    # the pooled fit and its checks see the logs as the bench file's model does (identify does so per log)
+    seen = [under_model(log, params, settings.effects) for log in logs]
+    logs, params = [v[0] for v in seen], (seen[0][1] if seen else params)
     pool = list(range(len(logs)))
     fit = _pooled(logs, verdicts, pool, params, settings)
     test = _test(verdicts, pool, fit)
@@ -113,7 +116,7 @@ def identify_joint(logs: list[Log], settings: Settings | None = None, names: lis
         test = _test(verdicts, pool, fit, leave_out=test)
     _test_left_out(verdicts, pool, fit)
     for i, v in enumerate(verdicts):
-        v.model_check = _check_log(logs[i], fit, pool.index(i)) if i in pool else None
+        v.model_check = _check_log(logs[i], fit, pool.index(i), model_name(settings)) if i in pool else None
     estimates, ci95, why = {}, {}, {}
     for j, k in enumerate(ESTIMATED):
         est, (lo, hi) = fit.estimate[k], fit.ci95[k]
@@ -178,7 +181,7 @@ def _pooled(logs: list[Log], verdicts: list[LogVerdict], pool: list[int], params
                         tm["t_s"], tm["switch_delay_s"], starts0,
                         1.0 / max(noise_inflation(r if res.headline == "refined" else None), 1e-6),
                         _own_cov(verdicts[i], res)))
-    return refine_joint(runs, params, settings.thrust_law, start)
+    return refine_joint(runs, params, settings.thrust_law, start, effects=model_kw(settings).get("effects"))
 
 
 def _own_cov(v: LogVerdict, res: Result) -> np.ndarray | None:
@@ -260,12 +263,12 @@ def _test_left_out(verdicts: list[LogVerdict], pool: list[int], fit: JointFit) -
             _against(v, [verdicts[m] for m in pool])
 
 
-def _check_log(log: Log, fit: JointFit, k: int) -> dict:
+def _check_log(log: Log, fit: JointFit, k: int, model: str = "eq. (1)") -> dict:
     run = fit.runs[k]
     n = len(log)
     y = np.column_stack([log.alpha_rad, log.beta_rad])
     u = np.column_stack([log.u1_v, log.u2_v])
-    scope = ("output-error simulation of eq. (1) at the pooled J/B, this log's own start states, in 40 s windows "
+    scope = (f"output-error simulation of {model} at the pooled J/B, this log's own start states, in 40 s windows "
              "from fitted starts")
     return model_check(y, run["prediction"], u, _noise(log, n), log.sample_time_s, scope)
 

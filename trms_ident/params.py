@@ -57,6 +57,15 @@ THRUST_LAWS = {
 }
 
 
+def unit_of(name: str) -> str:
+    """The unit of a parameter of the table or of an effect's parameter (its key, "cable_stiffness:yaw")."""
+    if name in UNITS:
+        return UNITS[name]
+    from .model.effects import BY_KEY
+
+    return BY_KEY[name].unit if name in BY_KEY else ""
+
+
 def defaults() -> dict[str, float]:
     """All parameter values of the table, by name."""
     return {p.name: p.value for p in PARAMETERS}
@@ -112,10 +121,17 @@ def merge(overrides: Mapping[str, float] | None, *, source: str = "overrides") -
     return values
 
 
-def to_toml(known: dict[str, float], identified: dict[str, float], header: list[str]) -> str:
-    """A parameter file: comment lines, [parameters] (known values) and [identified] (J/B), with units."""
+def to_toml(known: dict[str, float], identified: dict[str, float], header: list[str], effects: tuple = (),
+            sources: dict | None = None) -> str:
+    """A parameter file: comment lines, [parameters] (known values, each with where it came from when
+    ``sources`` says), [effects] (model.bench.BenchEffect each) and [identified] (J/B), with units."""
+    from .model.bench import to_toml_lines
+
+    sources = sources or {}
     lines = [f"# {h}" for h in header] + ["", "[parameters]"]
-    lines += [f"{k} = {float(v)!r}  # {UNITS[k]}" for k, v in known.items()]
+    lines += [f"{k} = {float(v)!r}  # {UNITS[k]}" + (f"; {sources[k]}" if k in sources else "")
+              for k, v in known.items()]
+    lines += to_toml_lines(tuple(effects))
     lines += ["", "# estimated; `simulate --params` uses them as the true values, `estimate --params` ignores them",
               "[identified]"]
     lines += [f"{k} = {float(v)!r}  # {UNITS[k]}" for k, v in identified.items() if v is not None]
@@ -175,7 +191,7 @@ def load_parameter_file(path: str | Path, allow_estimated: bool = False) -> dict
     table = raw.get("parameters", raw)
     if not isinstance(table, dict):
         raise ParameterFileError(f"{path}: [parameters] must be a table of name = value")
-    overrides = {k: v for k, v in table.items() if k not in ("parameters", "identified", "units")}
+    overrides = {k: v for k, v in table.items() if k not in ("parameters", "identified", "units", "effects")}
     identified = raw.get("identified", {})  # an exported model's J/B: true values for the simulator only
     if allow_estimated and isinstance(identified, dict):
         overrides.update({k: v for k, v in identified.items() if k in ESTIMATED})
@@ -185,4 +201,45 @@ def load_parameter_file(path: str | Path, allow_estimated: bool = False) -> dict
             f"{path}: {', '.join(given)} given, but J1, B1, J2, B2 are the unknowns trms-ident estimates; expected "
             "known values only (remove them; `simulate --params` accepts them as the true values)")
     merge(overrides, source=str(path))  # validate now, with the file's name in the message
+    _effects_of(path, raw)  # and the effects, so that every command refuses a bad entry alike
     return overrides
+
+
+def bench_settings(path: str | Path | None) -> dict:
+    """What a parameter file sets of the estimate's Settings: overrides (known values), inputs_unit, effects and
+    effect_sources (its [effects]); empty for None."""
+    if not path:
+        return {}
+    overrides = load_parameter_file(path)  # checks the whole file, [effects] too
+    effects = parameter_file_effects(path)
+    return {"overrides": overrides, "inputs_unit": parameter_file_inputs_unit(path),
+            "effects": {e.key: e.value for e in effects}, "effect_sources": {e.key: e.source for e in effects}}
+
+
+def parameter_file_effects(path: str | Path) -> tuple:
+    """The effects and structures beyond eq. (1) a parameter file's ``[effects]`` table holds (model.bench:
+    BenchEffect each, in the file's order; empty when it has none).  Read after :func:`load_parameter_file`."""
+    path = resolve_parameter_file(path)
+    return _effects_of(path, tomllib.loads(path.read_text(encoding="utf-8")))
+
+
+def _effects_of(path: Path, raw: dict) -> tuple:
+    from .model.bench import BenchEffectError, parse_effects
+
+    if "effects" not in raw:
+        return ()
+    try:
+        return parse_effects(raw["effects"])
+    except BenchEffectError as exc:
+        text = str(exc)
+        key = text.split('"')[1] if text.startswith('"') else None
+        line = _line_of(path, key) if key else _line_of(path, "[effects]")
+        raise ParameterFileError(f"{path}" + (f", line {line}" if line else "") + f": [effects] {text}") from None
+
+
+def _line_of(path: Path, needle: str) -> int | None:
+    """The first line of the file holding ``needle`` (1-based), or None."""
+    for i, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+        if needle in line.split("#")[0] or (needle.startswith("[") and line.strip().startswith(needle)):
+            return i
+    return None

@@ -33,6 +33,9 @@ class Settings:
     overrides: dict = field(default_factory=dict)  # known-parameter values replacing the table's
     free: tuple = ()  # known values estimated with J/B by the refinement (--free), started from table/file
     inputs_unit: str | None = None  # the input unit the known values take ([units] of --params); None: volts
+    #: the bench's effects and structures beyond eq. (1) ([effects] of --params, model/bench.py): key -> value
+    effects: dict = field(default_factory=dict)
+    effect_sources: dict = field(default_factory=dict)  # key -> where its value came from ("" when not said)
 
     def validate(self) -> None:
         for name in ("filter_a_rad_s", "filter_b_rad_s", "settle_time_s"):
@@ -52,9 +55,23 @@ class Settings:
             raise SettingsError(f"refine must be one of {REFINE_MODES}, got {self.refine!r}")
         if self.headline not in HEADLINES:
             raise SettingsError(f"headline must be one of {HEADLINES}, got {self.headline!r}")
+        from .model.bench import MODIFICATION_KEYS, TORQUE_KEYS
+
         for name in self.free:  # every known value can be freed (numerics.refine.FREEABLE; numba not loaded here)
+            if name in MODIFICATION_KEYS and name in self.effects:
+                continue  # profiled over its value (identify._profiled)
+            if name in TORQUE_KEYS and name in self.effects:
+                continue  # estimated with J/B by the refinement, from the bench file's value
+            if name in TORQUE_KEYS + MODIFICATION_KEYS:
+                raise SettingsError(f"--free {name}: the model has no {name} (free an effect of the bench file's "
+                                    "[effects]: " + (", ".join(self.effects) or "it has none") + ")")
             if name not in KNOWN:
-                raise SettingsError(f"--free {name}: expected known values among {', '.join(KNOWN)}")
+                raise SettingsError(f"--free {name}: expected known values among {', '.join(KNOWN)}, or an effect "
+                                    "of the bench file's [effects]")
+        torques = [k for k in self.effects if k in TORQUE_KEYS]
+        if torques and self.refine == "off":
+            raise SettingsError(f"--refine off with the bench file's {', '.join(torques)}: only the output-error "
+                                "refinement carries torque effects (DREM's regression is eq. (1)'s); drop --refine off")
         if self.free and self.refine == "off":
             raise SettingsError("--free needs the refinement (it estimates the freed values); drop --refine off")
         if self.gamma is not None:

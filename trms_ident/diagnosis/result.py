@@ -49,6 +49,9 @@ class Diagnosis:
     known_values_joint: dict | None = None
     #: the seed model's and the findings' model's held-out simulation fits (held_out.py); None when not run
     held_out: dict | None = None
+    #: J/B with 95 % intervals, identifiability and the adequacy verdict under the findings' model, estimated as
+    #: `estimate --params` does under the bench file `export` writes (api.under_findings); None without findings
+    with_findings: dict | None = None
 
 
 VERDICTS = {

@@ -14,7 +14,7 @@ from ..model.effects import UNOBSERVABLE, Candidate
 from ..numerics.adequacy import AXIS_OF, RMS_OVER_NOISE
 from ..numerics.design import design_filters
 from ..numerics.stats import block_length
-from ..params import PLAUSIBLE_FACTOR, merge, not_credible
+from ..params import KNOWN, PLAUSIBLE_FACTOR, merge, not_credible
 from . import oe
 from .discriminate import PAIR
 from .locate import lag_profile, regimes, segments
@@ -63,7 +63,8 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
                 break
             gated += refuse  # the search again without them: a rival they hid may hold on held-out samples
         refused = [{k: v for k, v in g.items() if k != "key"} for g in gated]
-        return replace(d, held_out=h, refused=d.refused + refused,
+        given = {k: {"value": p[k], "source": "override" if k in (overrides or {}) else "table"} for k in KNOWN}
+        return replace(d, held_out=h, refused=d.refused + refused, settings={**d.settings, "known_values": given},
                        verdict_sentence=d.verdict_sentence + gate_sentence(refused) + caution(h))
 
 

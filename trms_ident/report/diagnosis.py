@@ -26,7 +26,7 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
         "corrections": [{"axis": c.axis, "terms": c.terms, "sentence": c.sentence, "held_out_gain": c.held_out_gain,
                          "t": c.t, "p": c.p, "fit_before": c.fit_before, "fit_after": c.fit_after,
                          "estimates": c.estimates} for c in d.corrections],
-        "estimates": {"nominal": d.nominal, "augmented": d.augmented,
+        "estimates": {"nominal": d.nominal, "augmented": d.augmented, "with_findings": d.with_findings,
                       "not_credible": {"nominal": not_credible(d.nominal), "augmented": not_credible(d.augmented)}},
         "fit": {"measure": f"NRMSE fit [%] of {d.settings['horizon_s']:g} s multi-step predictions, each window "
                            "started from the angle and velocity fitted to it (a free run drifts on yaw, which has "
@@ -48,6 +48,11 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                                       f"physical) or is more than {PLAUSIBLE_FACTOR:g}x from Table 1 (implausible; "
                                       "a B may be arbitrarily small): why; such a value is a least-squares number of "
                                       "a model far from the bench, not a measurement",
+            "estimates.with_findings": "J, B estimated as `trms-ident estimate --params` does under the bench file "
+                                       "`trms-ident export` writes from this diagnosis (the findings in the model, "
+                                       "known-value findings among the known values): 95 % intervals (ci95; null: no "
+                                       "interval), identifiable, the adequacy verdict of that model (adequate, "
+                                       "sentence); null without findings",
             "estimates.augmented": "the same with the findings' terms added and refitted together; where those are "
                                    "not physical, the J, B of the output-error fit that decided the last finding; "
                                    "the output-error check's J, B when that fit of the findings' model reaches the "
@@ -99,6 +104,8 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                                                                 "chosen by its fit over the first 60 s among the "
                                                                 "seed model's choice, steady state, rest and the "
                                                                 "estimates; null: steady state)",
+            "settings.known_values": "the known values diagnose was given: value and source (table or override, "
+                                     "--params); `trms-ident export` writes them, with the findings, as the bench file",
             "settings.floors": "per axis the floor [rad] the output-error fits are weighted by and the verdict is "
                                "judged against, and which: noise (the measured noise floor), black_box (the angles "
                                "carry no measurable noise; the held-out error of the flexible black-box model the "

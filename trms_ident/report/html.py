@@ -103,6 +103,27 @@ def _refined_cell(refined: dict | None, k: str) -> str:
     return v if refined["used"] else f"{v} (not used)"
 
 
+def _model_line(doc: dict) -> str:
+    """The model the estimate was made under, when the bench file adds effects to eq. (1)."""
+    m = doc.get("model") or {}
+    if not m.get("effects"):
+        return ""
+    return f'<p><b>Model:</b> {html.escape(m["equation"])} (the bench file\'s [effects]).</p>'
+
+
+def _effect_table(doc: dict) -> str:
+    from .summary import interval_text
+
+    m = doc.get("model") or {}
+    if not m.get("effects"):
+        return ""
+    rows = "".join(_row([k, v["parameter"], _g(v["value"]), v["unit"],
+                         interval_text(*v["ci95"], v["value"]) if v["ci95"] else "-", v["how"], v["from"] or "-"])
+                   for k, v in m["effects"].items())
+    return (f"<h2>Effects beyond eq. (1)</h2><table>"
+            f"{_row(['effect', 'parameter', 'value', 'unit', '95 %', 'how', 'from'], 'th')}{rows}</table>")
+
+
 def render(doc: dict, result: Result, log: Log) -> str:
     from .figures import signals_figure, traces_figure  # matplotlib only when a report is asked for
     from .summary import interval_text, units_text
@@ -141,6 +162,7 @@ def render(doc: dict, result: Result, log: Log) -> str:
 sample time {inp['sample_time_s']:.6g} s.<br><span class="note">sha256 {inp['sha256']}</span>
 {f'<br><span class="note">{html.escape(units)}</span>' if units else ''}{_timing(inp)}</p>
 <h2>Estimates</h2>
+{_model_line(doc)}
 <table>{_row(head, 'th')}{''.join(rows)}</table>
 <p class="note"><b>Intervals:</b> {html.escape(doc['ci95_meaning'])}.</p>
 <p class="note">Headline: {html.escape(doc['headline_meaning'])}. Intervals: batch means over blocks
@@ -156,6 +178,7 @@ rounding causes; for DREM widened by the predicted errors-in-variables bias.</p>
 <h2>Settings</h2><table>{_row(['setting', 'value'], 'th')}{set_rows}</table>
 <h2>Known parameters used</h2>
 <table>{_row(['name', 'value', 'unit', 'source', 'meaning'], 'th')}{par_rows}</table>
+{_effect_table(doc)}
 <p class="note">Versions: {html.escape(ver)}.</p>
 </body></html>
 """

@@ -17,6 +17,12 @@ if TYPE_CHECKING:
 VERDICT = {True: "fits", False: "does NOT fit", None: "fit not decided"}
 
 
+def model_doc(effects: dict, sources: dict, freed: dict) -> dict:
+    from ..model.bench import model_doc as doc
+
+    return doc(effects, sources, freed)
+
+
 def joint_doc(result: JointResult, logs: list[Log]) -> dict:
     """The result.json contract of a joint estimate (documented in docs/joint.md)."""
     table = defaults()
@@ -45,6 +51,7 @@ def joint_doc(result: JointResult, logs: list[Log]) -> dict:
             "sentence": result.sentence,
             "test": result.test,
             "adequate": result.adequate,
+            "model": model_doc(result.settings.effects, result.settings.effect_sources, {}),
             "logs": per_log,
             "fit": {"method": "output error over all pooled logs at once (numerics/joint.py): J/B shared, each log's "
                               "start states, windows and noise weights its own; then one efficient step of the "

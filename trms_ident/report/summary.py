@@ -46,6 +46,12 @@ HEADLINE_MEANING = {
 }
 
 
+def model_doc(effects: dict, sources: dict, freed: dict) -> dict:
+    from ..model.bench import model_doc as doc
+
+    return doc(effects, sources, freed)
+
+
 def summarize(result: Result, log: Log, truth: dict | None = None, truth_source: str | None = None) -> dict:
     s = result.settings
     table = defaults()
@@ -67,6 +73,7 @@ def summarize(result: Result, log: Log, truth: dict | None = None, truth_source:
         "units": {k: UNITS[k] for k in ESTIMATED},
         "headline": result.headline,
         "headline_meaning": HEADLINE_MEANING[result.headline],
+        "model": model_doc(s.effects, s.effect_sources, result.refined.freed if result.refined else {}),
         "refinement": result.refine_note,
         "drem_final": result.drem_final,
         "traces_every_nth_sample": result.trace_step,

@@ -1,0 +1,192 @@
+"""A bench's model beyond eq. (1): the effects and structures a parameter file's ``[effects]`` table holds.
+
+Diagnose finds them; ``export`` writes them; estimate, joint, simulate and design read them back, so the model
+diagnose found is the bench's model from then on (docs/parameters.md, "The bench file").  Each effect is one
+entry of the model room (model/effects.py, CANDIDATES) with its one parameter:
+
+    [effects]
+    "motor_second_lag:yaw" = { T2 = 0.463, from = "diagnose of run.mat (sha256 1f2e...)" }
+    "cable_stiffness:yaw" = 0.004            # a bare number: the parameter's value
+
+How the estimate carries them (trms_ident/identify.py): input modifications (dead zone, saturation, transport
+delay, second-order motor) act on the logged voltages before DREM and the output-error refinement see them; a
+motor time constant replaces T11 or T21; an acquisition lag is undone on the logged angles (the exact inverse of
+its filter, diagnosis.model.observed_log); torque effects and the pitch offsets enter the output-error
+refinement's model (numerics/refine.py's effect slots) at their values, or free beside J/B (``--free KEY``).
+Pure: no files (params.py reads and writes the table).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from . import effects as room
+
+#: effects the output-error refinement carries in its model with their parameter free or fixed (numerics/refine.py,
+#: model.plant.EFFECT_SLOTS; listed here so that reading a parameter file does not load the compiled kernel)
+TORQUE_KEYS = ("com_offset:pitch", "coulomb_friction:pitch", "coulomb_friction:yaw", "quadratic_drag:pitch",
+               "quadratic_drag:yaw", "cable_stiffness:yaw", "thrust_asymmetry:pitch", "thrust_asymmetry:yaw",
+               "yaw_inertia_pitch:yaw", "sensor_offset:pitch")
+#: effects that change what drives the plant (the voltages, a motor's time constant) or what the log records
+#: (the acquisition lag): applied to the log before the fit, their value held
+MODIFICATION_KEYS = ("dead_zone:pitch", "dead_zone:yaw", "input_saturation:pitch", "input_saturation:yaw",
+                     "input_delay:both", "motor_lag:pitch", "motor_lag:yaw", "motor_second_lag:pitch",
+                     "motor_second_lag:yaw", room.SENSOR_LAG)
+
+#: what each key adds to eq. (1), in a few words (the report's model line)
+PHRASES = {
+    "coulomb_friction": "Coulomb friction", "quadratic_drag": "quadratic drag", "cable_stiffness": "a cable",
+    "com_offset": "a centre-of-mass offset", "sensor_offset": "an encoder offset", "thrust_asymmetry":
+    "a reversed rotor's thrust asymmetry", "yaw_inertia_pitch": "a pitch-dependent yaw inertia",
+    "sensor_lag": "an acquisition lag", "dead_zone": "a dead zone", "input_saturation": "a saturation",
+    "input_delay": "a transport delay", "motor_lag": "a motor time constant", "motor_second_lag":
+    "a second-order motor"}
+AXIS_WORDS = {"pitch": "pitch", "yaw": "yaw", "both": "both axes"}
+MOTOR_WORDS = {"pitch": "main motor", "yaw": "tail motor"}
+
+
+class BenchEffectError(ValueError):
+    """An ``[effects]`` entry that cannot be read: the message names the entry and what was expected."""
+
+
+@dataclass(frozen=True)
+class BenchEffect:
+    key: str  # "motor_second_lag:yaw": an effect of the model room on its axis
+    value: float  # its parameter's value, in the parameter's unit (room.BY_KEY[key].parameter, .unit)
+    source: str = ""  # where the value came from ("diagnose of run.mat (sha256 ...)"); "" when not said
+    ci95: tuple | None = None  # its 95 % interval when it was estimated
+
+    @property
+    def candidate(self) -> room.Candidate:
+        return room.BY_KEY[self.key]
+
+    @property
+    def torque(self) -> bool:
+        """Carried in the output-error refinement's model (may be freed); else a modification of the log."""
+        return self.key in TORQUE_KEYS
+
+    def phrase(self) -> str:
+        """'a second-order tail motor (T2 = 0.463 s)'."""
+        effect, axis = self.key.split(":")
+        c = self.candidate
+        value = room.with_unit(self.value, c.unit)
+        if effect in ("motor_second_lag", "motor_lag", "dead_zone", "input_saturation"):
+            what = PHRASES[effect].replace("motor", MOTOR_WORDS[axis]) if "motor" in PHRASES[effect] else \
+                f"{PHRASES[effect]} on the {MOTOR_WORDS[axis]}"
+        else:
+            what = f"{PHRASES[effect]}" + ("" if axis == "both" else f" on {AXIS_WORDS[axis]}")
+        return f"{what} ({c.parameter} = {value}" + (f", from {self.source}" if self.source else "") + ")"
+
+
+def parse_effects(table: dict, where: str = "[effects]") -> tuple[BenchEffect, ...]:
+    """The ``[effects]`` table of a parameter file as BenchEffects, in the file's order.  An unknown effect or
+    axis, a missing or extra parameter, or a value out of the parameter's plausible range raises
+    BenchEffectError naming the entry (the caller adds the file and line)."""
+    if not isinstance(table, dict):
+        raise BenchEffectError(f"{where} must be a table of \"effect:axis\" = {{ PARAMETER = value }}")
+    out = []
+    for key, spec in table.items():
+        out.append(parse_effect(key, spec))
+    return tuple(out)
+
+
+def known_keys() -> tuple[str, ...]:
+    return TORQUE_KEYS + MODIFICATION_KEYS
+
+
+def parse_effect(key: str, spec) -> BenchEffect:
+    """One ``[effects]`` entry: ``"effect:axis" = value`` or ``= { PARAMETER = value, from = "...", ci95 = [lo,
+    hi] }``."""
+    effect, _, axis = key.partition(":")
+    names = sorted({k.split(":")[0] for k in known_keys()})
+    if effect not in names:
+        raise BenchEffectError(f"\"{key}\": unknown effect {effect!r}; expected one of {', '.join(names)}")
+    axes = [k.split(":")[1] for k in known_keys() if k.split(":")[0] == effect]
+    if axis not in axes:
+        why = f" ({room.UNOBSERVABLE[key]})" if key in room.UNOBSERVABLE else ""
+        raise BenchEffectError(f"\"{key}\": {effect} acts on {' or '.join(axes)}, not {axis or 'no axis'!r}{why}; "
+                               f"write \"{effect}:{axes[0]}\"")
+    c = room.BY_KEY[key]
+    source, ci95 = "", None
+    if isinstance(spec, dict):
+        extra = sorted(set(spec) - {c.parameter, "from", "ci95"})
+        if extra:
+            raise BenchEffectError(f"\"{key}\": unexpected {', '.join(extra)}; expected {c.parameter} "
+                                   f"[{c.unit}], and optionally from and ci95")
+        if c.parameter not in spec:
+            raise BenchEffectError(f"\"{key}\": no value for its parameter {c.parameter} [{c.unit}]; expected "
+                                   f"{{ {c.parameter} = value }}")
+        value = spec[c.parameter]
+        source = spec.get("from", "")
+        if not isinstance(source, str):
+            raise BenchEffectError(f"\"{key}\": from must be text (where the value came from), got {source!r}")
+        ci95 = spec.get("ci95")
+        if ci95 is not None and not (isinstance(ci95, list) and len(ci95) == 2 and
+                                     all(_number(v) for v in ci95)):
+            raise BenchEffectError(f"\"{key}\": ci95 must be [low, high], got {ci95!r}")
+        ci95 = tuple(float(v) for v in ci95) if ci95 is not None else None
+    else:
+        value = spec
+    if not _number(value):
+        raise BenchEffectError(f"\"{key}\": {c.parameter} must be a finite number [{c.unit}], got {value!r}")
+    value = float(value)
+    if not c.plausible(value) or (effect == "motor_lag" and not value > 0):
+        lo, hi = c.bounds
+        rng = (f"> {lo:g}" if math.isinf(hi) else f"between {lo:g} and {hi:g}")
+        raise BenchEffectError(f"\"{key}\": {c.parameter} = {value:g} {c.unit} is not physical; expected {rng}")
+    return BenchEffect(key, value, source, ci95)
+
+
+def _number(v) -> bool:
+    return not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
+
+
+def describe(effects: tuple[BenchEffect, ...]) -> str:
+    """'eq. (1)' or 'eq. (1) + a second-order tail motor (T2 = 0.463 s, from ...)'."""
+    return "eq. (1)" + "".join(f" + {e.phrase()}" for e in effects)
+
+
+def to_toml_lines(effects: tuple[BenchEffect, ...]) -> list[str]:
+    """The ``[effects]`` table's lines (empty list: no effects)."""
+    if not effects:
+        return []
+    lines = ["", "# effects and structures beyond eq. (1) (docs/parameters.md): estimate, joint, simulate and design "
+             "use them", "[effects]"]
+    for e in effects:
+        c = e.candidate
+        parts = [f"{c.parameter} = {e.value!r}"]
+        if e.ci95 is not None:
+            parts.append(f"ci95 = [{e.ci95[0]!r}, {e.ci95[1]!r}]")
+        if e.source:
+            parts.append("from = " + _toml_string(e.source))
+        lines.append(f"\"{e.key}\" = {{ {', '.join(parts)} }}  # {c.unit}")
+    return lines
+
+
+def _toml_string(s: str) -> str:
+    return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def as_values(effects: tuple[BenchEffect, ...]) -> dict:
+    """key -> value (Settings.effects)."""
+    return {e.key: e.value for e in effects}
+
+
+def simulator_specs(effects: dict) -> list[dict]:
+    """Settings.effects (key -> value) as the simulator's effect list (sim.SimSettings.effects)."""
+    return [{"effect": k.split(":")[0], "axis": k.split(":")[1], "value": float(v)} for k, v in effects.items()]
+
+
+def model_doc(effects: dict, sources: dict, freed: dict) -> dict:
+    """result.json's "model": which model the estimate was made under.  ``effects`` key -> value (Settings),
+    ``sources`` key -> where from, ``freed`` the refinement's freed values (an effect's estimate and ci95)."""
+    items = tuple(BenchEffect(k, float(freed[k]["estimate"]) if k in freed else float(v), sources.get(k, ""))
+                  for k, v in effects.items())
+    return {"equation": describe(items),
+            "effects": {e.key: {"parameter": e.candidate.parameter, "unit": e.candidate.unit, "value": e.value,
+                                "from": e.source or None, "estimated": e.key in freed,
+                                "ci95": freed[e.key]["ci95"] if e.key in freed else None,
+                                "how": ("profiled: the output-error fit repeated over its value" if
+                                        freed.get(e.key, {}).get("profiled") else "estimated with J/B by the "
+                                        "output-error refinement") if e.key in freed else "held at the file's value"}
+                        for e in items}}

@@ -1,0 +1,158 @@
+"""An input modification's value estimated with J/B: a profile of the output-error fit over the value.
+
+A bench file's dead zone, saturation, transport delay, second-order motor or motor time constant changes what
+drives the plant, not its equations (model/bench.py), so the refinement has no sensitivity to follow for it (a
+dead zone's cost is even piecewise constant in its width).  ``--free dead_zone:yaw`` and the like are fitted as
+diagnose fits them (diagnosis/oe.py's profiles): the estimate is first made at the file's value; then the
+output-error fit is repeated on the voltages modified at trial values (J/B, the torque effects freed and the
+start states refitted from that estimate, a few Gauss-Newton iterations each), bounded Brent search over the
+logarithm of the value within PROFILE_SPAN of the file's; the estimate is made again at the best value.
+
+The value's standard error is the batch-means one of diagnose's profiles (oe.profile_se: the blocks' cost
+slopes at the minimum over the profile's curvature, never below what white errors give); its 95 % interval is
+Student t over the blocks.  J/B's intervals are widened by what that uncertainty moves them (the delta method:
+their slopes along the profile times the value's half-width, added in quadrature): the interval of a J or B
+then holds whether or not the value was known.  Pure numerics on a validated log: no files.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+from scipy.special import stdtrit
+
+from .errors import IdentificationError, SettingsError
+from .model.effects import BY_KEY, SENSOR_LAG
+from .numerics.refine import BLOCK_S
+from .params import ESTIMATED, merge
+
+#: the profile searches within this factor of the file's value either way
+PROFILE_SPAN = 4.0
+#: Gauss-Newton iterations per trial value, from the estimate at the file's value (diagnose's PROFILE_ITERATIONS)
+ITERATIONS = 8
+#: the search stops when the bracket is this narrow in the logarithm of the value (0.2 %)
+LOG_TOLERANCE = 2e-3
+#: profile rounds at most: the estimate remade at the best value, the profile searched again around it
+ROUNDS = 3
+#: the three fits whose block costs give the standard error sit this far apart, relative to the value
+SE_STEP = 0.02
+
+
+def with_profiles(log, settings, keys: list[str], identify):
+    """identify's Result with each of ``keys`` (input modifications of settings.effects in settings.free)
+    estimated by its profile; its estimate, ci95, se and how it was found in ``refined.freed[key]``."""
+    if SENSOR_LAG in keys:
+        raise SettingsError(f"--free {SENSOR_LAG}: an acquisition lag changes the angles the fit is scored on; "
+                            "estimate holds it at the bench file's value (diagnose fits it)")
+    settings = replace(settings, free=tuple(k for k in settings.free if k not in keys))
+    found = {}
+    for key in keys:
+        v0 = float(settings.effects[key])
+        value, span, tries = v0, math.log(PROFILE_SPAN), []
+        for _ in range(ROUNDS):  # the estimate at the current value, then its profile; again from the best
+            base = identify(log, settings)
+            if base.refined is None:
+                raise IdentificationError(f"{log.source}: --free {key} needs the output-error refinement, which did "
+                                          f"not run ({base.refine_note})")
+            fit, noise = _profile_fit(log, settings, key, base.refined)
+            tries.append((base.refined.cost, value))
+            x, x0 = _search(fit, math.log(value), span)
+            moved = abs(x - x0)
+            value = math.exp(x)
+            settings = replace(settings, effects={**settings.effects, key: value})
+            if moved < 2.5e-3:  # within a quarter of a percent of where the estimate was made: settled
+                break
+            span = max(4.0 * moved, 0.05)
+        at_edge = bool(abs(math.log(value / v0)) > math.log(PROFILE_SPAN) - 10 * LOG_TOLERANCE)
+        # batch-means standard error from three fits around the minimum (diagnose's profile_se)
+        base = identify(log, settings)
+        fit, noise = _profile_fit(log, settings, key, base.refined)
+        trial = [value * (1.0 - SE_STEP), value, value * (1.0 + SE_STEP)]
+        fits = [fit(v) for v in trial]
+        blocks = np.array([_block_costs(log, f.prediction, noise) for f in fits])
+        from .diagnosis.oe import profile_se
+
+        se = profile_se(np.array(trial), blocks, value)
+        nb = blocks.shape[1]
+        tq = float(stdtrit(max(nb - 1, 1), 0.975))
+        half = tq * se
+        slopes = {k: (fits[2].estimate[k] - fits[0].estimate[k]) / (trial[2] - trial[0]) for k in ESTIMATED}
+        found[key] = {"estimate": value, "ci95": [value - half, value + half], "se": se,
+                      "table_or_file_value": v0, "profiled": True, "at_search_edge": at_edge,
+                      "jb_slopes": slopes, "unit": BY_KEY[key].unit}
+    res = identify(log, settings)
+    if res.refined is not None:
+        freed = {**res.refined.freed, **{k: {kk: vv for kk, vv in v.items() if kk != "jb_slopes"}
+                                         for k, v in found.items()}}
+        ci95 = dict(res.refined.ci95)
+        for k in ESTIMATED:  # the delta method: the modification's half-width moves J/B along the profile
+            est = res.refined.estimate[k]
+            lo, hi = ci95[k]
+            extra = math.sqrt(sum((v["jb_slopes"][k] * (v["ci95"][1] - v["ci95"][0]) / 2.0) ** 2
+                                  for v in found.values()))
+            half = math.hypot((hi - lo) / 2.0, extra)
+            ci95[k] = (est - half, est + half)
+        refined = replace(res.refined, freed=freed, ci95=ci95)
+        res = _with_refined(res, refined, settings)
+    return res
+
+
+def _profile_fit(log, settings, key: str, r0):
+    """(value -> the output-error fit with ``key`` at that value, from ``r0``'s J/B and start states; the angles'
+    noise floors)."""
+    from .identify import _noise, _refine_first, under_model
+
+    params0 = merge(settings.overrides, source="parameter overrides")
+    n, noise = len(log), _noise(log, len(log))
+
+    def fit(v: float):
+        lg, pp = under_model(log, params0, {**settings.effects, key: v})
+        return _refine_first(lg, n, pp, settings, r0.estimate, noise, tuple(settings.free),
+                             max_iterations=ITERATIONS, start_states0=r0.start_states)
+
+    return fit, noise
+
+
+def _search(fit, x0: float, span: float) -> tuple[float, float]:
+    """(the best log-value within ``span`` of x0 by bounded Brent, x0): never worse than x0."""
+    costs: dict = {}
+
+    def cost(x: float) -> float:
+        x = float(x)
+        if x not in costs:
+            try:
+                c = float(fit(math.exp(x)).cost)
+                costs[x] = c if math.isfinite(c) else math.inf
+            except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
+                costs[x] = math.inf
+        return costs[x]
+
+    best = minimize_scalar(cost, bounds=(x0 - span, x0 + span), method="bounded", options={"xatol": LOG_TOLERANCE})
+    return float(min([float(best.x), x0], key=cost)), x0
+
+
+def _with_refined(res, refined, settings):
+    """The Result with its refinement's intervals widened (and its headline intervals when refined is the
+    headline), and ``settings`` (the profiled values in its effects)."""
+    from .identify import _refined_interval
+
+    if res.headline == "refined":
+        intervals = {k: _refined_interval(refined, k) for k in ESTIMATED}
+        estimates = {k: (refined.estimate[k] if intervals[k].identifiable else None) for k in ESTIMATED}
+        return replace(res, refined=refined, intervals=intervals, estimates=estimates,
+                       settings=replace(res.settings, effects=settings.effects, free=settings.free))
+    return replace(res, refined=refined, settings=replace(res.settings, effects=settings.effects))
+
+
+def _block_costs(log, prediction: np.ndarray, noise: dict) -> np.ndarray:
+    """Noise-weighted squared angle errors of a prediction summed over BLOCK_S blocks (both angles)."""
+    n = prediction.shape[0]
+    c = np.zeros(n)
+    for j, (y, a) in enumerate(((log.alpha_rad[:n], "alpha"), (log.beta_rad[:n], "beta"))):
+        e = (y - prediction[:, j]) / max(noise[a], 1e-12)
+        c += e * e
+    m = max(int(round(BLOCK_S / log.sample_time_s)), 1)
+    nb = n // m
+    return c[:nb * m].reshape(nb, m).sum(axis=1)
