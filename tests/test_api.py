@@ -1,5 +1,6 @@
 """The library face (trms_ident.estimate / diagnose / simulate): same numbers as the CLI, clear errors."""
 import json
+import math
 
 import pytest
 from typer.testing import CliRunner
@@ -42,8 +43,19 @@ def test_estimate_from_a_path_with_options_and_clear_errors(tmp_path):
 
 
 def test_diagnose_from_python():
-    d = ti.diagnose("sample_logs/concealed_effect.csv")
-    assert d.verdict == "explained" and d.findings[0].effect == "cable_stiffness"
+    """A DataFrame diagnosed (the CLI's path on sample_logs/concealed_effect.csv: docs/diagnose.md's example): the
+    cable named, and J/B under the findings' model with intervals that cover the truth."""
+    from trms_ident.api import log_frame
+
+    r = ti.simulate("multisine", duration_s=40.0, sample_rate_hz=100.0, quantization_rad=2 * math.pi / 4096, seed=2,
+                    effects=[{"effect": "cable_stiffness", "axis": "yaw", "value": 0.004}])
+    d = ti.diagnose(log_frame(r))
+    assert d.verdict == "explained" and [f.effect for f in d.findings] == ["cable_stiffness"]
+    assert d.findings[0].parameter["value"] == pytest.approx(0.004, rel=0.02)
+    w = d.with_findings
+    assert w["adequate"] is True and w["model"] == "eq. (1) + a cable on yaw (k = 0.004 N m/rad)"
+    for k, v in r.truth["estimated"].items():
+        assert w["ci95"][k][0] <= v <= w["ci95"][k][1], (k, w["estimates"][k], w["ci95"][k])
 
 
 def test_export_writes_a_model_simulate_and_params_accept(tmp_path):

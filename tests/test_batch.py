@@ -1,5 +1,7 @@
 """Batch over a folder: nothing lost, failures carried past, exit codes, re-runs, and Dask."""
+import csv
 import json
+import math
 import os
 
 import pytest
@@ -103,3 +105,34 @@ def test_earlier_outputs_are_never_inputs(folder, tmp_path, monkeypatch):
     doc = json.loads((tmp_path / "results_b" / "summary.json").read_text())
     assert len(doc["files"]) == 20, [f["path"] for f in doc["files"]]
     assert all(os.path.isabs(f["output"]) for f in doc["files"]) and again.exit_code == EXIT_SOME_FAILED
+
+
+def test_a_folder_diagnosed_names_each_misfits_findings_and_which_recur(tmp_path):
+    """batch --diagnose (issue #48): two runs of a bench with a yaw cable (the model does not fit them: both
+    diagnosed, the cable found in both) and one of Table 1's bench (fits: not diagnosed)."""
+    folder = tmp_path / "lab"
+    folder.mkdir()
+    cable = (("effect", "cable_stiffness"), ("axis", "yaw"), ("value", 0.004))
+    for name, ref, seed, effects in (("cable_a", "multisine", 2, (cable,)), ("cable_b", "steps", 3, (cable,)),
+                                     ("clean", "multisine", 4, ())):
+        r = sim_cached(ref, 100.0, 40.0, 0.0, 2 * math.pi / 4096, seed, effects)
+        write_csv_log(folder / f"{name}.csv", r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad)
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["batch", str(folder), "-o", str(out), "--diagnose"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads((out / "summary.json").read_text())
+    by = {os.path.basename(f["path"]): f for f in doc["files"]}
+    assert by["clean.csv"]["adequate"] is True and by["clean.csv"]["diagnosis"] is None
+    for name in ("cable_a.csv", "cable_b.csv"):
+        dg = by[name]["diagnosis"]
+        assert by[name]["adequate"] is False and dg["verdict"] == "explained", dg
+        assert [f["key"] for f in dg["findings"]] == ["cable_stiffness:yaw"]
+        assert os.path.exists(dg["file"])
+    assert doc["findings_across_logs"] == {"cable_stiffness:yaw": {"logs": 2, "diagnosed": 2}}
+    rows = {r[0].rsplit("/", 1)[-1]: r for r in csv.reader((out / "summary.csv").read_text().splitlines()[1:])}
+    assert rows["cable_a.csv"][-2] == "explained" and rows["cable_a.csv"][-1].startswith("cable_stiffness:yaw k = 0.004")
+    assert rows["clean.csv"][-2:] == ["", ""]
+    page = (out / "index.html").read_text()
+    assert "Findings across the logs" in page and "cable_stiffness:yaw: in 2 of the 2 logs diagnosed" in page
+    assert "diagnose: EXPLAINED: cable_stiffness:yaw k = 0.004" in res.stderr
+    assert "findings across the logs: cable_stiffness:yaw in 2 of 2 diagnosed" in res.stderr

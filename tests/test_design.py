@@ -2,6 +2,9 @@
 their predicted precision against what the simulator and estimate then achieve, and one-line errors."""
 import json
 import math
+import re
+import shlex
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -121,11 +124,31 @@ def test_a_robust_design_keeps_its_limits_on_a_bench_off_the_given_one(tmp_path)
     assert doc["settings"]["limits"]["robust_rel"] == 0.05
 
 
-def test_a_design_keeps_its_limits_and_estimate_achieves_its_predicted_precision(tmp_path):
-    ref, log, js = tmp_path / "d.csv", tmp_path / "run.csv", tmp_path / "d.json"
-    res = runner.invoke(app, ["design", "--duration", "20", "--rate", "100", "--yaw-limit", "1.0",
-                              "--max-saturated", "0.02", "-o", str(ref), "--json", str(js)])
-    assert res.exit_code == 0, res.output
+def _design_example() -> list[tuple[list[str], list[str]]]:
+    """docs/design.md's first example: each command's arguments after ``trms-ident`` and the lines it must print."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "design.md").read_text(encoding="utf-8")
+    block = re.search(r"```sh\n(.*?)\n```", text, re.S).group(1)
+    steps = []
+    for line in block.splitlines():
+        if line.startswith("$ trms-ident "):
+            steps.append((shlex.split(line[len("$ trms-ident "):]), []))
+        elif line.strip():
+            steps[-1][1].append(line.strip())
+    return steps
+
+
+def test_a_design_keeps_its_limits_and_estimate_achieves_its_predicted_precision(tmp_path, monkeypatch):
+    """docs/design.md's example as written: design, simulate the design with 12-bit encoders, estimate."""
+    monkeypatch.chdir(tmp_path)
+    steps = _design_example()
+    assert [argv[0] for argv, _ in steps] == ["design", "simulate", "estimate"]
+    for argv, expected in steps:
+        res = runner.invoke(app, argv)
+        assert res.exit_code == 0, (argv, res.output)
+        assert all(line in res.stderr for line in expected), (argv, expected, res.stderr)
+    design = steps[0][0]
+    ref, js = tmp_path / design[design.index("-o") + 1], tmp_path / design[design.index("--json") + 1]
+    log = tmp_path / steps[1][0][steps[1][0].index("-o") + 1]
     doc = json.loads(js.read_text())
     env = doc["design"]["envelope"]
     assert env["alpha_rad"] <= 1.0 and env["beta_rad"] <= 1.0 and env["saturated_share"] <= 0.02
@@ -134,20 +157,16 @@ def test_a_design_keeps_its_limits_and_estimate_achieves_its_predicted_precision
     refs = np.genfromtxt(ref, delimiter=",", names=True)
     assert np.max(np.abs(refs["alpha_ref"])) <= 1.0 + 1e-12 and np.max(np.abs(refs["beta_ref"])) <= 1.0 + 1e-12
     assert doc["square"]["violations"]  # the paper's square holds a voltage at its limit most of the time
-    page = (tmp_path / "d.html").read_text()  # the page beside the references
+    page = ref.with_suffix(".html").read_text()  # the page beside the references
     assert "The next experiment: 20 s at 100 Hz" in page and page.count("data:image/png;base64") == 2
     assert doc["sentence"].startswith("Within the limits the design predicts")
     assert "breaks the limits" in doc["sentence"]
     # the design run through the simulator with 12-bit encoders keeps the limits and estimate's intervals are
     # within 0.5-2x of the predicted ones
-    res = runner.invoke(app, ["simulate", "--ref-file", str(ref), "--rate", "100", "--encoder-bits", "12", "-o",
-                              str(log)])
-    assert res.exit_code == 0, res.output
     got = np.genfromtxt(log, delimiter=",", names=True)
     assert np.max(np.abs(got["beta"])) <= 1.0 + 2e-3 and np.max(np.abs(got["alpha"])) <= 1.0
-    res = runner.invoke(app, ["estimate", str(log), "--no-report", "--json", str(tmp_path / "e.json")])
-    assert res.exit_code == 0, res.output
-    est = json.loads((tmp_path / "e.json").read_text())
+    est_argv = steps[2][0]
+    est = json.loads((tmp_path / est_argv[est_argv.index("--json") + 1]).read_text())
     for k in ("J1", "B1", "J2", "B2"):
         lo, hi = est["ci95"][k]
         ratio = (hi - lo) / 2 / doc["design"]["predicted"][k]["half_width"]

@@ -89,6 +89,8 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
                                adequate=parts["adequate"] if parts else doc.get("model_check", {}).get("adequate"),
                                not_credible=doc.get("not_credible", {}),
                                report=str(out / "report.html") if (out / "report.html").exists() else None)
+                    if (out / "diagnosis.json").exists():
+                        row["diagnosis"] = diagnosis_row(json.loads((out / "diagnosis.json").read_text()), out)
                     return row
             except (ValueError, KeyError):
                 pass
@@ -104,10 +106,12 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
             row.update(_parts_jointly(path_p, out, settings, options))
             write_text(stamp, json.dumps(key, indent=1))
             return row
-        write_text(stamp, json.dumps(key, indent=1))
         row.update(status="ok", estimates=res.summary["estimates"], adequate=res.summary["model_check"]["adequate"],
                    not_credible=res.summary["not_credible"],
                    report=str(out / "report.html") if options.get("html", True) else None)
+        if options.get("diagnose") and row["adequate"] is False:  # the model does not fit: what does it leave out?
+            row["diagnosis"] = _diagnosed(res.log, out, settings, options)
+        write_text(stamp, json.dumps(key, indent=1))
         if res.log.meta.get("warnings"):
             row["error"] = "warning: " + res.log.meta["warnings"]
     except TrmsError as exc:
@@ -115,6 +119,55 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
     except Exception as exc:  # noqa: BLE001 - one broken log must not stop the batch
         row["error"] = f"internal error: {type(exc).__name__}: {exc}"
     return row
+
+
+def _diagnosed(log, out: Path, settings: Settings, options: dict) -> dict:
+    """diagnose of a log the model does not fit (batch --diagnose), written as diagnosis.json (and its report)
+    beside the estimate; the summary's verdict and findings."""
+    from .api import diagnose
+    from .report.diagnosis import render, to_doc
+    from .report.summary import to_json
+
+    d = diagnose(log, params=dict(settings.overrides), thrust_law=settings.thrust_law)
+    doc = to_doc(d, log)
+    write_text(out / "diagnosis.json", to_json(doc))
+    if options.get("html", True):
+        write_text(out / "diagnosis.html", render(doc, d, log))
+    return diagnosis_row(doc, out)
+
+
+def diagnosis_row(doc: dict, out: Path) -> dict:
+    """A diagnosis.json's verdict and findings for the batch summary: each finding as "key: NAME = value unit"
+    (a known value as "NAME = value (table ...)")."""
+    found = []
+    for f in doc["findings"]:
+        p = f["parameter"]
+        if f["effect"] == "known_value":
+            found.append({"key": p["name"], "text": f"{p['name']} = {p['value']:.4g} (table {p.get('table')})"})
+        else:
+            found.append({"key": f"{f['effect']}:{f['axis']}",
+                          "text": f"{f['effect']}:{f['axis']} {p['name']} = {p['value']:.4g} {p.get('unit', '')}".strip()})
+    return {"verdict": doc["verdict"], "findings": found, "file": str(out / "diagnosis.json")}
+
+
+def _recurring_html(found: dict) -> str:
+    if not found:
+        return ""
+    items = "".join(f"<li>{html.escape(k)}: in {v['logs']} of the {v['diagnosed']} logs diagnosed"
+                    + (" (one log only: suspect until another run of the bench shows it)" if v["logs"] == 1 and
+                       v["diagnosed"] > 1 else "") + "</li>" for k, v in found.items())
+    return f"<h2>Findings across the logs</h2><ul>{items}</ul>"
+
+
+def recurring_findings(rows: list[dict]) -> dict:
+    """Each finding's key -> (in how many of the diagnosed logs, how many were diagnosed), most frequent first: a
+    structure of the bench recurs, one only a log shows is suspect."""
+    diagnosed = [r["diagnosis"] for r in rows if r.get("diagnosis")]
+    counts: dict = {}
+    for dg in diagnosed:
+        for key in dict.fromkeys(f["key"] for f in dg["findings"]):
+            counts[key] = counts.get(key, 0) + 1
+    return {k: (n, len(diagnosed)) for k, n in sorted(counts.items(), key=lambda kv: -kv[1])}
 
 
 def _parts_jointly(path: Path, out: Path, settings: Settings, options: dict) -> dict:
@@ -176,19 +229,22 @@ def write_summary(out_dir: Path, rows: list[dict]) -> list[Path]:
     from .report.summary import to_json
 
     names = ("J1", "B1", "J2", "B2")
-    doc = {"files": [{k: r[k] for k in ("path", "status", "adequate", "error", "estimates", "not_credible", "skipped",
-                                        "output")}
+    doc = {"files": [{**{k: r[k] for k in ("path", "status", "adequate", "error", "estimates", "not_credible", "skipped",
+                                           "output")}, "diagnosis": r.get("diagnosis")}
                      for r in rows],
            "ok": sum(r["status"] == "ok" for r in rows), "failed": sum(r["status"] != "ok" for r in rows),
-           "inadequate": sum(r["adequate"] is False for r in rows)}
+           "inadequate": sum(r["adequate"] is False for r in rows),
+           "findings_across_logs": {k: {"logs": n, "diagnosed": m} for k, (n, m) in recurring_findings(rows).items()}}
     write_text(out_dir / "summary.json", to_json(doc))
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(["path", "status", "adequate", *names, "error"])
+    writer.writerow(["path", "status", "adequate", *names, "error", "diagnosis", "findings"])
     for r in rows:
         est = r["estimates"] or {}
-        writer.writerow([r["path"], r["status"], "" if r["adequate"] is None else str(r["adequate"]).lower(), *("" if est.get(k) is None else repr(est[k]) for k in names),
-                         r["error"] or ""])
+        dg = r.get("diagnosis") or {}
+        writer.writerow([r["path"], r["status"], "" if r["adequate"] is None else str(r["adequate"]).lower(),
+                         *("" if est.get(k) is None else repr(est[k]) for k in names), r["error"] or "",
+                         dg.get("verdict", ""), "; ".join(f["text"] for f in dg.get("findings", []))])
     write_text(out_dir / "summary.csv", buf.getvalue())
     items = []
     for r in rows:
@@ -201,18 +257,22 @@ def write_summary(out_dir: Path, rows: list[dict]) -> list[Path]:
                         + (f" ({html.escape(why[k])})" if k in why else "") + "</td>" for k in names)
         fits = {None: "<td>not decided</td>" if r["status"] == "ok" else "", True: '<td class="ok">yes</td>',
                 False: '<td class="failed">NO: model does not fit</td>'}
+        dg = r.get("diagnosis")
+        dcell = "" if not dg else (f'<a href="{html.escape(os.path.relpath(dg["file"], out_dir))}">'
+                                   f'{html.escape(dg["verdict"].replace("_", " "))}</a>: '
+                                   + html.escape("; ".join(f["text"] for f in dg["findings"]) or "no finding"))
         items.append(f'<tr><td>{link}</td><td class="{r["status"]}">{r["status"]}</td>'
                      f'{fits[r["adequate"]] or "<td></td>"}{cells}'
-                     f'<td>{html.escape(r["error"] or "")}</td></tr>')
+                     f'<td>{html.escape(r["error"] or "")}</td><td>{dcell}</td></tr>')
     page = f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident batch</title>
 <style>body{{font-family:system-ui,sans-serif;margin:2em}}table{{border-collapse:collapse}}
 td,th{{border:1px solid #ccc;padding:3px 8px}}.failed{{color:#b00}}.ok{{color:#070}}
 .cond{{color:#888;font-style:italic}}</style></head><body>
 <h1>trms-ident batch: {doc['ok']} ok, {doc['failed']} failed; the model does not fit {doc['inadequate']}</h1>
 <table><tr><th>log</th><th>status</th><th>model fits</th><th>J1 [kg m^2]</th><th>B1 [N m s/rad]</th><th>J2 [kg m^2]</th>
-<th>B2 [N m s/rad]</th><th>reason</th></tr>{''.join(items)}</table>
+<th>B2 [N m s/rad]</th><th>reason</th><th>diagnosis (--diagnose)</th></tr>{''.join(items)}</table>
 <p><i>Grey, italic numbers come from a model that does not fit that log: conditional on it, not to be trusted as
-they stand (open its report).</i></p></body></html>
+they stand (open its report).</i></p>{_recurring_html(doc["findings_across_logs"])}</body></html>
 """
     write_text(out_dir / "index.html", page)
     return [out_dir / "summary.json", out_dir / "summary.csv", out_dir / "index.html"]

@@ -402,6 +402,9 @@ def batch(
     voltage_time: VoltageTimeOpt = "stamp",
     rate: RateOpt = None,
     strict_gaps: StrictGapsOpt = False,
+    diagnose: Annotated[bool, typer.Option("--diagnose", help="Diagnose every log the model does not fit: "
+                                           "diagnosis.json beside its estimate, the verdict and findings in the "
+                                           "summary.")] = False,
 ) -> None:
     """Estimate every CSV, MCAP and MATLAB log under folders or globs; carry on past bad files; write a summary.
 
@@ -412,6 +415,9 @@ def batch(
         raise SettingsError(f"--jobs {jobs}: expected 1 or more")
     settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit, refine,
                               free, time_unit)
+    if diagnose and (joint_by or manifest):
+        raise SettingsError("--diagnose with --manifest/--joint-by: not yet; run batch --diagnose on the folder "
+                            "(each log alone), then the joint estimate with the bench file export writes")
     if joint_by or manifest:
         return _batch_joint(manifest, joint_by, inputs, out, settings, no_report, json_path, strict)
     inputs = list(inputs or [])
@@ -421,7 +427,8 @@ def batch(
     if not paths:
         raise SettingsError(f"no .csv, .mcap or .mat logs found in {' '.join(inputs)}")
     options = {"html": not no_report, "signals": signal, "time_source": time_source, "angle_unit": angle_unit,
-               "time_unit": time_unit, "voltage_time": voltage_time, "rate_hz": rate, "strict_gaps": strict_gaps}
+               "time_unit": time_unit, "voltage_time": voltage_time, "rate_hz": rate, "strict_gaps": strict_gaps,
+               "diagnose": diagnose}
     if force:
         options["force_token"] = os.urandom(8).hex()
     bar = None
@@ -446,7 +453,13 @@ def batch(
     bad_fit = [r for r in rows if r["adequate"] is False]
     undecided = [r for r in rows if r["status"] == "ok" and r["adequate"] is None]
     for r in bad_fit:
-        say(f"model does not fit: {r['path']}")
+        dg = r.get("diagnosis")
+        say(f"model does not fit: {r['path']}" + ("" if not dg else f"; diagnose: {dg['verdict'].upper().replace('_', ' ')}"
+                                                   + (": " + "; ".join(f["text"] for f in dg["findings"])
+                                                      if dg["findings"] else "")))
+    recurring = batch_mod.recurring_findings(rows)
+    if recurring:
+        say("findings across the logs: " + "; ".join(f"{k} in {n} of {m} diagnosed" for k, (n, m) in recurring.items()))
     for r in undecided:
         say(f"not decided whether the model fits (the fit did not converge): {r['path']}")
     say(f"{ok} ok ({skipped} up to date, skipped), {len(rows) - ok} failed, the model does not fit {len(bad_fit)}; "
@@ -760,6 +773,14 @@ def design(
     from .commands import design_files
 
     limits = planner.Limits(pitch_limit, yaw_limit, max_saturated, max_ref_rate, robust)
+    if params:
+        from .params import parameter_file_effects
+
+        held = [e.key for e in parameter_file_effects(params)]
+        if held:
+            say(f"note: {params} holds effects ({', '.join(held)}); design plans with its known values and J/B under "
+                "eq. (1): the effects are not simulated in its candidates yet, so check the plan with `simulate "
+                "--ref-file ... --params` on the bench file before running it")
     with progress_bar("design") as advance:
         out = design_files(duration, rate, limits, output, noise_std=noise_std, encoder_bits=encoder_bits,
                            params=params, from_result=from_result, controller=controller, objective=objective,
