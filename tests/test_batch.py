@@ -115,7 +115,7 @@ def test_a_folder_diagnosed_names_each_misfits_findings_and_which_recur(tmp_path
     cable = (("effect", "cable_stiffness"), ("axis", "yaw"), ("value", 0.004))
     for name, ref, seed, effects in (("cable_a", "multisine", 2, (cable,)), ("cable_b", "steps", 3, (cable,)),
                                      ("clean", "multisine", 4, ())):
-        r = sim_cached(ref, 100.0, 40.0, 0.0, 2 * math.pi / 4096, seed, effects)
+        r = sim_cached(ref, 100.0, 30.0, 0.0, 2 * math.pi / 4096, seed, effects)
         write_csv_log(folder / f"{name}.csv", r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad)
     out = tmp_path / "out"
     res = runner.invoke(app, ["batch", str(folder), "-o", str(out), "--diagnose"])

@@ -233,10 +233,13 @@ def _size(path: str | Path) -> int:
 
 
 def diagnose(log, *, params: dict | str | Path | None = None, thrust_law: str = "quadratic",
-             filter_a_rad_s: float | None = None, progress: Callable[[str, float], None] | None = None, **read):
+             filter_a_rad_s: float | None = None, progress: Callable[[str, float], None] | None = None, seed=None,
+             **read):
     """Where the model and the log disagree: the verdict, the findings with their physics, the fit before and
     after.  Returns diagnosis.run.Diagnosis (``.verdict``, ``.findings``, ``.fit_before``, ``.fit_after``).
-    ``progress(stage, fraction done)`` is called as the search advances (the CLI draws its bar with it)."""
+    ``progress(stage, fraction done)`` is called as the search advances (the CLI draws its bar with it).
+    ``seed``: the estimate of this log under Settings(thrust_law=thrust_law, overrides=params) when the caller has
+    made it (identify's Result: diagnose's seed-model check is that estimate's, not made again)."""
     from .diagnosis.run import diagnose as run
     from .errors import SettingsError
     from .params import THRUST_LAWS, load_parameter_file, parameter_file_inputs_unit
@@ -247,7 +250,7 @@ def diagnose(log, *, params: dict | str | Path | None = None, thrust_law: str = 
     if isinstance(params, (str, Path)):
         path, params = params, load_parameter_file(params)
         data = with_inputs_unit(data, parameter_file_inputs_unit(path))
-    d = run(data, dict(params or {}), thrust_law, filter_a_rad_s, progress=progress)
+    d = run(data, dict(params or {}), thrust_law, filter_a_rad_s, progress=progress, seed=seed)
     if progress is not None:
         progress("J/B under the findings' model", 0.99)
     return replace(d, with_findings=under_findings(data, d, dict(params or {}), thrust_law))

@@ -110,7 +110,7 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
                    not_credible=res.summary["not_credible"],
                    report=str(out / "report.html") if options.get("html", True) else None)
         if options.get("diagnose") and row["adequate"] is False:  # the model does not fit: what does it leave out?
-            row["diagnosis"] = _diagnosed(res.log, out, settings, options)
+            row["diagnosis"] = _diagnosed(res.log, out, settings, options, res.result)
         write_text(stamp, json.dumps(key, indent=1))
         if res.log.meta.get("warnings"):
             row["error"] = "warning: " + res.log.meta["warnings"]
@@ -121,14 +121,20 @@ def process_one(path: str, out_dir: str, settings: Settings, options: dict) -> d
     return row
 
 
-def _diagnosed(log, out: Path, settings: Settings, options: dict) -> dict:
+def _diagnosed(log, out: Path, settings: Settings, options: dict, estimated=None) -> dict:
     """diagnose of a log the model does not fit (batch --diagnose), written as diagnosis.json (and its report)
-    beside the estimate; the summary's verdict and findings."""
+    beside the estimate; the summary's verdict and findings.  ``estimated``: the log's estimate (identify's
+    Result), diagnose's seed-model check when it was made with the settings that check uses."""
+    from dataclasses import replace
+
     from .api import diagnose
     from .report.diagnosis import render, to_doc
     from .report.summary import to_json
 
-    d = diagnose(log, params=dict(settings.overrides), thrust_law=settings.thrust_law)
+    seedlike = replace(settings, inputs_unit=None) == Settings(thrust_law=settings.thrust_law,
+                                                                overrides=dict(settings.overrides))
+    d = diagnose(log, params=dict(settings.overrides), thrust_law=settings.thrust_law,
+                 seed=estimated if seedlike else None)
     doc = to_doc(d, log)
     write_text(out / "diagnosis.json", to_json(doc))
     if options.get("html", True):

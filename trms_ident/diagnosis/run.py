@@ -42,20 +42,24 @@ EXPLAINED_OE_OVER_NOISE = RMS_OVER_NOISE
 
 
 def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_rad_s: float | None = None,
-             progress: Callable[[str, float], None] | None = None) -> Diagnosis:
+             progress: Callable[[str, float], None] | None = None, seed=None) -> Diagnosis:
     """Find what the seed model leaves out of this log, fit it, and give the verdict (VERDICTS).
 
-    ``progress(stage, fraction done)``: called as the work advances (the CLI draws a bar with it)."""
+    ``progress(stage, fraction done)``: called as the work advances (the CLI draws a bar with it).  ``seed``:
+    identify's Result of this log with Settings(thrust_law=law, overrides=overrides) when the caller has it
+    (batch --diagnose: the estimate it just made), else made here; either way made once, not per search rerun."""
     from .held_out import caution, gate_sentence, held_out_fits, lowering
     from .weigh import weigh
 
     progress = progress or (lambda stage, done: None)
     p = merge(overrides or {}, source="parameter overrides")
     gated: list = []  # findings refused because they simulate an axis worse on samples they were not fitted on
+    progress("fitting the seed model", 0.0)
+    seed = seed if seed is not None else _seed_result(log, overrides, law)
     with np.errstate(all="ignore"):  # a model far off the log overflows its predictions: they score as misfits
         for attempt in range(HELD_OUT_RERUNS + 1):
-            d = weigh(_diagnose(log, overrides, law, a_rad_s, progress, tuple(g["key"] for g in gated)), log, p,
-                      law, overrides)
+            d = weigh(_diagnose(log, overrides, law, a_rad_s, progress, tuple(g["key"] for g in gated), seed),
+                      log, p, law, overrides)
             progress("held-out simulation fits", 0.97)
             h = held_out_fits(d, log, p, law)
             refuse = lowering(d.findings, h)
@@ -132,26 +136,26 @@ class _Kept:
 
 
 def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None, progress,
-              exclude: tuple = ()) -> Diagnosis:
+              exclude: tuple = (), seed=None) -> Diagnosis:
     """The diagnosis in four rooms: _prepare (the seed model's check, the filter, the blocks, the start states),
     _search (each round tests every hypothesis of the library by the equation error, the output-error fit judges,
     the best passing one becomes a finding), _accept (the findings kept: each must raise the fit of its axes
     with J/B physical, values profiled again given the others, earlier ones re-judged given the later) and
     _report (predictions, per-finding evidence, where the residual sits, the verdict, corrections).  ``exclude``:
     library keys the search leaves out (refused by the held-out gate of an earlier run)."""
-    run, base_reg, base = _prepare(log, overrides, law, a_rad_s, progress)
+    run, base_reg, base = _prepare(log, overrides, law, a_rad_s, progress, seed)
     nominal = _estimates(base, base_reg)
     found = _search(run, base_reg, base, exclude)
     kept = _accept(run, found, nominal)
     return _report(run, found, kept, base_reg, base, nominal)
 
 
-def _prepare(log: Log, overrides: dict | None, law: str, a_rad_s: float | None, progress):
+def _prepare(log: Log, overrides: dict | None, law: str, a_rad_s: float | None, progress, seed=None):
     """(_Run, the seed model's regression, its score): the seed model checked as estimate checks it, the filter
     and the held-out blocks, the motors' start states chosen, the output-error fitter set to the log's floors."""
     p = merge(overrides or {}, source="parameter overrides")
     progress("fitting the seed model", 0.0)
-    seed = _seed_check(log, overrides, law)  # also refuses an axis with no excitation (exit 6), as estimate does
+    seed = _seed_check(seed if seed is not None else _seed_result(log, overrides, law))
     dt = log.sample_time_s
     a = a_rad_s or design_filters(log.alpha_rad, log.beta_rad, dt).a_rad_s
     need_s = max(MIN_BLOCKS_DIAGNOSE * 5.0 / a, 2 * HORIZON_S)
@@ -769,13 +773,17 @@ def _choose_start(log: Log, p: dict, law: str, a: float, estimated: dict | None,
     return best
 
 
-def _seed_check(log: Log, overrides: dict | None, law: str) -> dict:
-    """identify's adequacy verdict for the seed model (output-error fit with start states), with the motor and
-    reaction-lag states it estimated for the first sample under "start_states" (None when the refinement did
-    not run); an axis with no excitation raises IdentificationError, as in estimate."""
+def _seed_result(log: Log, overrides: dict | None, law: str):
+    """identify's Result for the seed model (output-error fit with start states); an axis with no excitation
+    raises IdentificationError (exit 6), as in estimate."""
     from ..identify import Settings, identify
 
-    res = identify(log, Settings(thrust_law=law, overrides=dict(overrides or {})))
+    return identify(log, Settings(thrust_law=law, overrides=dict(overrides or {})))
+
+
+def _seed_check(res) -> dict:
+    """The seed model's adequacy verdict (identify's model_check), with the motor and reaction-lag states it
+    estimated for the first sample under "start_states" (None when the refinement did not run)."""
     start = (oe.motor_start(res.refined) or None) if res.refined is not None else None
     return {**res.model_check, "start_states": start}
 
