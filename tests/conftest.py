@@ -38,7 +38,6 @@ SLOW = {
     "test_robustness.py::test_odd_logs_never_crash[noise-40.0]": 25,
     "test_sensor_lag.py::test_diagnose_tells_an_acquisition_lag_from_an_input_delay"
     "[sensor_lag-0.05-square-500.0-13]": 25,
-    "test_mat_objects.py::test_no_library_warning_on_stderr_for_any_real_file[ce150/Data100_ea_a0.mat]": 23,
     "test_model_room.py::test_a_torque_effect_declared_in_one_entry_is_found_fitted_and_reported": 21,
     "test_real_recordings.py::test_known_values_off_the_table_given_right_and_wrong": 21,
     "test_diagnose.py::test_concealed_effect_is_named_fitted_and_improves_the_fit[dead_zone-yaw-0.1-multisine]": 20,
@@ -64,14 +63,13 @@ SLOW = {
 #: changes): run first, so that the run does not end on one long test on one core while the other idles.  With
 #: --maxschedchunk 1 (set in pytest_configure) each core takes the next test as it finishes one (two in hand)
 LONG = {
-    "test_known_values.py::test_estimate_and_diagnose_name_the_same_known_value": 52,
+    "test_known_values.py::test_estimate_and_diagnose_name_the_same_known_value": 54,
+    "test_batch.py::test_a_folder_diagnosed_names_each_misfits_findings_and_which_recur": 20,
     "test_real_recordings.py::test_real_ce150_recordings_get_an_honest_verdict_and_fit_better_with_the_ce150s_"
     "published_values[Data100_ea_e675_aN130toP130]": 40,
     "test_api.py::test_diagnose_from_python": 12,
     "test_bench_file.py::test_runs_of_the_bench_are_pooled_under_its_model": 30,
     "test_bench_file.py::test_an_effects_value_freed_comes_back_from_a_wrong_start": 15,
-    "test_mat_objects.py::test_no_library_warning_on_stderr_for_any_real_file"
-    "[ce150/Data100_ea_e675_aN130toP130.mat]": 24,
     "test_diagnose.py::test_two_effects_are_both_named": 22,
     "test_diagnose.py::test_a_profile_on_a_log_cut_mid_run_starts_where_the_current_models_fit_did": 22,
     "test_diagnose.py::test_concealed_effect_is_named_fitted_and_improves_the_fit[motor_lag-pitch-1.32-steps]": 21,

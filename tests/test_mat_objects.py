@@ -226,22 +226,20 @@ def test_simulink_timeseries_with_a_mapping_are_refused_as_variable_step(tmp_pat
 
 @pytest.mark.parametrize("name", sorted(p.relative_to(REAL).as_posix() for p in REAL.glob("*/*.mat")) or ["none"])
 def test_no_library_warning_on_stderr_for_any_real_file(tmp_path, name):
-    """Each shared recording, inspected and estimated in a process of its own: stderr holds the tool's words only."""
+    """Each shared recording, inspected and estimated in a process of its own: stderr holds the tool's words only.
+    (The CE150 recordings' estimates: test_real_recordings runs them so, with --rate 100 --angle-unit deg.)"""
     if name == "none":
         pytest.skip("the shared real recordings are not beside this checkout")
     path = REAL / name
-    extra = ["--rate", "100", "--angle-unit", "deg"] if "ce150" in name else []
     ran = {}
-    for args in (["inspect", str(path)], ["estimate", str(path), *extra, "-o", str(tmp_path / "o"), "--no-report",
-                                          "--json", "-"]):
+    runs = [["inspect", str(path)]] + ([] if "ce150" in name else [["estimate", str(path), "-o", str(tmp_path / "o"),
+                                                                     "--no-report", "--json", "-"]])
+    for args in runs:
         proc = ran[args[0]] = subprocess.run([sys.executable, "-m", "trms_ident", *args], capture_output=True,
                                              text=True, timeout=300)
         assert proc.returncode in (0, 4), proc.stderr
         for bad in ("Warning", "warnings.warn", "DLASCL", "On entry to", "RuntimeWarning", "Traceback"):
             assert bad not in proc.stderr, proc.stderr
-    if "ce150" in name:  # a real recording: inspect names the mapping and the rate; read with it, it gets a verdict
+    if "ce150" in name:  # a real recording: inspect names the mapping and the rate
         said = ran["inspect"].stdout + ran["inspect"].stderr
         assert "--signal alpha=psi --signal beta=phi" in said and "pass --rate HZ" in said
-        doc = json.loads(ran["estimate"].stdout)
-        assert ran["estimate"].returncode == 0 and doc["model_check"]["adequate"] is False
-        assert doc["input"]["samples"] == 10001

@@ -6,6 +6,8 @@ intervals cover, adequate.  A plant outside eq. (1), wrong known values and the 
 adequate false, never a crash, never an interval presented as trustworthy.
 """
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -156,11 +158,18 @@ def _ce150_csv(tmp_path, name):
 def test_real_ce150_recordings_get_an_honest_verdict_and_fit_better_with_the_ce150s_published_values(tmp_path, name):
     """Under Table 1's values (the estimate, then diagnose) and then under the bench's own published ones
     (_published_values, compared with the first estimate's fit: one estimate of the recording serves both)."""
-    path = _ce150_csv(tmp_path, name)
-    res = runner.invoke(app, ["estimate", str(path), "--angle-unit", "deg", "-o", str(tmp_path / "o"),
-                              "--no-report", "--json", "-"])
-    assert res.exit_code == 0, res.output
+    if not (CE150 / f"{name}.mat").exists():
+        pytest.skip("the shared real recordings are not beside this checkout")
+    # the recording's own .mat, in a process of its own: its stderr holds the tool's words only (no library's
+    # warning, no LAPACK message below Python; test_mat_objects inspects every shared file the same way)
+    res = subprocess.run([sys.executable, "-m", "trms_ident", "estimate", str(CE150 / f"{name}.mat"), "--rate", "100",
+                          "--angle-unit", "deg", "-o", str(tmp_path / "o"), "--no-report", "--json", "-"],
+                         capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    for bad in ("Warning", "warnings.warn", "DLASCL", "On entry to", "RuntimeWarning", "Traceback"):
+        assert bad not in res.stderr, res.stderr
     doc = table1 = json.loads(res.stdout)
+    assert doc["input"]["samples"] == 10001
     assert doc["model_check"]["adequate"] is False
     assert _verdict_line(res.stderr).startswith("MODEL DOES NOT FIT:")
     # the recording chain smoothed the elevation (README there): its floor is not measurable, so the verdict

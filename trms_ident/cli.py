@@ -317,6 +317,8 @@ def _estimate_one(log, settings, out_dir, angle_unit, time_unit, no_report, trut
 
 def _say_estimate(res, log: Path, json_path: str | None, strict: bool) -> None:
     """estimate's lines on stderr (the verdict first), the JSON, and --strict's exit code."""
+    from .model_profile import PROFILE_SPAN
+
     s = res.summary
     check = s["model_check"]
     say(VERDICT_HEAD[check["adequate"]] + check["sentence"])
@@ -357,7 +359,9 @@ def _say_estimate(res, log: Path, json_path: str | None, strict: bool) -> None:
         say(line)
     for k, v in ((s.get("refined") or {}).get("known_values_estimated") or {}).items():
         say(f"  {k} = {v['estimate']:<11.6g} {unit_of(k):<10} 95 % {interval_text(*v['ci95'], v['estimate'])}   "
-            f"(estimated with --free; given {v['table_or_file_value']:.6g})")
+            f"(estimated with --free; given {v['table_or_file_value']:.6g})" + (
+                f"; at the edge of its search, {PROFILE_SPAN:g}x the value given: give a closer one"
+                if v.get("at_search_edge") else ""))
     say("wrote " + ", ".join(str(p) for p in res.written))
     if json_path:
         emit_json(s, json_path)

@@ -6,7 +6,8 @@ dead zone's cost is even piecewise constant in its width).  ``--free dead_zone:y
 diagnose fits them (diagnosis/oe.py's profiles): the estimate is first made at the file's value; then the
 output-error fit is repeated on the voltages modified at trial values (J/B, the torque effects freed and the
 start states refitted from that estimate, a few Gauss-Newton iterations each), bounded Brent search over the
-logarithm of the value within PROFILE_SPAN of the file's; the estimate is made again at the best value.
+logarithm of the value within PROFILE_SPAN of the file's; the estimate is made again at the best value and the
+search repeated around it, narrower, until the value moves less than a quarter of a percent (ROUNDS at most).
 
 The value's standard error is the batch-means one of diagnose's profiles (oe.profile_se: the blocks' cost
 slopes at the minimum over the profile's curvature, never below what white errors give); its 95 % interval is
@@ -50,14 +51,13 @@ def with_profiles(log, settings, keys: list[str], identify):
     found = {}
     for key in keys:
         v0 = float(settings.effects[key])
-        value, span, tries = v0, math.log(PROFILE_SPAN), []
+        value, span = v0, math.log(PROFILE_SPAN)
         for _ in range(ROUNDS):  # the estimate at the current value, then its profile; again from the best
             base = identify(log, settings)
             if base.refined is None:
                 raise IdentificationError(f"{log.source}: --free {key} needs the output-error refinement, which did "
                                           f"not run ({base.refine_note})")
             fit, noise = _profile_fit(log, settings, key, base.refined)
-            tries.append((base.refined.cost, value))
             x, x0 = _search(fit, math.log(value), span)
             moved = abs(x - x0)
             value = math.exp(x)
@@ -138,12 +138,12 @@ def _with_refined(res, refined, settings):
     headline), and ``settings`` (the profiled values in its effects)."""
     from .identify import _refined_interval
 
-    if res.headline == "refined":
-        intervals = {k: _refined_interval(refined, k) for k in ESTIMATED}
-        estimates = {k: (refined.estimate[k] if intervals[k].identifiable else None) for k in ESTIMATED}
-        return replace(res, refined=refined, intervals=intervals, estimates=estimates,
-                       settings=replace(res.settings, effects=settings.effects, free=settings.free))
-    return replace(res, refined=refined, settings=replace(res.settings, effects=settings.effects))
+    res = replace(res, refined=refined, settings=replace(res.settings, effects=settings.effects))
+    if res.headline != "refined":
+        return res
+    intervals = {k: _refined_interval(refined, k) for k in ESTIMATED}
+    return replace(res, intervals=intervals,
+                   estimates={k: (refined.estimate[k] if intervals[k].identifiable else None) for k in ESTIMATED})
 
 
 def _block_costs(log, prediction: np.ndarray, noise: dict) -> np.ndarray:
