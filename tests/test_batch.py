@@ -128,6 +128,8 @@ def test_a_folder_diagnosed_names_each_misfits_findings_and_which_recur(tmp_path
         assert by[name]["adequate"] is False and dg["verdict"] == "explained", dg
         assert [f["key"] for f in dg["findings"]] == ["cable_stiffness:yaw"]
         assert os.path.exists(dg["file"])
+        page = (out / name.split(".")[0] / "diagnosis.html").read_text()
+        assert "Under the findings' model</b> (eq. (1) + a cable on yaw (k = 0.004 N m/rad); it fits this log)" in page
     assert doc["findings_across_logs"] == {"cable_stiffness:yaw": {"logs": 2, "diagnosed": 2}}
     rows = {r[0].rsplit("/", 1)[-1]: r for r in csv.reader((out / "summary.csv").read_text().splitlines()[1:])}
     assert rows["cable_a.csv"][-2] == "explained" and rows["cable_a.csv"][-1].startswith("cable_stiffness:yaw k = 0.004")

@@ -286,6 +286,15 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
                   + (f"<td>{marked(k, corrected[k])}</td>" if k in corrected else ("<td></td>" if corrected else ""))
                   + "</tr>" for k in ("J1", "B1", "J2", "B2"))
     est_head = "<th>with the correction</th>" if corrected else ""
+    w = doc["estimates"].get("with_findings")
+    under = ""
+    if w and w.get("estimates") is not None:
+        fits = {True: "fits", False: "does NOT fit", None: "fit not decided"}[w["adequate"]]
+        under = (f"<p><b>Under the findings' model</b> ({html.escape(w['model'])}; it {fits} this log), estimated as "
+                 f"<code>trms-ident estimate --params</code> does under the bench file <code>trms-ident export</code> "
+                 f"writes from this diagnosis, 95 %: {html.escape(w['text'])}.</p>")
+    elif w:
+        under = f"<p><b>Under the findings' model</b>: no estimate ({html.escape(w['error'])}).</p>"
     aug_from = {"output_error": " (output-error fit: the equation error's were not physical)",
                 "output_error_check": " (output-error check of the findings' model)",
                 "known_value": (" (output-error refit with the known values free)"
@@ -312,6 +321,6 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
 table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px}}.note{{color:#555;font-size:.9em}}</style>
 </head><body><h1>Diagnosis of {html.escape(log.source)}</h1><p><b>{verdict}</b>.
 Fit measure: {html.escape(doc['fit']['measure'])}.{oe_line}</p><ol>{items}{corrections}</ol>
-<table><tr><th>parameter</th><th>seed model</th><th>with findings{aug_from}</th>{est_head}</tr>{est}</table>{imgs}
+<table><tr><th>parameter</th><th>seed model</th><th>with findings{aug_from}</th>{est_head}</tr>{est}</table>{under}{imgs}
 <p class="note">{units}sha256 {log.sha256}; versions {html.escape(str(doc['versions']))}</p></body></html>
 """
