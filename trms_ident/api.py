@@ -257,30 +257,39 @@ def diagnose(log, *, params: dict | str | Path | None = None, thrust_law: str = 
 
 
 def under_findings(log, d, overrides: dict, thrust_law: str) -> dict | None:
-    """J/B estimated as ``estimate --params`` would under the bench file ``export`` writes from diagnosis ``d``:
-    the known-value findings' refits among the known values, the effect findings in the model, the same 95 %
-    intervals, identifiability and adequacy verdict (identify); None without findings."""
+    """The findings' model fitted once, as ``estimate --params --free ...`` would: the known-value findings among
+    the known values and the effect findings in the model (model/bench.py), every finding's parameter that the
+    refinement carries (known values, torque effects) estimated together with J/B, the input modifications held at
+    their profiled values.  The findings' own values come from separate fits, each given the findings before it;
+    this one fit is the model the bench file is (``export`` writes its values).  J/B with the same 95 % intervals,
+    identifiability and adequacy verdict as estimate (identify), and ``values``: each freed parameter's estimate and
+    95 % interval; None without findings."""
     from .errors import TrmsError
     from .identify import identify, model_name
-    from .model.bench import known_keys
+    from .model.bench import TORQUE_KEYS, known_keys
     from .report.summary import interval_text
 
     if not d.findings:
         return None
     known = dict(overrides)
-    effects = {}
+    effects, free = {}, []
     for f in d.findings:
         if f.effect == "known_value":
             known[f.parameter["name"]] = float(f.parameter["value"])
+            free.append(f.parameter["name"])
         elif f"{f.effect}:{f.axis}" in known_keys():
             effects[f"{f.effect}:{f.axis}"] = float(f.parameter["value"])
-    settings = Settings(thrust_law=thrust_law, overrides=known, effects=effects)
+            free += [f"{f.effect}:{f.axis}"] if f"{f.effect}:{f.axis}" in TORQUE_KEYS else []
+    settings = Settings(thrust_law=thrust_law, overrides=known, effects=effects, free=tuple(free))
     try:
         res = identify(log, settings)
     except (TrmsError, np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
         return {"model": model_name(settings), "estimates": None, "error": str(exc)}
     iv = res.intervals
-    return {"model": model_name(settings), "headline": res.headline,
+    freed = res.refined.freed if res.refined is not None and res.headline == "refined" else {}
+    values = {k: {"estimate": v["estimate"], "ci95": list(v["ci95"]), "given": v["table_or_file_value"]}
+              for k, v in freed.items()}
+    return {"model": model_name(settings), "headline": res.headline, "values": values,
             "estimates": {k: res.estimates[k] for k in iv},
             "ci95": {k: [iv[k].low, iv[k].high] if math.isfinite(iv[k].low) else None for k in iv},
             "identifiable": {k: iv[k].identifiable for k in iv}, "identifiability": {k: iv[k].reason for k in iv},

@@ -68,6 +68,8 @@ def bench_from_diagnosis(path: Path) -> dict | None:
     "warnings": what cannot go into the file or does not hold}.  One-line errors naming the file."""
     import json
 
+    from dataclasses import replace
+
     from .errors import LogFormatError
     from .model.bench import BenchEffectError, known_keys, parse_effect
 
@@ -97,8 +99,17 @@ def bench_from_diagnosis(path: Path) -> dict | None:
                 effects.append(parse_effect(key, {"from": where, f["parameter"]["name"]: f["parameter"]["value"]}))
             except BenchEffectError as exc:
                 warnings.append(f"{exc}; left out")
-        jb = (doc["estimates"].get("with_findings") or {}).get("estimates") or doc["estimates"]["augmented"]
+        together = doc["estimates"].get("with_findings") or {}
+        jb = together.get("estimates") or doc["estimates"]["augmented"]
         verdict = doc["verdict"]
+        # the findings' parameters refitted together with J/B (estimates.with_findings.values): one fit, the model
+        for name, v in (together.get("values") or {}).items():
+            if name in known:
+                known[name] = float(v["estimate"])
+                sources[name] = f"refitted with J/B and the other findings by {where}; the table's {v.get('given')}"
+        effects = [replace(e, value=float(together["values"][e.key]["estimate"]),
+                           ci95=tuple(float(x) for x in together["values"][e.key]["ci95"]))
+                   if e.key in (together.get("values") or {}) else e for e in effects]
     except (KeyError, TypeError, AttributeError) as exc:
         raise LogFormatError(f"{path}: a diagnosis.json, but not one this version can export (missing {exc}); "
                              "run trms-ident diagnose again") from None
