@@ -120,7 +120,8 @@ def emit_json(doc: dict, target: str) -> None:
 
 
 # ---- options shared by estimate and batch (defined once) ----------------------------------------
-ParamsOpt = Annotated[Optional[Path], typer.Option("--params", help="TOML file overriding known parameters, or a "
+ParamsOpt = Annotated[Optional[Path], typer.Option("--params", help="TOML file overriding known parameters, with "
+                                                   "the bench's [effects] (export writes it from a diagnosis), or a "
                                                    "bundled bench's name: humusoft_ce150.")]
 AOpt = Annotated[str, typer.Option("--a", help="Bandwidth of F(s), eq. (3) [rad/s], or 'auto': designed from the "
                                    "log's noise level and excitation.")]
@@ -141,8 +142,9 @@ AngleOpt = Annotated[str, typer.Option("--angle-unit", help="Unit of the logged 
 TimeUnitOpt = Annotated[str, typer.Option("--time-unit", help="Unit of CSV time stamps: auto (told from the median "
                                           "step: <= 0.15 s, ms up to 150, else us; said on stderr), s, ms or us.")]
 FreeOpt = Annotated[str, typer.Option("--free", help="Known values to estimate with J/B by the refinement, e.g. "
-                                      "Mg,kc (started from the table or --params; results in "
-                                      "refined.known_values_estimated).")]
+                                      "Mg,kc (started from the table or --params), and effects of the bench file's "
+                                      "[effects], e.g. cable_stiffness:yaw (an input modification by a profile); "
+                                      "results in refined.known_values_estimated.")]
 StrictOpt = Annotated[bool, typer.Option("--strict", help="Exit with code 10 when the model does not fit the log "
                                           "(model_check.adequate false), 11 when that is not decided (adequate "
                                           "null: the fit did not converge); batch: any log.")]
