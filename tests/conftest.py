@@ -14,8 +14,8 @@ from trms_ident.log import validated
 #: seconds beside each), every one a capability a faster test also exercises (the sparse correction through the
 #: command line, diagnose and the CE150's published values on the other real recording, the profiles of input
 #: modifications, ...).  The README's test command leaves them out (pyproject.toml's addopts: -m "not slow");
-#: ``pytest -q -n 2 -m slow`` runs them (15.5 minutes, 27 Nov 2026), ``-m ""`` runs everything.  Run them before changing
-#: diagnose's or estimate's numerics.
+#: ``pytest -q -n 2 -m slow`` runs them (28 of them: 11:47, 27 Nov 2026), ``-m ""`` runs everything.  Run them
+#: before changing diagnose's or estimate's numerics.
 SLOW = {
     "test_real_recordings.py::test_real_ce150_recordings_get_an_honest_verdict_and_fit_better_with_the_ce150s_"
     "published_values[Data100_ea_a0]": 250,
