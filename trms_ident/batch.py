@@ -133,8 +133,11 @@ def _diagnosed(log, out: Path, settings: Settings, options: dict, estimated=None
 
     seedlike = replace(settings, inputs_unit=None) == Settings(thrust_law=settings.thrust_law,
                                                                 overrides=dict(settings.overrides))
-    d = diagnose(log, params=dict(settings.overrides), thrust_law=settings.thrust_law,
-                 seed=estimated if seedlike else None)
+    try:
+        d = diagnose(log, params=dict(settings.overrides), thrust_law=settings.thrust_law,
+                     seed=estimated if seedlike else None)
+    except TrmsError as exc:  # a log too short to diagnose, ...: said in its row, the estimate stands
+        return {"verdict": "not diagnosed", "findings": [], "file": None, "error": str(exc)}
     doc = to_doc(d, log)
     write_text(out / "diagnosis.json", to_json(doc))
     if options.get("html", True):
@@ -168,7 +171,7 @@ def _recurring_html(found: dict) -> str:
 def recurring_findings(rows: list[dict]) -> dict:
     """Each finding's key -> (in how many of the diagnosed logs, how many were diagnosed), most frequent first: a
     structure of the bench recurs, one only a log shows is suspect."""
-    diagnosed = [r["diagnosis"] for r in rows if r.get("diagnosis")]
+    diagnosed = [r["diagnosis"] for r in rows if r.get("diagnosis") and r["diagnosis"].get("file")]
     counts: dict = {}
     for dg in diagnosed:
         for key in dict.fromkeys(f["key"] for f in dg["findings"]):
@@ -264,7 +267,8 @@ def write_summary(out_dir: Path, rows: list[dict]) -> list[Path]:
         fits = {None: "<td>not decided</td>" if r["status"] == "ok" else "", True: '<td class="ok">yes</td>',
                 False: '<td class="failed">NO: model does not fit</td>'}
         dg = r.get("diagnosis")
-        dcell = "" if not dg else (f'<a href="{html.escape(os.path.relpath(dg["file"], out_dir))}">'
+        dcell = "" if not dg else (html.escape(f"not diagnosed: {dg.get('error')}") if not dg.get("file") else
+                                   f'<a href="{html.escape(os.path.relpath(dg["file"], out_dir))}">'
                                    f'{html.escape(dg["verdict"].replace("_", " "))}</a>: '
                                    + html.escape("; ".join(f["text"] for f in dg["findings"]) or "no finding"))
         items.append(f'<tr><td>{link}</td><td class="{r["status"]}">{r["status"]}</td>'

@@ -460,9 +460,10 @@ def batch(
     undecided = [r for r in rows if r["status"] == "ok" and r["adequate"] is None]
     for r in bad_fit:
         dg = r.get("diagnosis")
-        say(f"model does not fit: {r['path']}" + ("" if not dg else f"; diagnose: {dg['verdict'].upper().replace('_', ' ')}"
-                                                   + (": " + "; ".join(f["text"] for f in dg["findings"])
-                                                      if dg["findings"] else "")))
+        said = ("" if not dg else f"; not diagnosed: {dg['error']}" if not dg.get("file") else
+                f"; diagnose: {dg['verdict'].upper().replace('_', ' ')}"
+                + (": " + "; ".join(f["text"] for f in dg["findings"]) if dg["findings"] else ""))
+        say(f"model does not fit: {r['path']}{said}")
     recurring = batch_mod.recurring_findings(rows)
     if recurring:
         say("findings across the logs: " + "; ".join(f"{k} in {n} of {m} diagnosed" for k, (n, m) in recurring.items()))

@@ -67,7 +67,6 @@ def bench_from_diagnosis(path: Path) -> dict | None:
     "effects": the findings as model.bench.BenchEffect, "identified": J/B of the findings' model, "header",
     "warnings": what cannot go into the file or does not hold}.  One-line errors naming the file."""
     import json
-
     from dataclasses import replace
 
     from .errors import LogFormatError
@@ -116,6 +115,9 @@ def bench_from_diagnosis(path: Path) -> dict | None:
     if doc.get("corrections"):
         warnings.append("outside the library: " + "; ".join(c["sentence"] for c in doc["corrections"]) +
                         " (a description, not a model: not in the file)")
+    if together.get("adequate") is False and verdict in ("explained", "consistent"):
+        warnings.append("the findings' model fitted as one (estimates.with_findings) does not fit the log: estimate "
+                        "under this file will say so")
     if verdict not in ("explained", "consistent"):
         warnings.append(f"the diagnosis is {verdict.replace('_', ' ')}: the findings do not bring the model to the "
                         "noise level, so this model still misses something")

@@ -55,11 +55,11 @@ class Settings:
             raise SettingsError(f"refine must be one of {REFINE_MODES}, got {self.refine!r}")
         if self.headline not in HEADLINES:
             raise SettingsError(f"headline must be one of {HEADLINES}, got {self.headline!r}")
-        from .model.bench import MODIFICATION_KEYS, TORQUE_KEYS
+        from .model.bench import MODIFICATION_KEYS, TORQUE_KEYS, BenchEffectError, parse_effect
 
         for name in self.free:  # every known value can be freed (numerics.refine.FREEABLE; numba not loaded here)
             if name in MODIFICATION_KEYS and name in self.effects:
-                continue  # profiled over its value (identify._profiled)
+                continue  # profiled over its value (model_profile.with_profiles)
             if name in TORQUE_KEYS and name in self.effects:
                 continue  # estimated with J/B by the refinement, from the bench file's value
             if name in TORQUE_KEYS + MODIFICATION_KEYS:
@@ -68,6 +68,11 @@ class Settings:
             if name not in KNOWN:
                 raise SettingsError(f"--free {name}: expected known values among {', '.join(KNOWN)}, or an effect "
                                     "of the bench file's [effects]")
+        for key, value in self.effects.items():  # as a bench file's [effects] entries are checked
+            try:
+                parse_effect(key, value)
+            except BenchEffectError as exc:
+                raise SettingsError(f"effects: {exc}") from None
         torques = [k for k in self.effects if k in TORQUE_KEYS]
         if torques and self.refine == "off":
             raise SettingsError(f"--refine off with the bench file's {', '.join(torques)}: only the output-error "
