@@ -192,7 +192,7 @@ def estimate_with(log, settings: Settings, *, truth: dict | None = None, truth_s
     ``truth_source``: where the truth came from (the report names it); ``on_stage(name)`` is told "reading"
     and "identifying" as they begin.  When ``log`` is a file, the compiled kernels load in threads while it is
     read (they need the GIL little: the read is pyarrow's, the kernels come from numba's cache)."""
-    from .identify import identify
+    from .model_profile import identify_with_profiles
     from .report.summary import summarize
 
     stage = on_stage or (lambda _: None)
@@ -210,7 +210,7 @@ def estimate_with(log, settings: Settings, *, truth: dict | None = None, truth_s
     data = with_inputs_unit(_as_log(log, read), settings.inputs_unit)
     warm.join()
     stage("identifying")
-    result = identify(data, settings)
+    result = identify_with_profiles(data, settings)  # identify, and --free input modifications by their profiles
     return Estimate(data, result, summarize(result, data, truth, truth_source or ("given" if truth else None)))
 
 

@@ -150,10 +150,9 @@ def identify(log: Log, settings: Settings | None = None) -> Result:
     from .model.bench import MODIFICATION_KEYS
 
     profiled = [k for k in settings.free if k in MODIFICATION_KEYS]
-    if profiled:  # an input modification's value freed: profiled over it (model_profile.py)
-        from .model_profile import with_profiles
-
-        return with_profiles(log, settings, profiled, identify)
+    if profiled:  # the refinement has no sensitivity for them: model_profile.identify_with_profiles fits them
+        raise SettingsError(f"--free {', '.join(profiled)}: an input modification's value is profiled "
+                            "(model_profile.identify_with_profiles), not estimated by identify")
     params = merge(settings.overrides, source="parameter overrides")
     log, params = under_model(log, params, settings.effects)
     _long_enough(log, params)

@@ -25,6 +25,7 @@ from scipy.optimize import minimize_scalar
 from scipy.special import stdtrit
 
 from .errors import IdentificationError, SettingsError
+from .identify import _noise, _refine_first, _refined_interval, identify, under_model
 from .model.effects import BY_KEY, SENSOR_LAG
 from .numerics.refine import BLOCK_S
 from .params import ESTIMATED, merge
@@ -41,9 +42,15 @@ ROUNDS = 3
 SE_STEP = 0.02
 
 
-def with_profiles(log, settings, keys: list[str], identify):
-    """identify's Result with each of ``keys`` (input modifications of settings.effects in settings.free)
-    estimated by its profile; its estimate, ci95, se and how it was found in ``refined.freed[key]``."""
+def identify_with_profiles(log, settings):
+    """identify's Result, with each input modification of settings.free (a bench file's, --free
+    dead_zone:yaw, ...) estimated by its profile: its estimate, ci95, se and how it was found in
+    ``refined.freed[key]``.  Without one, identify itself."""
+    from .model.bench import MODIFICATION_KEYS
+
+    keys = [k for k in settings.free if k in MODIFICATION_KEYS]
+    if not keys:
+        return identify(log, settings)
     if SENSOR_LAG in keys:
         raise SettingsError(f"--free {SENSOR_LAG}: an acquisition lag changes the angles the fit is scored on; "
                             "estimate holds it at the bench file's value (diagnose fits it)")
@@ -102,8 +109,6 @@ def with_profiles(log, settings, keys: list[str], identify):
 def _profile_fit(log, settings, key: str, r0):
     """(value -> the output-error fit with ``key`` at that value, from ``r0``'s J/B and start states; the angles'
     noise floors)."""
-    from .identify import _noise, _refine_first, under_model
-
     params0 = merge(settings.overrides, source="parameter overrides")
     n, noise = len(log), _noise(log, len(log))
 
@@ -136,8 +141,6 @@ def _search(fit, x0: float, span: float) -> tuple[float, float]:
 def _with_refined(res, refined, settings):
     """The Result with its refinement's intervals widened (and its headline intervals when refined is the
     headline), and ``settings`` (the profiled values in its effects)."""
-    from .identify import _refined_interval
-
     res = replace(res, refined=refined, settings=replace(res.settings, effects=settings.effects))
     if res.headline != "refined":
         return res

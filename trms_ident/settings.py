@@ -59,7 +59,7 @@ class Settings:
 
         for name in self.free:  # every known value can be freed (numerics.refine.FREEABLE; numba not loaded here)
             if name in MODIFICATION_KEYS and name in self.effects:
-                continue  # profiled over its value (model_profile.with_profiles)
+                continue  # profiled over its value (model_profile.identify_with_profiles)
             if name in TORQUE_KEYS and name in self.effects:
                 continue  # estimated with J/B by the refinement, from the bench file's value
             if name in TORQUE_KEYS + MODIFICATION_KEYS:
