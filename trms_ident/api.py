@@ -266,21 +266,15 @@ def under_findings(log, d, overrides: dict, thrust_law: str) -> dict | None:
     95 % interval; None without findings."""
     from .errors import TrmsError
     from .identify import identify, model_name
-    from .model.bench import TORQUE_KEYS, known_keys
+    from .model.bench import TORQUE_KEYS, from_findings
     from .report.summary import interval_text
 
     if not d.findings:
         return None
-    known = dict(overrides)
-    effects, free = {}, []
-    for f in d.findings:
-        if f.effect == "known_value":
-            known[f.parameter["name"]] = float(f.parameter["value"])
-            free.append(f.parameter["name"])
-        elif f"{f.effect}:{f.axis}" in known_keys():
-            effects[f"{f.effect}:{f.axis}"] = float(f.parameter["value"])
-            free += [f"{f.effect}:{f.axis}"] if f"{f.effect}:{f.axis}" in TORQUE_KEYS else []
-    settings = Settings(thrust_law=thrust_law, overrides=known, effects=effects, free=tuple(free))
+    refits, found, _ = from_findings(d.findings)
+    free = tuple(refits) + tuple(e.key for e in found if e.key in TORQUE_KEYS)
+    settings = Settings(thrust_law=thrust_law, overrides={**overrides, **refits},
+                        effects={e.key: e.value for e in found}, free=free)
     try:
         with np.errstate(all="ignore"):  # as diagnose's own fits: a model far off the log overflows (no number)
             res = identify(log, settings)

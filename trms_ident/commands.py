@@ -70,7 +70,7 @@ def bench_from_diagnosis(path: Path) -> dict | None:
     from dataclasses import replace
 
     from .errors import LogFormatError
-    from .model.bench import BenchEffectError, known_keys, parse_effect
+    from .model.bench import from_findings
 
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
@@ -83,21 +83,10 @@ def bench_from_diagnosis(path: Path) -> dict | None:
         known = {k: float(v["value"]) for k, v in given.items()}
         sources = {k: "given to diagnose (--params)" for k, v in given.items() if v.get("source") == "override"}
         where = f"diagnose of {doc['input']['path']} (sha256 {str(doc['input']['sha256'])[:12]})"
-        effects, warnings = [], []
-        for f in doc["findings"]:
-            if f["effect"] == "known_value":
-                name = f["parameter"]["name"]
-                known[name] = float(f["parameter"]["value"])
-                sources[name] = f"refitted by {where}; the table's {f['parameter'].get('table')}"
-                continue
-            key = f"{f['effect']}:{f['axis']}"
-            if key not in known_keys():
-                warnings.append(f"{key}: not an effect a bench file can hold; left out")
-                continue
-            try:
-                effects.append(parse_effect(key, {"from": where, f["parameter"]["name"]: f["parameter"]["value"]}))
-            except BenchEffectError as exc:
-                warnings.append(f"{exc}; left out")
+        refits, effects, warnings = from_findings(doc["findings"], where)
+        known.update(refits)
+        sources.update({f["parameter"]["name"]: f"refitted by {where}; the table's {f['parameter'].get('table')}"
+                        for f in doc["findings"] if f["effect"] == "known_value"})
         together = doc["estimates"].get("with_findings") or {}
         jb = together.get("estimates") or doc["estimates"]["augmented"]
         verdict = doc["verdict"]

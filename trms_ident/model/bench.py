@@ -60,11 +60,6 @@ class BenchEffect:
     def candidate(self) -> room.Candidate:
         return room.BY_KEY[self.key]
 
-    @property
-    def torque(self) -> bool:
-        """Carried in the output-error refinement's model (may be freed); else a modification of the log."""
-        return self.key in TORQUE_KEYS
-
     def phrase(self) -> str:
         """'a second-order tail motor (T2 = 0.463 s)'."""
         effect, axis = self.key.split(":")
@@ -167,9 +162,25 @@ def _toml_string(s: str) -> str:
     return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-def as_values(effects: tuple[BenchEffect, ...]) -> dict:
-    """key -> value (Settings.effects)."""
-    return {e.key: e.value for e in effects}
+def from_findings(findings, source: str = "") -> tuple[dict, tuple, list]:
+    """Diagnose's findings (each with effect, axis and parameter {"name", "value"}: diagnosis.result.Finding or
+    its diagnosis.json entry) as the bench's model: (the known values they refit: name -> value, the effects as
+    BenchEffects from ``source``, the findings a bench file cannot hold: why each is left out)."""
+    known, effects, left = {}, [], []
+    for f in findings:
+        effect, axis, p = (f["effect"], f["axis"], f["parameter"]) if isinstance(f, dict) else             (f.effect, f.axis, f.parameter)
+        if effect == "known_value":
+            known[p["name"]] = float(p["value"])
+            continue
+        key = f"{effect}:{axis}"
+        if key not in known_keys():
+            left.append(f"{key}: not an effect a bench file can hold; left out")
+            continue
+        try:
+            effects.append(parse_effect(key, {"from": source, p["name"]: p["value"]}))
+        except BenchEffectError as exc:
+            left.append(f"{exc}; left out")
+    return known, tuple(effects), left
 
 
 def simulator_specs(effects: dict) -> list[dict]:
