@@ -1000,7 +1000,8 @@ def export(
         for w in bench["warnings"]:
             say(f"warning: {w}")
         what = ", ".join(e.key for e in bench["effects"]) or "no effect"
-        say(f"wrote {path} ({what}; known values {'with refits' if bench['sources'] else 'as given'})")
+        refitted = any(src.startswith("refitted") for src in bench["sources"].values())
+        say(f"wrote {path} ({what}; known values {'with refits' if refitted else 'as given'})")
         return
     doc, known, freed, estimates = read_result(result)
     check = doc["model_check"]
