@@ -27,7 +27,6 @@ from scipy.special import stdtrit
 from .errors import IdentificationError, SettingsError
 from .identify import _noise, _refine_first, _refined_interval, identify, under_model
 from .model.effects import BY_KEY, SENSOR_LAG
-from .numerics.refine import BLOCK_S
 from .params import ESTIMATED, merge
 
 #: the profile searches within this factor of the file's value either way
@@ -78,8 +77,10 @@ def identify_with_profiles(log, settings):
         fit, noise = _profile_fit(log, settings, key, base.refined)
         trial = [value * (1.0 - SE_STEP), value, value * (1.0 + SE_STEP)]
         fits = [fit(v) for v in trial]
-        blocks = np.array([_block_costs(log, f.prediction, noise) for f in fits])
-        from .diagnosis.oe import profile_se
+        from .diagnosis.oe import block_costs, profile_se  # (not loaded by an estimate that profiles nothing)
+
+        floors = {k: max(v, 1e-12) for k, v in noise.items()}  # as diagnose's profiles weigh them
+        blocks = np.array([block_costs(log, f.prediction, floors) for f in fits])
 
         se = profile_se(np.array(trial), blocks, value)
         nb = blocks.shape[1]
@@ -147,15 +148,3 @@ def _with_refined(res, refined, settings):
     intervals = {k: _refined_interval(refined, k) for k in ESTIMATED}
     return replace(res, intervals=intervals,
                    estimates={k: (refined.estimate[k] if intervals[k].identifiable else None) for k in ESTIMATED})
-
-
-def _block_costs(log, prediction: np.ndarray, noise: dict) -> np.ndarray:
-    """Noise-weighted squared angle errors of a prediction summed over BLOCK_S blocks (both angles)."""
-    n = prediction.shape[0]
-    c = np.zeros(n)
-    for j, (y, a) in enumerate(((log.alpha_rad[:n], "alpha"), (log.beta_rad[:n], "beta"))):
-        e = (y - prediction[:, j]) / max(noise[a], 1e-12)
-        c += e * e
-    m = max(int(round(BLOCK_S / log.sample_time_s)), 1)
-    nb = n // m
-    return c[:nb * m].reshape(nb, m).sum(axis=1)

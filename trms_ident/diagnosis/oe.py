@@ -360,27 +360,22 @@ class Fitter:
                 "rms_rad": rms, "prediction": pred, "folds": folds,
                 "converged": all(f["converged"] for f in folds)}
 
-    def _blocks(self, v: np.ndarray) -> np.ndarray:
-        """Per-sample values summed over BLOCK_S blocks (a last partial block left out)."""
-        m = max(int(round(BLOCK_S / self.log.sample_time_s)), 1)
-        nb = v.size // m
-        return v[:nb * m].reshape(nb, m).sum(axis=1)
-
     def _block_costs(self, prediction: np.ndarray, base: np.ndarray | None = None) -> np.ndarray:
-        """Noise-weighted squared angle errors of a fit's prediction summed over BLOCK_S blocks (both angles).
-        With ``base`` (the current model's prediction) also 2 e' d per block, e the noise-weighted error and d
-        the noise-weighted change from the base: the part of the drop in squared error that is noise when the
-        candidate is right (the held-out test's scale); shape (2, blocks) then."""
+        """Noise-weighted squared angle errors of a fit's prediction summed over BLOCK_S blocks (both angles:
+        block_costs).  With ``base`` (the current model's prediction) also 2 e' d per block, e the noise-weighted
+        error and d the noise-weighted change from the base: the part of the drop in squared error that is noise
+        when the candidate is right (the held-out test's scale); shape (2, blocks) then."""
+        if base is None:
+            return block_costs(self.log, prediction, self.noise_floor)
         n, log = self.n, self.log
-        cost = np.zeros(n)
-        cross = np.zeros(n) if base is not None else None
+        cost, cross = np.zeros(n), np.zeros(n)
         for j, (y, s) in enumerate(((log.alpha_rad[:n], self.noise_floor["alpha"]),
                                     (log.beta_rad[:n], self.noise_floor["beta"]))):
             e = (y - prediction[:, j]) / s
             cost += e * e
-            if base is not None:
-                cross += 2.0 * e * (prediction[:, j] - base[:, j]) / s
-        return self._blocks(cost) if base is None else np.stack([self._blocks(cost), self._blocks(cross)])
+            cross += 2.0 * e * (prediction[:, j] - base[:, j]) / s
+        dt = log.sample_time_s
+        return np.stack([per_block(cost, dt), per_block(cross, dt)])
 
     def _simulation_fits(self, rms_before: dict, rms_after: dict) -> dict:
         """axis -> (fit before, fit after) [%]: NRMSE fits 100 (1 - error RMS / angle's standard deviation)."""
@@ -583,6 +578,24 @@ class Fitter:
             if math.isfinite(r.cost):
                 out.append((float(r.cost), float(v)))
         return out
+
+
+def per_block(v: np.ndarray, dt_s: float) -> np.ndarray:
+    """Per-sample values summed over BLOCK_S blocks of samples ``dt_s`` apart (a last partial block left out)."""
+    m = max(int(round(BLOCK_S / dt_s)), 1)
+    nb = v.size // m
+    return v[:nb * m].reshape(nb, m).sum(axis=1)
+
+
+def block_costs(log: Log, prediction: np.ndarray, floors: dict) -> np.ndarray:
+    """The noise-weighted squared errors of ``prediction`` ((n, 2) alpha, beta [rad], the log's first n samples)
+    over ``floors`` ({"alpha", "beta"} [rad], each > 0), both angles summed per BLOCK_S block (per_block)."""
+    n = prediction.shape[0]
+    cost = np.zeros(n)
+    for j, (y, a) in enumerate(((log.alpha_rad[:n], "alpha"), (log.beta_rad[:n], "beta"))):
+        e = (y - prediction[:, j]) / floors[a]
+        cost += e * e
+    return per_block(cost, log.sample_time_s)
 
 
 def profile_se(x: np.ndarray, block_costs: np.ndarray, at: float) -> float:

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..params import ESTIMATED, UNITS, defaults
+from ..model.bench import model_doc
 from .summary import interval_text, strict, versions
 
 if TYPE_CHECKING:
@@ -15,12 +16,6 @@ if TYPE_CHECKING:
     from ..log import Log
 
 VERDICT = {True: "fits", False: "does NOT fit", None: "fit not decided"}
-
-
-def model_doc(effects: dict, sources: dict, freed: dict) -> dict:
-    from ..model.bench import model_doc as doc
-
-    return doc(effects, sources, freed)
 
 
 def joint_doc(result: JointResult, logs: list[Log]) -> dict:

@@ -13,6 +13,7 @@ from .. import __version__
 from ..settings import AXES
 from ..log import Log
 from ..params import BY_NAME, ESTIMATED, THRUST_LAWS, UNITS, defaults, not_credible
+from ..model.bench import model_doc
 
 if TYPE_CHECKING:
     from ..identify import Result
@@ -44,12 +45,6 @@ HEADLINE_MEANING = {
     "offline": "offline optimum sum(eps*phi)/sum(phi^2) of each DREM scalar regression (eq. 7) over the whole log",
     "drem": "final value of the causal DREM gradient trace (eq. 8)",
 }
-
-
-def model_doc(effects: dict, sources: dict, freed: dict) -> dict:
-    from ..model.bench import model_doc as doc
-
-    return doc(effects, sources, freed)
 
 
 def summarize(result: Result, log: Log, truth: dict | None = None, truth_source: str | None = None) -> dict:
