@@ -137,3 +137,14 @@ def test_runs_of_the_bench_are_pooled_under_its_model(bench_log):
         own = [log["ci95"][k] for log in doc["logs"] if log["estimates"][k] is not None]
         assert (hi - lo) <= min(b - a for a, b in own) * 1.0001, k
     # under eq. (1) alone the same runs are said not to fit: benchmarks/diagnosed_model.py (a single run: above)
+
+
+def test_the_bench_files_effect_lists_are_the_fitters():
+    """model.bench lists the effects by hand (reading a parameter file loads no compiled kernel): the same as the
+    refinement's effect slots and diagnose's profiled modifications with the second-order motors."""
+    from trms_ident.diagnosis.oe import PROFILE_KEYS
+    from trms_ident.model.bench import MODIFICATION_KEYS, TORQUE_KEYS
+    from trms_ident.model.plant import EFFECT_SLOTS
+
+    assert set(TORQUE_KEYS) == set(EFFECT_SLOTS)
+    assert set(MODIFICATION_KEYS) == set(PROFILE_KEYS) | {"motor_second_lag:pitch", "motor_second_lag:yaw"}
