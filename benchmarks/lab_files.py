@@ -18,7 +18,6 @@ benchmarks/RESULTS.md.
 """
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 import tempfile
@@ -138,10 +137,9 @@ def run(i: int) -> dict:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--n", type=int, default=20, help="number of seeds (default 20)")
-    ap.add_argument("--no-write", action="store_true", help="print only; leave RESULTS.md as it is")
-    args = ap.parse_args()
+    from results import seed_args
+
+    args = seed_args(__doc__)
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=2) as pool:
         rows = list(pool.map(run, range(args.n)))
