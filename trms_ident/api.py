@@ -267,6 +267,7 @@ def under_findings(log, d, overrides: dict, thrust_law: str) -> dict | None:
     from .errors import TrmsError
     from .identify import identify, model_name
     from .model.bench import TORQUE_KEYS, from_findings
+    from .params import ESTIMATED
     from .report.summary import interval_text
 
     if not d.findings:
@@ -280,7 +281,7 @@ def under_findings(log, d, overrides: dict, thrust_law: str) -> dict | None:
             res = identify(log, settings)
     except (TrmsError, np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
         return {"model": model_name(settings), "estimates": None, "error": str(exc)}
-    iv = res.intervals
+    iv = {k: res.intervals[k] for k in ESTIMATED}  # J1, B1, J2, B2 (DREM's intervals come axis by axis)
     freed = res.refined.freed if res.refined is not None and res.headline == "refined" else {}
     values = {k: {"estimate": v["estimate"], "ci95": list(v["ci95"]), "given": v["table_or_file_value"]}
               for k, v in freed.items()}
