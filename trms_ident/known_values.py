@@ -34,8 +34,10 @@ from dataclasses import asdict, dataclass, field
 from typing import Callable
 
 import numpy as np
+from scipy.stats import norm
 
 from .numerics.adequacy import RMS_OVER_NOISE
+from .numerics.stats import Z95
 from .numerics.refine import Refined, known_value_scores, suspect_known_values
 from .params import BY_NAME, ESTIMATED, KNOWN, not_credible
 
@@ -72,6 +74,9 @@ class KnownValueFit:
     explains: bool  # converged in the standard windows with both angles within RMS_OVER_NOISE
     estimates: dict = field(default_factory=dict)  # J1, B1, J2, B2 of the refit
     start_states: dict = field(default_factory=dict)  # the motors' states at the first sample of the refit
+    #: the other values freed with it (the search's ``free``: --free values, a bench's torque effects): name ->
+    #: {"estimate", "ci95"} of the refit
+    with_free: dict = field(default_factory=dict)
 
     def to_json(self) -> dict:
         return {**asdict(self), "ci95": list(self.ci95)}
@@ -155,6 +160,14 @@ PRECISION_METHOD = ("95 % half-width over |value| from the Fisher information of
                     "freed at once; null: the others can stand in for it")
 
 
+def against_given(value: float, given: float, ci95) -> tuple[float, float]:
+    """t and two-sided p of a refitted known value against the value it was given, from its 95 % interval."""
+    lo, hi = ci95
+    se = (hi - lo) / (2 * Z95) if hi > lo else math.inf
+    t = (value - given) / se if se > 0 else math.inf
+    return float(t), float(2 * norm.sf(abs(t))) if math.isfinite(t) else 0.0
+
+
 def _finite(v: float) -> float | None:
     return float(v) if math.isfinite(v) else None
 
@@ -223,7 +236,9 @@ def _refit(fit: Fit, name: str, params: dict, noise: dict, score: float, theta0:
     return KnownValueFit(name, float(params[name]), float(f["estimate"]), tuple(float(x) for x in f["ci95"]), p.unit,
                          AXIS[name], float(score), stage, bool(r.converged), {k: float(v) for k, v in ratio.items()},
                          float(r.cost), stage == "windows" and bool(r.converged) and _within(ratio) and moved,
-                         {k: float(v) for k, v in r.estimate.items()}, {k: float(v) for k, v in r.start_states.items()})
+                         {k: float(v) for k, v in r.estimate.items()}, {k: float(v) for k, v in r.start_states.items()},
+                         {k: {"estimate": float(v["estimate"]), "ci95": [float(x) for x in v["ci95"]]}
+                          for k, v in r.freed.items() if k != name})
 
 
 #: the joint search (several known values off at once) frees at most this many values together

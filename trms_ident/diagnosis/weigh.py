@@ -36,14 +36,14 @@ import math
 from dataclasses import replace
 
 import numpy as np
-from scipy.stats import norm
 
 from .. import known_values
 from ..log import Log
 from ..numerics.adequacy import RMS_OVER_NOISE
-from ..numerics.stats import Z95, block_length
+from ..numerics.stats import block_length
+from .compound import together, tried_sentence
 from .fits import prediction_fits
-from .model import AXIS_ANGLE, Model, regression
+from .model import AXIS_ANGLE, regression
 from .result import Finding
 from .select import block_ids, score
 
@@ -77,6 +77,12 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
                 d.verdict_sentence += (" No known value explains the log alone (each refitted by output error, the "
                                        "most likely leave the angles above their noise floors: "
                                        f"{tried or 'none could be fitted'}).")
+            both, tried = together(d, log, p, law, overrides,
+                                   lambda pp, est, start, found: _refitted(d, log, pp, law, est, start, found))
+            if both is not None:
+                return both
+            d.settings = {**d.settings, "together": tried}
+            d.verdict_sentence += tried_sentence(tried)
             j = _joint(log, law, overrides, p, kv, d.seed_check)
             if j is not None:
                 d.known_values_joint = j.to_json()
@@ -112,7 +118,7 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
                               "ci95": [lo, hi]},
         d.fit_before.get(axis, math.nan), fits_after.get(axis, math.nan), evidence,
         f"the bench's {name} is {value:.4g}, not the {table:.4g} it was given", _drop(base, ratio),
-        *_against_table(value, table, (lo, hi)), alternatives, {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est})
+        *known_values.against_given(value, table, (lo, hi)), alternatives, {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est})
     refused = list(d.refused)
     if not effect_alike:
         why = (f"a known value explains the log alone with one parameter ({name} = {value:.4g} instead of "
@@ -156,26 +162,21 @@ def _start(states: dict) -> dict | None:
     return start if len(start) == 3 and all(math.isfinite(v) for v in start.values()) else None
 
 
-def _refitted(d, log: Log, pp: dict, law: str, est: dict, start: dict | None):
-    """The seed model with known values ``pp`` and J/B ``est``: its 2 s prediction fits, and ``d``'s overlay and
-    residual with its predictions and equation error as the "after" ones."""
+def _refitted(d, log: Log, pp: dict, law: str, est: dict, start: dict | None, findings=()):
+    """The seed model with known values ``pp``, J/B ``est`` and ``findings``' effects: its 2 s prediction fits, and
+    ``d``'s overlay and residual with its predictions and equation error as the "after" ones."""
+    from .held_out import final_model
+
+    model, values, _ = final_model([f for f in findings if f.effect != "known_value"])
     with np.errstate(all="ignore"):
-        fits_after, preds = prediction_fits(log, pp, law, Model(), {}, est, start=start)
+        fits_after, preds = prediction_fits(log, pp, law, model, values, est, start=start)
         a = d.settings["a_rad_s"]
         block = block_length(len(log), log.sample_time_s, 1.0 / a)
-        reg = regression(log, pp, law, a, Model(), {("start_states",): start})
+        reg = regression(log, pp, law, a, model, {("start_states",): start})
         sc = score(reg, block_ids(len(log), block), ("pitch", "yaw"))
     overlay = {ax: (ov[0], ov[1], ov[2], preds[ax]) for ax, ov in d.overlay.items()}
     residual = {ax: (r[0], r[1], reg.g[ax] - reg.x[ax] @ sc.theta[ax]) for ax, r in d.residual.items()}
     return fits_after, overlay, residual
-
-
-def _against_table(value: float, table: float, ci95) -> tuple[float, float]:
-    """t and two-sided p of a refitted known value against the value given, from its 95 % interval."""
-    lo, hi = ci95
-    se = (hi - lo) / (2 * Z95) if hi > lo else math.inf
-    t = (value - table) / se if se > 0 else math.inf
-    return float(t), float(2 * norm.sf(abs(t))) if math.isfinite(t) else 0.0
 
 
 def _seed_ratios(base: dict) -> str:
@@ -231,7 +232,7 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
                                   "unit": j.units[name], "ci95": [lo, hi]},
             d.fit_before.get(axis, math.nan), fits_after.get(axis, math.nan), evidence,
             f"the bench's {name} is {j.values[name]:.4g}, not the {j.table[name]:.4g} it was given",
-            _drop(base, j.over_noise), *_against_table(j.values[name], j.table[name], (lo, hi)),
+            _drop(base, j.over_noise), *known_values.against_given(j.values[name], j.table[name], (lo, hi)),
             [], {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est}))
     why = (f"{len(j.names)} known values refitted together explain the log ({listed}); the effect search's "
            "findings do not bring the angles to their noise floors")

@@ -1,0 +1,243 @@
+"""Two differences at once: an effect the search found, with a known value off its table.
+
+A real bench differs from eq. (1) with Table 1's values in several ways at once (its own known values, a
+second-order motor, a cable).  The effect search (run.py) finds the first difference well, but it works at the
+table's known values, so a second difference that is a known value (Mg 10 % low beside a yaw cable) is then
+explained by invented physics (thrust asymmetry, a centre-of-mass offset).  The known-value search
+(known_values.py) frees one value at a time in eq. (1) alone, so it cannot reach the noise floor while the
+effect is missing.  Here the two meet.
+
+Each hypothesis is one of the effect search's findings, or a torque-effect look-alike of one, put into the
+model as a bench file's effect (model/bench.py: an input modification applied to the voltages at its found value,
+a torque effect freed beside J/B) and the log estimated under it as `estimate --params` does (identify): its
+adequacy check says whether the model with that one effect fits the log, and when it does not, its known-value
+search frees each known value with the effect in the model.  The rule is weigh.py's, over more hypotheses:
+
+- the explanation with the fewest parameters that brings both angles to their noise floors wins: the effect alone
+  (one parameter; the search had left it "partly explained" because its own fits stopped early) before an effect
+  with a known value (two);
+- among those with as many parameters, the one that leaves the angles nearest their floors is named and the
+  others that reach the floors are its look-alikes (the log cannot tell them apart);
+- the effect search's other findings are then refused as unnecessary, each with that reason.
+
+None when no hypothesis reaches the noise floor: the effect search's verdict stands.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .. import known_values
+from ..log import Log
+from ..model import effects as room
+from ..model.bench import MODIFICATION_KEYS, TORQUE_KEYS
+from ..numerics.adequacy import RMS_OVER_NOISE
+from .result import Finding
+
+#: at most this many hypotheses (findings first, then their torque-effect look-alikes) are estimated under: each
+#: is one estimate with its known-value search, 4-6 s on a 60 s log at 500 Hz
+MAX_HYPOTHESES = 4
+#: effects that are a known value under another name (weigh.SAME): a known value named under one is not a second
+#: difference but the effect's own value moved again
+SAME = {"motor_lag:pitch": "T11", "motor_lag:yaw": "T21"}
+
+
+@dataclass
+class Hypothesis:
+    """One effect in the model, estimated under (identify), and what its estimate's checks said."""
+    key: str  # "cable_stiffness:yaw"
+    value: float  # its value given to the estimate (the finding's)
+    finding: int | None  # index of the effect search's finding it is (None: a look-alike of one)
+    fitted: float = math.nan  # the effect's value after the estimate (a torque effect is freed beside J/B)
+    fits_alone: bool = False  # the estimate's adequacy check: the effect alone brings both angles to their floors
+    over_noise: dict = field(default_factory=dict)  # angle -> error RMS over its floor, alone or with ``value_fit``
+    value_fit: dict | None = None  # the known value its known-value search named (KnownValueFit's JSON)
+    look_alikes: list = field(default_factory=list)  # known values that reach the floor with it as well
+    error: str = ""
+
+    @property
+    def parameters(self) -> int:
+        return 1 if self.fits_alone else 2
+
+    @property
+    def explains(self) -> bool:
+        return self.fits_alone or self.value_fit is not None
+
+    def label(self) -> str:
+        return self.key + ("" if self.value_fit is None else f" with {self.value_fit['name']}")
+
+
+def hypotheses(d) -> list[Hypothesis]:
+    """The effect search's findings that a bench file holds, then their torque-effect look-alikes at the value the
+    output-error fit gave them (d.oe_tested), at most MAX_HYPOTHESES."""
+    out: list[Hypothesis] = []
+    seen = set()
+    for i, f in enumerate(d.findings):
+        key = f"{f.effect}:{f.axis}"
+        if f.effect != "known_value" and key in TORQUE_KEYS + MODIFICATION_KEYS and key not in seen:
+            out.append(Hypothesis(key, float(f.parameter["value"]), i))
+            seen.add(key)
+    tested = {f"{t['effect']}:{t['axis']}": t["parameter"] for t in d.oe_tested
+              if math.isfinite(t.get("parameter", math.nan))}
+    for f in d.findings:
+        for alt in f.alternatives:
+            start = tested.get(alt, 0.0)  # never fitted: from zero, where its range allows (an offset)
+            if alt in TORQUE_KEYS and alt not in seen and room.BY_KEY[alt].plausible(start):
+                out.append(Hypothesis(alt, float(start), None))
+                seen.add(alt)
+    return out[:MAX_HYPOTHESES]
+
+
+def estimate_under(h: Hypothesis, log: Log, law: str, overrides: dict) -> Hypothesis:
+    """``h`` filled in from the estimate of ``log`` with h's effect in the model (identify, as `estimate --params`
+    with that effect in the bench file does)."""
+    from ..errors import TrmsError
+    from ..identify import identify
+    from ..settings import Settings
+
+    torque = h.key in TORQUE_KEYS
+    settings = Settings(thrust_law=law, overrides=dict(overrides), effects={h.key: h.value},
+                        free=(h.key,) if torque else ())
+    try:
+        with np.errstate(all="ignore"):
+            res = identify(log, settings)
+    except (TrmsError, np.linalg.LinAlgError, FloatingPointError, ValueError, ZeroDivisionError) as exc:
+        return replace(h, error=str(exc))
+    check = res.model_check
+    freed = res.refined.freed if res.refined is not None else {}
+    fitted = float(freed[h.key]["estimate"]) if h.key in freed else (h.value if not torque else math.nan)
+    ratio = {ang: float(v["rms_over_noise"]) for ang, v in check.get("axes", {}).items() if "rms_over_noise" in v}
+    if check.get("adequate") is True:
+        return replace(h, fitted=fitted, fits_alone=True, over_noise=ratio)
+    kv = check.get("known_values") or {}
+    named = kv.get("named")
+    if named is None or named == SAME.get(h.key):
+        return replace(h, fitted=fitted, over_noise=ratio)
+    fit = next(f for f in kv["fits"] if f["name"] == named)
+    fitted = fit.get("with_free", {}).get(h.key, {}).get("estimate", fitted)
+    return replace(h, fitted=float(fitted), over_noise=dict(fit["over_noise"]), value_fit=fit,
+                   look_alikes=list(kv.get("look_alikes", [])))
+
+
+def best(tried: list[Hypothesis]) -> tuple[Hypothesis | None, list[Hypothesis]]:
+    """The explaining hypothesis with the fewest parameters, then the angles nearest their floors (sum of squared
+    ratios), and the others with as many parameters that explain the log too (its look-alikes)."""
+    explaining = [h for h in tried if h.explains]
+    if not explaining:
+        return None, []
+    fewest = min(h.parameters for h in explaining)
+    same = sorted((h for h in explaining if h.parameters == fewest),
+                  key=lambda h: sum(v * v for v in h.over_noise.values()))
+    return same[0], same[1:]
+
+
+def together(d, log: Log, p: dict, law: str, overrides: dict | None, refit) -> tuple[object | None, list]:
+    """(the diagnosis ``d`` -- the effect search's, not at the noise floor, no known value alone reaching it --
+    with one of its findings and, where needed, a known value together explaining the log (module docstring), or
+    None when no hypothesis reaches the noise floor; the hypotheses tried, as settings["together"] lists them).
+    ``refit(pp, est, start, findings)``: the findings' model's 2 s prediction fits, overlay and residual
+    (weigh._refitted)."""
+    tried = [estimate_under(h, log, law, dict(overrides or {})) for h in hypotheses(d)]
+    chosen, alikes = best(tried)
+    record = [_record(t) for t in tried]
+    if chosen is None:
+        return None, record
+    return _diagnosis(d, log, p, chosen, alikes, record, refit), record
+
+
+def _record(t: Hypothesis) -> dict:
+    return {"effect": t.key, "value": t.value, "fitted": t.fitted, "fits_alone": t.fits_alone,
+            "known_value": t.value_fit["name"] if t.value_fit else None, "over_noise": t.over_noise,
+            "error": t.error or None}
+
+
+def _effect_finding(d, h: Hypothesis, alikes: list[Hypothesis]) -> Finding:
+    """The effect's finding: the search's own (its value the estimate's when freed), or the look-alike's new one."""
+    others = [a.label() for a in alikes]
+    if h.finding is not None:
+        f = d.findings[h.finding]
+        value = h.fitted if math.isfinite(h.fitted) else f.parameter["value"]
+        again = (f"; estimated again in the model with {h.value_fit['name']} free beside it: {value:.4g}"
+                 if h.value_fit is not None and h.key in TORQUE_KEYS else "")
+        return replace(f, parameter={**f.parameter, "value": float(value)}, evidence=f.evidence + again,
+                       alternatives=list(dict.fromkeys(f.alternatives + others)))
+    c = room.BY_KEY[h.key]
+    origin = next(f for f in d.findings if h.key in f.alternatives)
+    return Finding(c.effect, c.axis, {"name": c.parameter, "value": float(h.fitted), "unit": c.unit},
+                   origin.fit_before, math.nan,
+                   f"put into the model in place of {origin.effect}:{origin.axis} (the effect search's finding, "
+                   "which it cannot tell from this one by the equation error) and estimated with J1, B1, J2, B2"
+                   + (f" and {h.value_fit['name']}" if h.value_fit is not None else ""),
+                   c.sentence.format(value=h.fitted, unit=c.unit) if c.sentence else c.effect, math.nan, math.nan,
+                   math.nan, [f"{origin.effect}:{origin.axis}"] + others)
+
+
+def _diagnosis(d, log: Log, p: dict, h: Hypothesis, alikes: list, record: list, refit):
+    effect = _effect_finding(d, h, alikes)
+    findings = [effect]
+    changes = {}
+    words = f"{h.key} = {effect.parameter['value']:.4g} {effect.parameter.get('unit', '')}".rstrip()
+    if h.value_fit is not None:
+        kv = h.value_fit
+        name, value, table = kv["name"], kv["value"], kv["table"]
+        changes[name] = value
+        lo, hi = kv["ci95"]
+        alternatives = list(h.look_alikes)
+        findings.append(Finding(
+            "known_value", known_values.AXIS[name], {"name": name, "value": value, "table": table, "unit": kv["unit"],
+                                                     "ci95": [lo, hi]},
+            d.fit_before.get(known_values.AXIS[name], math.nan), math.nan,
+            f"with {h.key} in the model (freed beside J/B where the refinement carries it), set free and refitted by "
+            f"output error with J1, B1, J2, B2 and the start states, it brings the angles to "
+            f"{kv['over_noise']['alpha']:.3g}x and {kv['over_noise']['beta']:.3g}x their noise floors; 95 % interval "
+            f"{lo:.6g} to {hi:.6g} {kv['unit']}" + (f"; cannot be told apart with this log from "
+                                                     f"{', '.join(alternatives)}" if alternatives else ""),
+            f"the bench's {name} is {value:.4g}, not the {table:.4g} it was given", math.nan,
+            *known_values.against_given(value, table, (lo, hi)), alternatives, {}))
+        words += f" and the known value {name} = {value:.4g} instead of {table:.4g}"
+    est = dict(h.value_fit["estimates"]) if h.value_fit is not None else dict(d.augmented)
+    start = None
+    if h.value_fit is not None:
+        states = h.value_fit.get("start_states") or {}
+        start = {k: states[k] for k in ("tau1_0", "tau2_0", "zeta_0") if k in states} or None
+    fits_after, overlay, residual = refit({**p, **changes}, est, start, findings)
+    for f in findings:
+        f.fit_after = fits_after.get(f.axis, f.fit_after)
+    kept = {d.findings[t.finding].effect + ":" + d.findings[t.finding].axis for t in [h] + alikes
+            if t.finding is not None}  # the chosen one and its look-alikes are not refused
+    why = (f"{words} bring both angles to their noise floors (the log estimated under that model, as "
+           "`estimate --params` does): this finding is not needed")
+    refused = list(d.refused) + [{"effect": f.effect, "axis": f.axis, "parameter": f.parameter["value"],
+                                  "reason": why} for f in d.findings if f"{f.effect}:{f.axis}" not in kept]
+    ratio = h.over_noise
+    sentence = (f"the model fits the log to its noise level with {words} (both angles within "
+                f"{RMS_OVER_NOISE:g}x their noise floors: {ratio.get('alpha', math.nan):.3g}x and "
+                f"{ratio.get('beta', math.nan):.3g}x)")
+    if h.value_fit is not None:
+        sentence += (": two differences from the model it was given, an effect and a known value; neither alone "
+                     "reaches the floor")
+    if alikes:
+        sentence += (f"; {', '.join(a.label() for a in alikes)} would explain it as well with as many parameters: "
+                     "this log cannot tell them apart")
+    if h.value_fit is not None and h.look_alikes:
+        sentence += f"; the known value could as well be {', '.join(h.look_alikes)}"
+    sentence += "."
+    settings = {**d.settings, "output_error_check": {"rms_over_noise": dict(ratio), "threshold": RMS_OVER_NOISE},
+                "start_states_after": start, "estimates_augmented_from": "effect_with_known_value",
+                "rule": "simplest explanation reaching the noise floor (diagnosis/weigh.py, diagnosis/compound.py)",
+                "together": record}
+    steps = [d.steps[h.finding]] if h.finding is not None and h.finding < len(d.steps) else []
+    return replace(d, mismatch=True, findings=findings, augmented=est, fit_after=fits_after, overlay=overlay,
+                   residual=residual, verdict="explained", verdict_sentence=sentence, refused=refused,
+                   corrections=[], steps=steps, settings=settings)
+
+
+def tried_sentence(tried: list[dict]) -> str:
+    """What the hypotheses left, for a verdict they did not change (settings["together"])."""
+    if not tried:
+        return ""
+    parts = [f"{t['effect']} {max(t['over_noise'].values()):.3g}x" for t in tried if t.get("over_noise")]
+    return (" Each finding put into the model and the log estimated under it, with each known value freed in turn, "
+            f"leaves the worst angle above its noise floor ({', '.join(parts)}).") if parts else ""
