@@ -148,3 +148,29 @@ def test_the_bench_files_effect_lists_are_the_fitters():
 
     assert set(TORQUE_KEYS) == set(EFFECT_SLOTS)
     assert set(MODIFICATION_KEYS) == set(PROFILE_KEYS) | {"motor_second_lag:pitch", "motor_second_lag:yaw"}
+
+
+def test_design_plans_for_the_bench_as_diagnosed_and_estimate_then_gets_what_it_predicted(bench_log):
+    """design --params bench.toml: the candidates run on the bench with its effects, and the intervals it predicts
+    are those estimate --params then reports on the chosen run recorded from that bench (within 1.5x), covering."""
+    d = bench_log
+    res = runner.invoke(app, ["design", "--duration", "20", "--rate", "100", "--params", str(d / "bench.toml"),
+                              "-o", str(d / "next.csv"), "--json", str(d / "design.json"), "--no-report"])
+    assert res.exit_code == 0, res.output
+    plan = json.loads((d / "design.json").read_text())
+    assert plan["settings"]["model"]["effects"] == {"motor_second_lag:yaw": 0.3, "cable_stiffness:yaw": 0.004}
+    assert "second-order tail motor" in plan["sentence"]
+    res = runner.invoke(app, ["simulate", "--ref-file", str(d / "next.csv"), "--rate", "100", "--encoder-bits", "12",
+                              "--seed", "5", "--params", str(d / "bench.toml"), "-o", str(d / "next_run.csv")])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["estimate", str(d / "next_run.csv"), "--params", str(d / "bench.toml"), "-o",
+                              str(d / "next_o"), "--no-report", "--json", "-"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["model_check"]["adequate"] is True
+    for k, v in TRUTH.items():
+        lo, hi = doc["ci95"][k]
+        assert lo <= v <= hi, (k, lo, hi)
+        half = (hi - lo) / 2 / abs(doc["estimates"][k])
+        predicted = plan["design"]["predicted"][k]["relative"]
+        assert predicted / 1.5 <= half <= predicted * 1.5, (k, half, predicted)

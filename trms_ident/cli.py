@@ -780,14 +780,6 @@ def design(
     from .commands import design_files
 
     limits = planner.Limits(pitch_limit, yaw_limit, max_saturated, max_ref_rate, robust)
-    if params:
-        from .params import parameter_file_effects
-
-        held = [e.key for e in parameter_file_effects(params)]
-        if held:
-            say(f"note: {params} holds effects ({', '.join(held)}); design plans with its known values and J/B under "
-                "eq. (1): the effects are not simulated in its candidates yet, so check the plan with `simulate "
-                "--ref-file ... --params` on the bench file before running it")
     with progress_bar("design") as advance:
         out = design_files(duration, rate, limits, output, noise_std=noise_std, encoder_bits=encoder_bits,
                            params=params, from_result=from_result, controller=controller, objective=objective,

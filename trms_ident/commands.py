@@ -191,7 +191,9 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
     SettingsError (no reference keeps the limits; a result whose floors were not measured).
     ``discriminate``: a diagnosis.json; design to tell its first finding from its look-alikes (read_diagnosis):
     the bench is ``params`` (the table diagnose was given) with the findings' J/B and the finding in, the noise
-    the floors diagnose measured unless ``noise_std`` or ``encoder_bits`` is given."""
+    the floors diagnose measured unless ``noise_std`` or ``encoder_bits`` is given.  The bench's model is the
+    parameter file's [effects] (a bench file export wrote) or the result's "model" (the effects it was estimated
+    under): the candidates are simulated on it, their information is that estimate --params would have under it."""
     import hashlib
     import math
     import tomllib
@@ -202,7 +204,8 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
     from .errors import InputNotFoundError, LogFormatError, ParameterFileError, SettingsError
     from .io.atomic import write_text
     from .io.reference import write_reference
-    from .params import ESTIMATED, load_parameter_file, merge
+    from .model.bench import BenchEffect, describe
+    from .params import ESTIMATED, load_parameter_file, merge, parameter_file_effects
     from .report.design import design_doc, render
 
     if discriminate is not None and from_result is not None:
@@ -229,6 +232,7 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
             raise LogFormatError(f"{from_result}: {', '.join(missing)} not identified there; give the bench with "
                                  "--params")
         overrides = {**known, **{k: float(estimates[k]) for k in ESTIMATED}}
+        bench = {k: float(v["value"]) for k, v in ((doc_in.get("model") or {}).get("effects") or {}).items()}
         if noise_std is None and encoder_bits is None:
             axes = doc_in["model_check"].get("axes") or {}
             floors = {a["angle"]: a.get("noise_floor_rad") for a in axes.values()
@@ -239,6 +243,7 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
             noise, sd = {k: float(v) for k, v in floors.items()}, None
     else:
         overrides = load_parameter_file(params, allow_estimated=True) if params else {}
+        bench = {e.key: e.value for e in parameter_file_effects(params)} if params else {}
     told = None
     if discriminate is not None:
         ddoc, truth, rivals, skipped, jb = read_diagnosis(Path(discriminate))
@@ -254,7 +259,8 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
     bits = None if noise_std is not None or sd is None else (encoder_bits or 12)  # None: the noise is not rounding
     try:
         d = planner.design(duration_s, rate_hz, p, thrust_law, noise, pid, u_limit, limits, objective,
-                           progress=progress, effect=effect, discriminate=told, quantum_rad=quantum if bits else 0.0)
+                           progress=progress, effect=effect, discriminate=told, quantum_rad=quantum if bits else 0.0,
+                           bench=bench)
     except ValueError as exc:
         raise SettingsError(str(exc)) from None
     r = d.run
@@ -268,6 +274,7 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
         limits=dataclasses.asdict(limits), objective=objective, thrust_law=thrust_law, output=str(output),
         effect=None if effect is None else effect[0], size=None if effect is None else effect[1],
         discriminate=str(discriminate) if discriminate else None,
+        model={"equation": describe(tuple(BenchEffect(k, v) for k, v in bench.items())), "effects": bench},
         not_weighed=skipped if discriminate is not None else None,
         sha256={str(f): hashlib.sha256(Path(f).read_bytes()).hexdigest() for f in inputs}))
     written, page = [Path(output)], None

@@ -387,12 +387,13 @@ def bench_of(params: dict, discriminate) -> dict:
 
 
 def _round_precision(r: "Run", rate_hz: float, params: dict, law: str, noise_rad: dict, pid: dict, u_limit_v: float,
-                     quantum_rad: float, effect, discriminate, screen: "_Screen") -> np.ndarray:
+                     quantum_rad: float, effect, discriminate, screen: "_Screen", bench: dict | None = None
+                     ) -> np.ndarray:
     """r.precision (in place) as what estimate would report on r's references recorded with encoders of
     ``quantum_rad`` [rad]: the loop simulated with the encoders at each place of their grid (GRID_OFFSETS), then
     fisher.encoder_covariance (returned), the places run on ``screen``'s processes."""
     jobs = [(r.t_s, r.alpha_ref_rad, r.beta_ref_rad, rate_hz, params, law, noise_rad, pid, u_limit_v, quantum_rad,
-             g * quantum_rad, effect, discriminate) for g in GRID_OFFSETS]
+             g * quantum_rad, effect, discriminate, bench) for g in GRID_OFFSETS]
     cov = np.mean(screen.jobs(_grid_covariance, jobs), axis=0)
     r.precision = precision_of(cov, bench_of(params, discriminate))
     return cov
@@ -400,10 +401,12 @@ def _round_precision(r: "Run", rate_hz: float, params: dict, law: str, noise_rad
 
 def _grid_covariance(job: tuple) -> np.ndarray:
     """fisher.encoder_covariance of one run: the references through the loop with the encoders' grid at one place."""
-    t_s, a_ref, b_ref, rate_hz, params, law, noise_rad, pid, u_limit_v, quantum_rad, grid_rad, effect, discr = job
-    x = _simulated(t_s, a_ref, b_ref, rate_hz, params, law, pid, u_limit_v, effect, discr, quantum_rad, grid_rad)
-    return encoder_covariance([(x.u1_v, x.u2_v, x.true_state[:, 0], x.true_state[:, 2])], 1.0 / rate_hz,
-                              bench_of(params, discr), law, noise_rad, quantum_rad, effect)
+    t_s, a_ref, b_ref, rate_hz, params, law, noise_rad, pid, u_limit_v, quantum_rad, grid_rad, effect, discr, bench = job
+    x = _simulated(t_s, a_ref, b_ref, rate_hz, params, law, pid, u_limit_v, effect, discr, quantum_rad, grid_rad,
+                   bench)
+    u1, u2, a, b, known, fixed = as_estimated(t_s, x.u1_v, x.u2_v, x.true_state[:, 0], x.true_state[:, 2],
+                                              bench_of(params, discr), bench)
+    return encoder_covariance([(u1, u2, a, b)], 1.0 / rate_hz, known, law, noise_rad, quantum_rad, effect, fixed)
 
 
 def _shape(key: tuple) -> tuple:
@@ -413,15 +416,20 @@ def _shape(key: tuple) -> tuple:
 
 
 def _simulated(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, rate_hz: float, params: dict, law: str,
-               pid: dict, u_limit_v: float, effect, discriminate, quantum_rad: float = 0.0, grid_rad: float = 0.0):
-    """The simulator's closed loop on the references (the bench with the effect or hypothesis it is planned for),
-    noise-free; with encoders of ``quantum_rad`` [rad] whose grid sits ``grid_rad`` off zero."""
+               pid: dict, u_limit_v: float, effect, discriminate, quantum_rad: float = 0.0, grid_rad: float = 0.0,
+               bench: dict | None = None):
+    """The simulator's closed loop on the references (the bench with the effect or hypothesis it is planned for,
+    and the bench file's effects ``bench``: key -> value), noise-free; with encoders of ``quantum_rad`` [rad]
+    whose grid sits ``grid_rad`` off zero."""
     from sim import SimSettings, simulate
+
+    from .model.bench import simulator_specs
 
     return simulate(SimSettings(ref="file", ref_table=(t_s, alpha_ref, beta_ref), duration_s=float(t_s[-1]),
                                 sample_rate_hz=rate_hz, thrust_law=law, u_limit_v=u_limit_v,
                                 overrides=dict(bench_of(params, discriminate)), pid=dict(pid),
-                                effects=_effects_of(effect, discriminate), quantization_rad=quantum_rad,
+                                effects=simulator_specs(bench or {}) + _effects_of(effect, discriminate),
+                                quantization_rad=quantum_rad,
                                 quantization_offset_rad=(grid_rad, grid_rad),
                                 max_step_s=min(1.0 / rate_hz, MAX_STEP_S)))
 
@@ -439,7 +447,8 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
                  law: str, noise_rad: dict, pid: dict, u_limit_v: float, limits: Limits, objective: str = "worst",
                  effect: tuple[str, float] | None = None, judged_anyway: bool = False,
                  discriminate: tuple[Hypothesis, tuple[str, ...]] | None = None, quantum_rad: float = 0.0,
-                 samples_scale: float = 1.0, grid_rad: float = 0.0, noise_dt_s: float | None = None) -> Run:
+                 samples_scale: float = 1.0, grid_rad: float = 0.0, noise_dt_s: float | None = None,
+                 bench: dict | None = None) -> Run:
     """The references (sampled at ``t_s`` [s], from 0, at ``rate_hz``) run through the closed loop noise-free,
     judged against ``limits`` and scored by ``objective``; ``effect`` = (key, size): the bench has that effect and
     the score is its parameter's standard error over its size.  A run that breaks a limit is never chosen, so its
@@ -453,10 +462,11 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
     ``samples_scale``: the discrimination is judged for a log with this many times the samples (a screen at a
     lower rate than the run's: white noise, the gap grows with the samples), and so is the objective (the
     information grows with them).  ``noise_dt_s``: the run's sample step [s] when the screen's differs (the
-    controller's voltage noise is the run's)."""
-    bench = dict(bench_of(params, discriminate))
+    controller's voltage noise is the run's).  ``bench``: the bench file's effects (key -> value) in the simulated
+    bench, and in the model the information is computed under (as_estimated: what estimate --params sees)."""
+    known = dict(bench_of(params, discriminate))
     r = _simulated(t_s, alpha_ref, beta_ref, rate_hz, params, law, pid, u_limit_v, effect, discriminate, quantum_rad,
-                   grid_rad)
+                   grid_rad, bench)
     at_limit = (np.abs(r.u1_v) >= u_limit_v * (1 - 1e-9)) | (np.abs(r.u2_v) >= u_limit_v * (1 - 1e-9))
     dt = 1.0 / rate_hz
     # the angles' noise moves the voltages too (a run simulated with the encoders has its rounding in already)
@@ -481,7 +491,7 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
         bad.append(f"the reference moves at {env['ref_rate_rad_s']:.3g} rad/s (limit {limits.ref_rate_rad_s:g})")
     if not bad and limits.robust_rel > 0 and not quantum_rad > 0:  # the same limits on benches off the given one
         off = off_bench(t_s, alpha_ref, beta_ref, rate_hz, params, law, noise_rad, pid, u_limit_v, effect,
-                        discriminate, limits.robust_rel)
+                        discriminate, limits.robust_rel, bench)
         env["off_bench"] = off
         bad += [f"on a bench whose J/B are {100 * limits.robust_rel:g} % off, {b}"
                 for b in off_bench_breaks(off, limits)]
@@ -493,9 +503,11 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
                                       *discriminate, samples_scale=samples_scale)
                 if not np.isfinite(told["rivals"][told["closest"]]["gap"]):
                     raise FloatingPointError  # (z is -inf for a rival that mimics the truth exactly: a score)
-            cov = covariance(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, dt, bench, law, noise_rad,
-                             effect) / samples_scale  # (white noise: the information grows with the samples)
-            precision = precision_of(cov, bench)
+            u1, u2, a, b, model_known, fixed = as_estimated(r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, known,
+                                                            bench)
+            cov = covariance(u1, u2, a, b, dt, model_known, law, noise_rad, effect,
+                             fixed=fixed) / samples_scale  # (white noise: the information grows with the samples)
+            precision = precision_of(cov, known)
             if told is not None:
                 score = -told["rivals"][told["closest"]]["z"]
             elif effect is not None:
@@ -511,6 +523,25 @@ def simulate_run(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, r
             bad.append("its information matrix cannot be evaluated")
     return Run(r.t_s, alpha_ref, beta_ref, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, precision, env, bad, score, found,
                told)
+
+
+def as_estimated(t_s: np.ndarray, u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_rad: np.ndarray,
+                 params: dict, bench: dict | None) -> tuple:
+    """A run as `estimate --params` sees it under the bench file's effects ``bench`` (key -> value): (u1 [V], u2
+    [V], alpha [rad], beta [rad], known values, the torque effects held in the model): the voltages through its
+    input modifications and a motor time constant in place of T11 or T21 (identify.under_model), the torque effects
+    for the output-error model.  Unchanged without effects."""
+    if not bench:
+        return u1_v, u2_v, alpha_rad, beta_rad, params, {}
+    from .identify import under_model
+    from .log import Log
+    from .model.bench import TORQUE_KEYS
+
+    log = Log(np.asarray(t_s, dtype=float), np.asarray(u1_v, dtype=float), np.asarray(u2_v, dtype=float),
+              np.asarray(alpha_rad, dtype=float), np.asarray(beta_rad, dtype=float), "design")
+    seen, known = under_model(log, params, dict(bench))
+    return (seen.u1_v, seen.u2_v, seen.alpha_rad, seen.beta_rad, known,
+            {k: float(v) for k, v in bench.items() if k in TORQUE_KEYS})
 
 
 def _effects_of(effect, discriminate) -> list:
@@ -548,7 +579,7 @@ OFF_BENCH_REL = 0.05
 
 def off_bench(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, rate_hz: float, params: dict, law: str,
               noise_rad: dict, pid: dict, u_limit_v: float, effect=None, discriminate=None,
-              rel: float = OFF_BENCH_REL) -> dict:
+              rel: float = OFF_BENCH_REL, bench: dict | None = None) -> dict:
     """What the references do on benches whose J/B are ``rel`` off the given ones, the two ways that move the
     loop most (J1, J2 up with B1, B2 down: a livelier bench; and the reverse): the largest |pitch|, |yaw| [rad]
     and share of samples at the voltage limit (with the angles' noise) of the two."""
@@ -559,7 +590,8 @@ def off_bench(t_s: np.ndarray, alpha_ref: np.ndarray, beta_ref: np.ndarray, rate
         f = 1.0 + sign * rel
         moved = {**params, "J1": params["J1"] * f, "J2": params["J2"] * f, "B1": params["B1"] / f,
                  "B2": params["B2"] / f}
-        x = _simulated(t_s, alpha_ref, beta_ref, rate_hz, moved, law, pid, u_limit_v, effect, discriminate)
+        x = _simulated(t_s, alpha_ref, beta_ref, rate_hz, moved, law, pid, u_limit_v, effect, discriminate,
+                       bench=bench)
         out["alpha_rad"] = max(out["alpha_rad"], float(np.max(np.abs(x.alpha_rad))))
         out["beta_rad"] = max(out["beta_rad"], float(np.max(np.abs(x.beta_rad))))
         out["saturated_share"] = max(out["saturated_share"], saturated_with_noise(x.u1_v, x.u2_v, u_limit_v, sd_v))
@@ -596,7 +628,7 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
            u_limit_v: float, limits: Limits, objective: str = "worst", progress=None,
            effect: tuple[str, float] | None = None,
            discriminate: tuple[Hypothesis, tuple[str, ...]] | None = None, quantum_rad: float = 0.0,
-           workers: int = WORKERS) -> Design:
+           workers: int = WORKERS, bench: dict | None = None) -> Design:
     """References for ``duration_s`` [s] at ``rate_hz`` [Hz] that keep ``limits`` and minimise ``objective``
     (OBJECTIVES) for the bench ``params`` under the PID ``pid`` (the simulator's names Kp1 ... Tf) limited to
     ``u_limit_v`` [V], with the logged angles' noise ``noise_rad``.  Raises ValueError when no candidate keeps the
@@ -608,7 +640,9 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     with the controller reading rounded angles too (its envelope is that run's), and the design's and the square's
     predicted intervals are what estimate would report on the run recorded with them (fisher.encoder_covariance;
     the search ranks by the white-noise bound at q / sqrt(12), one evaluation instead of 32 refinements; for the
-    precision objective the most precise of the best CONFIRMED shapes by that prediction is chosen)."""
+    precision objective the most precise of the best CONFIRMED shapes by that prediction is chosen).
+    ``bench``: the bench file's effects (key -> value; model/bench.py): every candidate runs on the bench as
+    diagnosed, and its information is what estimate --params would have under them (as_estimated)."""
     if effect is not None and discriminate is not None:
         raise ValueError("design for an effect or to tell hypotheses apart, not both")
     if discriminate is not None:
@@ -630,7 +664,8 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
     screen_hz = min(rate_hz, SCREEN_HZ)
     ts = np.arange(int(round(duration_s * screen_hz)) + 1) / screen_hz
 
-    spec = (duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate)
+    spec = (duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate,
+            dict(bench or {}))
 
     peaks_a = np.geomspace(LOWEST_PEAK * limits.pitch_rad, limits.pitch_rad, PEAK_STEPS)
     peaks_b = np.geomspace(LOWEST_PEAK * limits.yaw_rad, limits.yaw_rad, PEAK_STEPS)
@@ -654,7 +689,7 @@ def design(duration_s: float, rate_hz: float, params: dict, law: str, noise_rad:
 def _chosen(tried: dict, spec: tuple, t: np.ndarray, screen: "_Screen", quantum_rad: float) -> Design:
     """design()'s choice from the candidates ``tried`` at the screen's rate: confirmed at the run's rate ``t`` [s]
     (and with the encoders), beside the paper's square."""
-    duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate = spec
+    duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate, bench = spec
     screen_hz = screen.args[2]
     best = min(tried, key=lambda k: tried[k].score)
     chosen = tried[best]
@@ -682,7 +717,7 @@ def _chosen(tried: dict, spec: tuple, t: np.ndarray, screen: "_Screen", quantum_
                 continue
             if ranked:
                 cov = _round_precision(chosen, rate_hz, params, law, noise_rad, pid, u_limit_v, quantum_rad, effect,
-                                       discriminate, screen)
+                                       discriminate, screen, bench)
                 chosen.score = _objective(cov[:4, :4], params, objective)
             confirmed.append((k, chosen))
             shapes.add(_shape(k))
@@ -696,16 +731,16 @@ def _chosen(tried: dict, spec: tuple, t: np.ndarray, screen: "_Screen", quantum_
 
     sa, sb = reference("square", t)  # the paper's experiment 1
     paper = simulate_run(t, sa, sb, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect,
-                         judged_anyway=True, discriminate=discriminate)
+                         judged_anyway=True, discriminate=discriminate, bench=bench)
     if quantum_rad > 0:
         for r in ((paper,) if ranked else (chosen, paper)):
             if r.precision:
                 _round_precision(r, rate_hz, params, law, noise_rad, pid, u_limit_v, quantum_rad, effect, discriminate,
-                                 screen)
+                                 screen, bench)
     if "off_bench" not in chosen.envelope:  # (with --robust, simulate_run has it; an encoder run's envelope not)
         chosen.envelope["off_bench"] = off_bench(chosen.t_s, chosen.alpha_ref_rad, chosen.beta_ref_rad, rate_hz,
                                                  params, law, noise_rad, pid, u_limit_v, effect, discriminate,
-                                                 limits.robust_rel or OFF_BENCH_REL)
+                                                 limits.robust_rel or OFF_BENCH_REL, bench)
     return Design(chosen, best[0], best[1], paper, len(tried),
                   sum(math.isfinite(v.score) for v in tried.values()))
 
@@ -714,33 +749,34 @@ def _chosen(tried: dict, spec: tuple, t: np.ndarray, screen: "_Screen", quantum_
 def _candidate(spec: tuple, a, b, times: np.ndarray, hz: float, **kw) -> Run:
     """The reference pair (a, b) (axis shapes) at ``times`` [s] and ``hz`` [Hz] through simulate_run for the design
     ``spec`` = (duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect,
-    discriminate): judged for a log with the run's samples and its voltage noise."""
+    discriminate, bench): judged for a log with the run's samples and its voltage noise."""
     return _judged(spec, *_references(spec, a, b, times, hz), times, hz, **kw)
 
 
 def _references(spec: tuple, a, b, times: np.ndarray, hz: float) -> tuple[np.ndarray, np.ndarray]:
     """The axis shapes (a, b) as reference arrays [rad] at ``times`` (a Follow yaw simulated on ``spec``'s bench)."""
-    duration_s, _, params, law, _, pid, u_limit_v, _, _, effect, discriminate = spec
+    duration_s, _, params, law, _, pid, u_limit_v, _, _, effect, discriminate, bench = spec
     a_ref = shaped(times, duration_s, a, False)
     if isinstance(b, Follow):
-        return a_ref, followed(times, a_ref, hz, b, params, law, pid, u_limit_v, effect, discriminate)
+        return a_ref, followed(times, a_ref, hz, b, params, law, pid, u_limit_v, effect, discriminate, bench)
     return a_ref, shaped(times, duration_s, b, True)
 
 
 def _judged(spec: tuple, a_ref: np.ndarray, b_ref: np.ndarray, times: np.ndarray, hz: float, **kw) -> Run:
     """The references through simulate_run for the design ``spec``, judged for a log with the run's samples."""
-    duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate = spec
+    duration_s, rate_hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect, discriminate, bench = spec
     return simulate_run(times, a_ref, b_ref, hz, params, law, noise_rad, pid, u_limit_v, limits, objective, effect,
-                        discriminate=discriminate, samples_scale=rate_hz / hz, noise_dt_s=1.0 / rate_hz, **kw)
+                        discriminate=discriminate, samples_scale=rate_hz / hz, noise_dt_s=1.0 / rate_hz, bench=bench,
+                        **kw)
 
 
 def followed(t_s: np.ndarray, alpha_ref: np.ndarray, rate_hz: float, m: Follow, params: dict, law: str, pid: dict,
-             u_limit_v: float, effect=None, discriminate=None) -> np.ndarray:
+             u_limit_v: float, effect=None, discriminate=None, bench: dict | None = None) -> np.ndarray:
     """The yaw reference [rad] of ``m`` at ``t_s``: m.gain times the yaw's noise-free path in the closed loop on
     the given bench when the pitch runs ``alpha_ref`` [rad] and the yaw's reference is held at zero (it starts at
     zero, from rest, and moves only as the pitch rotor's reaction torque pushes it)."""
     x = _simulated(t_s, alpha_ref, np.zeros_like(alpha_ref), rate_hz, params, law, pid, u_limit_v, effect,
-                   discriminate)
+                   discriminate, bench=bench)
     return m.gain * np.asarray(x.beta_rad, dtype=float)
 
 

@@ -29,16 +29,19 @@ AT_REST = {"tau1_0": 0.0, "tau2_0": 0.0, "zeta_0": 0.0}
 
 def covariance(u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_rad: np.ndarray, dt_s: float,
                params: dict, law: str, noise_rad: dict, effect: tuple[str, float] | None = None,
-               start_states0: dict = AT_REST) -> np.ndarray:
+               start_states0: dict = AT_REST, fixed: dict | None = None) -> np.ndarray:
     """(4, 4) the Cramer-Rao covariance of J1, B1, J2, B2 (NAMES' order) for a run with these voltages [V] and
     noise-free angles [rad] at uniform steps ``dt_s`` [s], the bench ``params`` (J/B and the known values of
     eq. (1)) and ``noise_rad`` = {"alpha": sd, "beta": sd} [rad], the logged angles' white noise (an encoder
     quantum q: q / sqrt(12)); the motors' start states and the windows' starts are unknowns beside J/B.
     ``effect`` = (key, value): a torque effect the refinement's kernel carries (model.plant.EFFECT_SLOTS) in the
     model at that value with its parameter free; the matrix is then (5, 5), its last row and column the effect's.
-    ``start_states0``: the motors' states where the run starts (AT_REST)."""
+    ``start_states0``: the motors' states where the run starts (AT_REST).  ``fixed``: the bench's torque effects
+    (key -> value, a bench file's [effects]) in the model at their values, held."""
     theta = {k: float(params[k]) for k in NAMES}
-    kw = {} if effect is None else {"effects": {effect[0]: float(effect[1])}, "free": (effect[0],)}
+    kw = {"effects": dict(fixed)} if fixed else {}
+    if effect is not None:
+        kw = {"effects": {**kw.get("effects", {}), effect[0]: float(effect[1])}, "free": (effect[0],)}
     r = oe_refine(u1_v, u2_v, alpha_rad, beta_rad, dt_s, params, law, theta, noise_rad, max_iterations=0,
                   start_states0=start_states0, **kw)
     fit = r.fit
@@ -62,19 +65,19 @@ def predicted_precision(u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarra
 
 def with_rounding(cov: np.ndarray, u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_rad: np.ndarray,
                   dt_s: float, params: dict, law: str, noise_rad: dict, quantum_rad: float,
-                  start_states0: dict = AT_REST) -> np.ndarray:
+                  start_states0: dict = AT_REST, fixed: dict | None = None) -> np.ndarray:
     """``cov`` (J/B first) scaled so that each of J1, B1, J2, B2 has the variance estimate's interval would
     report when the encoder's rounding is the noise: the wider of the spread that rounding the run's noise-free
     angles on a grid of ``quantum_rad`` [rad] causes and the batch-means variance the refinement reports on those
     rounded angles (numerics/quantization.py; estimate's own rule, identify._with_rounding).  White noise of
     q / sqrt(12) is not what rounding slow motion at a high rate does (measured: J1's error 4x that bound on a
-    12-bit log at 1 kHz, B1's a quarter)."""
+    12-bit log at 1 kHz, B1's a quarter).  ``fixed``: as covariance's."""
     from .quantization import rounding_covariance
 
     theta = {k: float(params[k]) for k in NAMES}
     spread, batch = rounding_covariance(u1_v, u2_v, np.column_stack([alpha_rad, beta_rad]), dt_s, params, law,
                                         theta, noise_rad, {"alpha": quantum_rad, "beta": quantum_rad},
-                                        start_states0=start_states0)
+                                        start_states0=start_states0, **({"effects": dict(fixed)} if fixed else {}))
     ratio = np.ones(cov.shape[0])
     for i in range(4):
         target = max(spread[i, i], batch[i, i] if np.isfinite(batch[i, i]) else 0.0)
@@ -84,17 +87,17 @@ def with_rounding(cov: np.ndarray, u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad
 
 
 def encoder_covariance(runs: list, dt_s: float, params: dict, law: str, noise_rad: dict, quantum_rad: float,
-                       effect: tuple[str, float] | None = None) -> np.ndarray:
+                       effect: tuple[str, float] | None = None, fixed: dict | None = None) -> np.ndarray:
     """covariance() as estimate would report it on a run recorded with encoders of ``quantum_rad`` [rad], from
     ``runs``: (u1 [V], u2 [V], alpha [rad], beta [rad]) of the closed loop simulated with the encoders in it (the
     controller reads their rounded angles, and that changes the voltages it makes), the angles its noise-free
     ones, one run per place of the encoders' grid. For each, the information along its angles scaled to the
     rounding's spread (with_rounding); the variances averaged over the runs. (Rounding an encoder-free run instead
-    predicted J2 at 0.4-0.6x what estimate then reported on one 120 s design at 1 kHz.)"""
+    predicted J2 at 0.4-0.6x what estimate then reported on one 120 s design at 1 kHz.)  ``fixed``: as covariance's."""
     covs = []
     for u1, u2, a, b in runs:
-        cov = covariance(u1, u2, a, b, dt_s, params, law, noise_rad, effect)
-        covs.append(with_rounding(cov, u1, u2, a, b, dt_s, params, law, noise_rad, quantum_rad))
+        cov = covariance(u1, u2, a, b, dt_s, params, law, noise_rad, effect, fixed=fixed)
+        covs.append(with_rounding(cov, u1, u2, a, b, dt_s, params, law, noise_rad, quantum_rad, fixed=fixed))
     return np.mean(covs, axis=0)
 
 

@@ -49,6 +49,10 @@ def design_doc(d, p: dict, settings: dict) -> dict:
         else:  # its closed loop diverged
             sentence += f"no prediction{breaks}."
     sentence += _off_bench_clause(d.run.envelope.get("off_bench"), settings.get("limits"))
+    model = settings.get("model") or {}
+    if model.get("effects"):
+        sentence += (f" Planned for the bench as diagnosed, {model['equation']}: every candidate simulated with its "
+                     "effects, its intervals those estimate --params would give under them.")
     shapes = {"pitch": dataclasses.asdict(d.pitch), "yaw": dataclasses.asdict(d.yaw)}
     return {"kind": "trms-ident design", "sentence": sentence, "design": {**run_doc(d.run), **shapes},
             "square": run_doc(d.square), "candidates": d.candidates, "feasible": d.feasible,
