@@ -64,7 +64,7 @@ SLOW = {
 #: --maxschedchunk 1 (set in pytest_configure) each core takes the next test as it finishes one (two in hand)
 LONG = {
     "test_known_values.py::test_estimate_and_diagnose_name_the_same_known_value": 54,
-    "test_batch.py::test_a_folder_diagnosed_names_each_misfits_findings_and_which_recur": 20,
+    "test_batch.py::test_a_folder_diagnosed_names_each_misfits_findings_and_which_recur": 40,
     "test_real_recordings.py::test_real_ce150_recordings_get_an_honest_verdict_and_fit_better_with_the_ce150s_"
     "published_values[Data100_ea_e675_aN130toP130]": 40,
     "test_api.py::test_diagnose_from_python": 12,

@@ -138,3 +138,14 @@ def test_a_folder_diagnosed_names_each_misfits_findings_and_which_recur(tmp_path
     assert "Findings across the logs" in page and "cable_stiffness:yaw: in 2 of the 2 logs diagnosed" in page
     assert "diagnose: EXPLAINED: cable_stiffness:yaw k = 0.004" in res.stderr
     assert "findings across the logs: cable_stiffness:yaw in 2 of 2 diagnosed" in res.stderr
+    # the same two runs as one bench (--joint-by): pooled, each diagnosed, the cable recurring in both
+    (folder / "runs.csv").write_text("path,bench\ncable_a.csv,cable\ncable_b.csv,cable\n")
+    res = runner.invoke(app, ["batch", "--manifest", str(folder / "runs.csv"), "--joint-by", "bench", "-o",
+                              str(tmp_path / "joint"), "--diagnose"])
+    assert res.exit_code == 0, res.output
+    group, = json.loads((tmp_path / "joint" / "joint_summary.json").read_text())["groups"]
+    assert [lg["diagnosis"]["findings"][0]["key"] for lg in group["per_log"]] == ["cable_stiffness:yaw"] * 2
+    assert all(os.path.exists(lg["diagnosis"]["file"]) for lg in group["per_log"])
+    assert group["findings_across_logs"] == {"cable_stiffness:yaw": {"logs": 2, "diagnosed": 2}}
+    assert "cable_stiffness:yaw: found in 2 of the 2 logs diagnosed" in res.stderr
+    assert "cable_stiffness:yaw: in 2 of the 2 logs diagnosed" in (tmp_path / "joint" / "joint_index.html").read_text()

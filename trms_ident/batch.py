@@ -289,9 +289,12 @@ they stand (open its report).</i></p>{_recurring_html(doc["findings_across_logs"
 
 
 def run_joint(entries: list, by: str, out_dir: Path, settings: Settings, html_report: bool = True,
-              progress: Callable[[int, int], None] | None = None) -> list[dict]:
+              progress: Callable[[int, int], None] | None = None, diagnose: bool = False) -> list[dict]:
     """``batch --joint-by FIELD``: one joint estimate per value of the manifest's column ``by`` (a bench), each
-    written to its own folder; a group whose logs cannot be read or estimated is a failed row, the others go on."""
+    written to its own folder; a group whose logs cannot be read or estimated is a failed row, the others go on.
+    ``diagnose``: each log the model does not fit alone is diagnosed (its diagnosis.json in the group's folder,
+    under the log's name), and the group's row says which findings recur across its logs and which only one
+    log shows (findings_across_logs)."""
     from .api import estimate_joint_with
 
     if by not in ("bench", "date", "name"):
@@ -312,12 +315,26 @@ def run_joint(entries: list, by: str, out_dir: Path, settings: Settings, html_re
                        outliers=j["outliers"], sentence=j["sentence"], adequate=j["adequate"],
                        per_log=[{"name": lg["name"], "estimates": lg["estimates"], "ci95": lg["ci95"],
                                  "in_pool": lg["in_pool"]} for lg in j["logs"]])
+            if diagnose:
+                _diagnose_group(row, est, folder, settings, html_report)
         except TrmsError as exc:
             row["error"] = str(exc)
         rows.append(row)
         if progress:
             progress(n + 1, len(groups))
     return rows
+
+
+def _diagnose_group(row: dict, est, folder: Path, settings: Settings, html_report: bool) -> None:
+    """batch --joint-by --diagnose: each log of the group the model does not fit alone, diagnosed; the findings
+    across them (recurring_findings: a structure of the bench recurs, one only a log shows is suspect)."""
+    taken: set = set()
+    for lg, v, log in zip(row["per_log"], est.result.logs, est.logs):
+        if v.result.model_check.get("adequate") is False:
+            out = folder / output_name(Path(lg["name"].replace("/", "_")), taken)
+            lg["diagnosis"] = _diagnosed(log, out, settings, {"html": html_report}, v.result)
+    row["findings_across_logs"] = {k: {"logs": n, "diagnosed": m}
+                                   for k, (n, m) in recurring_findings(row["per_log"]).items()}
 
 
 def write_joint_summary(out_dir: Path, rows: list[dict], html_report: bool = True) -> list[Path]:
@@ -348,10 +365,15 @@ def _joint_page(out_dir: Path, rows: list[dict]) -> str:
         cells = "".join(f"<td>{'n.i.' if r['estimates'][k] is None else format(r['estimates'][k], '.6g')}</td>"
                         for k in names)
         figure = _over_time(r) if any(r["dates"]) else ""
+        diagnosed = "".join(
+            f"<li>{html.escape(lg['name'])}: {html.escape(lg['diagnosis']['verdict'])}"
+            + (": " + html.escape(", ".join(f["text"] for f in lg["diagnosis"]["findings"]))
+               if lg["diagnosis"]["findings"] else "") + "</li>" for lg in r["per_log"] if lg.get("diagnosis"))
         items.append(f"<h2><a href='{html.escape(link)}'>{html.escape(r['group'])}</a>: {len(r['logs'])} logs</h2>"
                      f"<p>{html.escape(r['sentence'])}</p><table><tr><th></th>"
                      + "".join(f"<th>{k}</th>" for k in names) + f"</tr><tr><td>pooled</td>{cells}</tr></table>"
-                     + figure)
+                     + figure + (f"<h3>Diagnosed (the model does not fit them alone)</h3><ul>{diagnosed}</ul>"
+                                 if diagnosed else "") + _recurring_html(r.get("findings_across_logs") or {}))
     return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>trms-ident benches</title><style>"
             "body{font-family:system-ui,sans-serif;margin:2em;max-width:1100px}table{border-collapse:collapse}"
             "td,th{border:1px solid #ccc;padding:3px 8px}.failed{color:#b00}</style></head><body>"

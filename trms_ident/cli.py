@@ -421,11 +421,8 @@ def batch(
         raise SettingsError(f"--jobs {jobs}: expected 1 or more")
     settings = build_settings(a, b, gain_convention, gamma, settle, thrust_law, headline, params, angle_unit, refine,
                               free, time_unit)
-    if diagnose and (joint_by or manifest):
-        raise SettingsError("--diagnose with --manifest/--joint-by: not yet; run batch --diagnose on the folder "
-                            "(each log alone), then the joint estimate with the bench file export writes")
     if joint_by or manifest:
-        return _batch_joint(manifest, joint_by, inputs, out, settings, no_report, json_path, strict)
+        return _batch_joint(manifest, joint_by, inputs, out, settings, no_report, json_path, strict, diagnose)
     inputs = list(inputs or [])
     if not inputs:
         raise SettingsError("batch: no inputs; give folders, globs or log files (or --manifest FILE --joint-by bench)")
@@ -864,8 +861,9 @@ def inspect(
 
 
 def _batch_joint(manifest: Path | None, joint_by: str | None, inputs, out: Path, settings: Settings,
-                 no_report: bool, json_path: str | None, strict: bool) -> None:
-    """batch --manifest FILE --joint-by COLUMN: one joint estimate per group, a summary over the groups."""
+                 no_report: bool, json_path: str | None, strict: bool, diagnose: bool = False) -> None:
+    """batch --manifest FILE --joint-by COLUMN: one joint estimate per group, a summary over the groups; with
+    ``diagnose``, each log the model does not fit alone diagnosed, and the findings across a group's logs."""
     from . import batch as batch_mod
     from .io.manifest import read_manifest
 
@@ -885,7 +883,7 @@ def _batch_joint(manifest: Path | None, joint_by: str | None, inputs, out: Path,
     try:
         rows = batch_mod.run_joint(entries, joint_by, out, settings, html_report=not no_report,
                                    progress=(lambda done, total: bar.update(task, completed=done, total=total))
-                                   if bar else None)
+                                   if bar else None, diagnose=diagnose)
     finally:
         if bar:
             bar.stop()
@@ -895,6 +893,10 @@ def _batch_joint(manifest: Path | None, joint_by: str | None, inputs, out: Path,
             say(f"failed: {r['group']}: {r['error']}")
         else:
             say(f"{r['group']} ({len(r['logs'])} logs): {r['sentence']}")
+            for k, v in (r.get("findings_across_logs") or {}).items():
+                say(f"  {k}: found in {v['logs']} of the {v['diagnosed']} logs diagnosed"
+                    + (" (one log only: suspect until another run of the bench shows it)"
+                       if v["logs"] == 1 and v["diagnosed"] > 1 else ""))
     ok = sum(r["status"] == "ok" for r in rows)
     say(f"{ok} group(s) estimated, {len(rows) - ok} failed; wrote " + ", ".join(map(str, written)))
     if json_path:
