@@ -94,7 +94,10 @@ def bench_from_diagnosis(path: Path) -> dict | None:
         for name, v in (together.get("values") or {}).items():
             if name in known:
                 known[name] = float(v["estimate"])
-                sources[name] = f"refitted with J/B and the other findings by {where}; the table's {v.get('given')}"
+                was = (given.get(name) or {}).get("value")  # (v["given"] is where that fit started: the refit)
+                sources[name] = (f"refitted with J/B and the other findings by {where}; "
+                                 + (f"the table's {was}" if given.get(name, {}).get("source") == "table" else
+                                    f"given {was}"))
         effects = [replace(e, value=float(together["values"][e.key]["estimate"]),
                            ci95=tuple(float(x) for x in together["values"][e.key]["ci95"]))
                    if e.key in (together.get("values") or {}) else e for e in effects]
