@@ -78,3 +78,19 @@ def test_a_cable_and_mg_off_the_table_are_two_findings_and_the_invented_one_is_r
     assert "not needed" in new.refused[0]["reason"]
     assert "Mg" in new.verdict_sentence and "cable_stiffness:yaw" in new.verdict_sentence
     assert tried[0]["known_value"] == "Mg" and np.isfinite(tried[0]["fitted"])
+
+
+def test_a_modification_found_under_a_wrong_known_value_is_profiled_again_beside_it():
+    """A transport delay beside Mg 17 % low: the search profiled the delay at Table 1's Mg (biased), so Mg refitted
+    beside the delay held there does not reach the floor; freed together, the delay profiled again, both come out
+    at their values and the model fits."""
+    table = defaults()
+    r = simulate(SimSettings(ref="chirp", sample_rate_hz=200.0, duration_s=40.0, quantization_rad=Q12, seed=7,
+                             overrides={"Mg": 0.83 * table["Mg"]},
+                             effects=[{"effect": "input_delay", "axis": "both", "value": 0.03}]))
+    h = compound.estimate_under(compound.Hypothesis("input_delay:both", 0.026, 0), as_log(r), "quadratic", {})
+    assert h.explains and h.parameters == 2, h
+    assert h.value_fit["name"] == "Mg" and abs(h.value_fit["value"] / (0.83 * table["Mg"]) - 1) < 0.005
+    assert abs(h.fitted / 0.03 - 1) < 0.02
+    lo, hi = h.value_fit["ci95"]
+    assert lo <= 0.83 * table["Mg"] <= hi

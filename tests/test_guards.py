@@ -60,8 +60,8 @@ def test_a_known_value_refitted_20_times_off_the_table_is_not_a_finding(factor, 
     """A refitted known value within 10x of the value given (either way) is plausible; 20x, 1/20 or the other
     sign is a fit run off to a number no bench has, never reported as the bench's value."""
     for given in (defaults()["Mg"], defaults()["kc"]):
-        assert known_values._plausible_value(factor * given, given) is plausible
-    assert known_values._plausible_value(math.nan, 0.32) is False
+        assert known_values.plausible_value(factor * given, given) is plausible
+    assert known_values.plausible_value(math.nan, 0.32) is False
 
 
 @pytest.mark.parametrize("over_noise, verdict", [(1.2, "explained"), (3.0, "partly_explained")])

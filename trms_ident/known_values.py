@@ -291,7 +291,7 @@ def joint(fit: Fit, params: dict, noise: dict, singles: list, free: tuple = ()) 
     None when no second value earns its place."""
     fits = [f if isinstance(f, dict) else f.to_json() for f in singles]
     fits = [f for f in fits if math.isfinite(f.get("cost", math.nan)) and math.isfinite(f.get("value", math.nan))
-            and _plausible_value(f["value"], params[f["name"]]) and not not_credible(f.get("estimates") or {})]
+            and plausible_value(f["value"], params[f["name"]]) and not not_credible(f.get("estimates") or {})]
     if not fits:
         return None
     first = min(fits, key=lambda f: f["cost"])
@@ -370,10 +370,10 @@ def _plausible(r: Refined, names: tuple, values: dict) -> bool:
     """J/B credible (params.not_credible) and every freed value within PLAUSIBLE_VALUE_FACTOR of the value it was
     given, with its sign."""
     return not not_credible(r.estimate) and all(
-        _plausible_value(r.freed.get(k, {}).get("estimate", math.nan), values[k]) for k in names)
+        plausible_value(r.freed.get(k, {}).get("estimate", math.nan), values[k]) for k in names)
 
 
-def _plausible_value(value: float, given: float) -> bool:
+def plausible_value(value: float, given: float) -> bool:
     """A refitted known value finite, of the given value's sign and within PLAUSIBLE_VALUE_FACTOR of it."""
     if not math.isfinite(value):
         return False
@@ -408,7 +408,7 @@ def far_from_table(fits: list, precision: dict | None = None) -> str | None:
     the sentence that says the bench is far from the values given, and which values the log could determine
     (``precision``: KnownValueSearch.precision or its JSON); else None.  ``fits``: KnownValueFit or JSON."""
     fits = [f if isinstance(f, dict) else f.to_json() for f in fits]
-    if not fits or any(_plausible_value(f["value"], f["table"]) and not not_credible(f.get("estimates") or {})
+    if not fits or any(plausible_value(f["value"], f["table"]) and not not_credible(f.get("estimates") or {})
                        for f in fits):
         return None
     worst = fits[0]
