@@ -14,9 +14,10 @@ from trms_ident.log import validated
 #: seconds beside each), every one a capability a faster test also exercises (the sparse correction through the
 #: command line, diagnose and the CE150's published values on the other real recording, the profiles of input
 #: modifications, ...).  The README's test command leaves them out (pyproject.toml's addopts: -m "not slow");
-#: ``pytest -q -n 2 -m slow`` runs them (28 of them: 11:47, 27 Nov 2026), ``-m ""`` runs everything.  Run them
+#: ``pytest -q -n 2 -m slow`` runs them (29 of them; 28 took 11:47, 27 Nov 2026), ``-m ""`` runs everything.  Run them
 #: before changing diagnose's or estimate's numerics.
 SLOW = {
+    "test_batch.py::test_a_bench_pooled_and_diagnosed_says_which_findings_recur_across_its_logs": 30,
     "test_real_recordings.py::test_real_ce150_recordings_get_an_honest_verdict_and_fit_better_with_the_ce150s_"
     "published_values[Data100_ea_a0]": 250,
     "test_real_recordings.py::test_diagnose_on_real_ce150_recordings_under_table_1_is_honest[Data100_ea_a0]": 60,
@@ -64,7 +65,7 @@ SLOW = {
 #: --maxschedchunk 1 (set in pytest_configure) each core takes the next test as it finishes one (two in hand)
 LONG = {
     "test_known_values.py::test_estimate_and_diagnose_name_the_same_known_value": 54,
-    "test_batch.py::test_a_folder_diagnosed_names_each_misfits_findings_and_which_recur": 40,
+    "test_batch.py::test_a_folder_diagnosed_names_each_misfits_findings_and_which_recur": 22,
     "test_real_recordings.py::test_real_ce150_recordings_get_an_honest_verdict_and_fit_better_with_the_ce150s_"
     "published_values[Data100_ea_e675_aN130toP130]": 40,
     "test_api.py::test_diagnose_from_python": 12,

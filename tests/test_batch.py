@@ -138,7 +138,17 @@ def test_a_folder_diagnosed_names_each_misfits_findings_and_which_recur(tmp_path
     assert "Findings across the logs" in page and "cable_stiffness:yaw: in 2 of the 2 logs diagnosed" in page
     assert "diagnose: EXPLAINED: cable_stiffness:yaw k = 0.004" in res.stderr
     assert "findings across the logs: cable_stiffness:yaw in 2 of 2 diagnosed" in res.stderr
-    # the same two runs as one bench (--joint-by): pooled, each diagnosed, the cable recurring in both
+
+
+def test_a_bench_pooled_and_diagnosed_says_which_findings_recur_across_its_logs(tmp_path):
+    """batch --manifest --joint-by bench --diagnose (issue #48): two runs of a bench with a yaw cable, pooled; the
+    model does not fit either alone, so each is diagnosed, and the cable recurs in both."""
+    folder = tmp_path / "lab"
+    folder.mkdir()
+    cable = (("effect", "cable_stiffness"), ("axis", "yaw"), ("value", 0.004))
+    for name, ref, seed in (("cable_a", "multisine", 2), ("cable_b", "steps", 3)):
+        r = sim_cached(ref, 100.0, 30.0, 0.0, 2 * math.pi / 4096, seed, (cable,))
+        write_csv_log(folder / f"{name}.csv", r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad)
     (folder / "runs.csv").write_text("path,bench\ncable_a.csv,cable\ncable_b.csv,cable\n")
     res = runner.invoke(app, ["batch", "--manifest", str(folder / "runs.csv"), "--joint-by", "bench", "-o",
                               str(tmp_path / "joint"), "--diagnose"])

@@ -154,7 +154,7 @@ def test_design_plans_for_the_bench_as_diagnosed_and_estimate_then_gets_what_it_
     """design --params bench.toml: the candidates run on the bench with its effects, and the intervals it predicts
     are those estimate --params then reports on the chosen run recorded from that bench (within 1.5x), covering."""
     d = bench_log
-    res = runner.invoke(app, ["design", "--duration", "20", "--rate", "100", "--params", str(d / "bench.toml"),
+    res = runner.invoke(app, ["design", "--duration", "12", "--rate", "100", "--params", str(d / "bench.toml"),
                               "-o", str(d / "next.csv"), "--json", str(d / "design.json"), "--no-report"])
     assert res.exit_code == 0, res.output
     plan = json.loads((d / "design.json").read_text())

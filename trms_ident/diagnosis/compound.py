@@ -39,6 +39,11 @@ from .result import Finding
 #: at most this many hypotheses (findings first, then their torque-effect look-alikes) are estimated under: each
 #: is one estimate with its known-value search, 4-6 s on a 60 s log at 500 Hz
 MAX_HYPOTHESES = 4
+#: an input modification is profiled again beside the best-ranked known value only when that value's refit left
+#: the worst angle within this factor of its floor (measured: 1.3x for a delay profiled at Table 1's Mg beside Mg
+#: 17 % low, at the floor after; a refit that leaves 10x is not one value away from the floor, and each profile
+#: costs 10-30 s)
+LEAD_OVER_NOISE = 2.0
 #: effects that are a known value under another name (weigh.SAME): a known value named under one is not a second
 #: difference but the effect's own value moved again
 SAME = {"motor_lag:pitch": "T11", "motor_lag:yaw": "T21"}
@@ -134,7 +139,7 @@ def _profiled_with_lead(h: Hypothesis, log: Log, law: str, overrides: dict, kv: 
     """An input modification ``h`` whose known-value search named nothing: the modification was profiled at the
     values given, so a known value off the table biased it (a transport delay 0.028 s for 0.029 s beside Mg 17 %
     low leaves the yaw at 1.3x its floor with Mg refitted right).  The value the search ranked best (its lowest
-    cost) is freed together with the modification, profiled again (model_profile.identify_with_profiles, as
+    cost), when its refit left the angles within LEAD_OVER_NOISE of their floors, is freed together with the modification, profiled again (model_profile.identify_with_profiles, as
     `estimate --free KEY --free NAME` does); ``none`` when that does not make the model fit either."""
     from ..errors import TrmsError
     from ..model_profile import identify_with_profiles
@@ -145,7 +150,10 @@ def _profiled_with_lead(h: Hypothesis, log: Log, law: str, overrides: dict, kv: 
             and known_values.plausible_value(f["value"], f["table"])]
     if not fits:
         return none
-    lead = min(fits, key=lambda f: f["cost"])["name"]
+    first = min(fits, key=lambda f: f["cost"])
+    if not max(first["over_noise"].values()) <= LEAD_OVER_NOISE:
+        return none
+    lead = first["name"]
     settings = Settings(thrust_law=law, overrides=dict(overrides), effects={h.key: h.value}, free=(h.key, lead))
     try:
         with np.errstate(all="ignore"):
