@@ -401,7 +401,8 @@ def _round_precision(r: "Run", rate_hz: float, params: dict, law: str, noise_rad
 
 def _grid_covariance(job: tuple) -> np.ndarray:
     """fisher.encoder_covariance of one run: the references through the loop with the encoders' grid at one place."""
-    t_s, a_ref, b_ref, rate_hz, params, law, noise_rad, pid, u_limit_v, quantum_rad, grid_rad, effect, discr, bench = job
+    t_s, a_ref, b_ref, rate_hz, params, law, noise_rad, pid, u_limit_v, quantum_rad, grid_rad, effect, discr, \
+        bench = job
     x = _simulated(t_s, a_ref, b_ref, rate_hz, params, law, pid, u_limit_v, effect, discr, quantum_rad, grid_rad,
                    bench)
     u1, u2, a, b, known, fixed = as_estimated(t_s, x.u1_v, x.u2_v, x.true_state[:, 0], x.true_state[:, 2],

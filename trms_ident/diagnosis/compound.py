@@ -139,8 +139,9 @@ def _profiled_with_lead(h: Hypothesis, log: Log, law: str, overrides: dict, kv: 
     """An input modification ``h`` whose known-value search named nothing: the modification was profiled at the
     values given, so a known value off the table biased it (a transport delay 0.028 s for 0.029 s beside Mg 17 %
     low leaves the yaw at 1.3x its floor with Mg refitted right).  The value the search ranked best (its lowest
-    cost), when its refit left the angles within LEAD_OVER_NOISE of their floors, is freed together with the modification, profiled again (model_profile.identify_with_profiles, as
-    `estimate --free KEY --free NAME` does); ``none`` when that does not make the model fit either."""
+    cost), when its refit left the angles within LEAD_OVER_NOISE of their floors, is freed together with the
+    modification, profiled again (model_profile.identify_with_profiles, as `estimate --free KEY --free NAME`
+    does); ``none`` when that does not make the model fit either."""
     from ..errors import TrmsError
     from ..model_profile import identify_with_profiles
     from ..params import BY_NAME, merge

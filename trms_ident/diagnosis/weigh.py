@@ -23,7 +23,11 @@ refitted with every one):
    leave more than the noise, for what the one value explains: they are refused, each with that reason;
 3. with no known value reaching the floor, the effect search's verdict stands, and its sentence says which
    known values were tried alone and how far each left the angles from their floors;
-4. when neither a single known value nor the effect search reaches the floor, several known values are refitted
+4. when neither a single known value nor the effect search reaches the floor, each of the search's findings is
+   put into the model and the log estimated under it, its known-value search run with the effect in
+   (compound.py): an effect that fits alone (one parameter), else an effect with a known value (two) that
+   reaches the floor explains the log, the search's other findings refused as not needed;
+5. when that reaches no floor either, several known values are refitted
    together (known_values.joint, a forward search, each value a further parameter that must earn its place).
    A set that reaches the floor explains the log: one finding per value, the effect search's findings refused
    (they do not reach it).  A set that does not is reported in the sentence with the values the log
@@ -118,7 +122,8 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
                               "ci95": [lo, hi]},
         d.fit_before.get(axis, math.nan), fits_after.get(axis, math.nan), evidence,
         f"the bench's {name} is {value:.4g}, not the {table:.4g} it was given", _drop(base, ratio),
-        *known_values.against_given(value, table, (lo, hi)), alternatives, {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est})
+        *known_values.against_given(value, table, (lo, hi)), alternatives,
+        {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est})
     refused = list(d.refused)
     if not effect_alike:
         why = (f"a known value explains the log alone with one parameter ({name} = {value:.4g} instead of "
