@@ -14,9 +14,11 @@ from trms_ident.log import validated
 #: seconds beside each), every one a capability a faster test also exercises (the sparse correction through the
 #: command line, diagnose and the CE150's published values on the other real recording, the profiles of input
 #: modifications, ...).  The README's test command leaves them out (pyproject.toml's addopts: -m "not slow");
-#: ``pytest -q -n 2 -m slow`` runs them (29 of them; 28 took 11:47, 27 Nov 2026), ``-m ""`` runs everything.  Run them
+#: ``pytest -q -n 2 -m slow`` runs them (31 of them; 28 took 11:47, 27 Nov 2026), ``-m ""`` runs everything.  Run them
 #: before changing diagnose's or estimate's numerics.
 SLOW = {
+    "test_diagnose.py::test_two_effects_are_both_named": 27,
+    "test_sparse_correction.py::test_cli_reports_the_correction_in_words_and_json": 28,
     "test_batch.py::test_a_bench_pooled_and_diagnosed_says_which_findings_recur_across_its_logs": 30,
     "test_real_recordings.py::test_real_ce150_recordings_get_an_honest_verdict_and_fit_better_with_the_ce150s_"
     "published_values[Data100_ea_a0]": 250,
@@ -71,17 +73,14 @@ LONG = {
     "test_api.py::test_diagnose_from_python": 12,
     "test_bench_file.py::test_runs_of_the_bench_are_pooled_under_its_model": 30,
     "test_bench_file.py::test_an_effects_value_freed_comes_back_from_a_wrong_start": 15,
-    "test_diagnose.py::test_two_effects_are_both_named": 22,
     "test_diagnose.py::test_a_profile_on_a_log_cut_mid_run_starts_where_the_current_models_fit_did": 22,
     "test_diagnose.py::test_concealed_effect_is_named_fitted_and_improves_the_fit[motor_lag-pitch-1.32-steps]": 21,
-    "test_sparse_correction.py::test_cli_reports_the_correction_in_words_and_json": 20,
     "test_api.py::test_estimate_from_a_dataframe_equals_the_cli_on_the_same_csv": 20,
     "test_docs.py::test_runnable_examples_run_as_written[docs/diagnose.md]": 30,
     "test_docs.py::test_runnable_examples_run_as_written[README.md]": 18,
     "test_accuracy.py::test_paper_square_1khz_60s": 18,
     "test_diagnose.py::test_output_error_fit_tells_the_two_offsets_apart[com_offset-0.03-steps-117]": 18,
     "test_design.py::test_a_design_keeps_its_limits_and_estimate_achieves_its_predicted_precision": 29,
-    "test_design.py::test_a_mat_design_is_a_simulink_structure_with_time_holding_the_csvs_references": 17,
     "test_real_recordings.py::test_a_published_plant_outside_eq1_is_flagged_and_strict_fails": 16,
     "test_readonly_install.py::test_read_only_install_run_by_a_user_without_a_home": 16,
     "test_design.py::test_a_design_to_find_an_effect_predicts_its_t_and_power_beside_the_square": 15,

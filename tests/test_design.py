@@ -195,11 +195,11 @@ def test_a_mat_design_is_a_simulink_structure_with_time_holding_the_csvs_referen
     import scipy.io
 
     for name in ("d.csv", "d.mat"):
-        res = runner.invoke(app, ["design", "--duration", "10", "--rate", "100", "-o", str(tmp_path / name)])
+        res = runner.invoke(app, ["design", "--duration", "4", "--rate", "100", "-o", str(tmp_path / name)])
         assert res.exit_code == 0, res.output
     ref = scipy.io.loadmat(tmp_path / "d.mat", simplify_cells=True)["ref"]
     csv = np.genfromtxt(tmp_path / "d.csv", delimiter=",", names=True)
-    assert ref["signals"]["dimensions"] == 2 and ref["signals"]["values"].shape == (1001, 2)
+    assert ref["signals"]["dimensions"] == 2 and ref["signals"]["values"].shape == (401, 2)
     np.testing.assert_array_equal(ref["time"], csv["t"])
     np.testing.assert_array_equal(ref["signals"]["values"][:, 1], csv["beta_ref"])
 
