@@ -3,6 +3,9 @@
     python benchmarks/real_ce150.py FOLDER [FOLDER...]       # every .mat holding u1, u2, psi, phi
     python benchmarks/real_ce150.py FOLDER --diagnose        # and diagnose each with the CE150's values
     python benchmarks/real_ce150.py FOLDER --joint           # only the joint estimate over the recordings
+    python benchmarks/real_ce150.py FOLDER --diagnosed-model # J/B with intervals under the seed model and under
+                                                             # each recording's diagnosed model; the recordings
+                                                             # pooled under the recurring findings' bench file
 
 The recordings: the public repository JurCag/NN_for_FF_Compensation, folder MeasuredDatasets, files
 Data100_*.mat (100 Hz, no time vector, angles in degrees, inputs in machine units; three of them record no u1
@@ -70,10 +73,14 @@ def main() -> None:
     ap.add_argument("--diagnose", action="store_true", help="also diagnose each recording with the CE150's values")
     ap.add_argument("--joint", action="store_true", help="only the joint estimate over all recordings with u1 "
                                                          "(section 'Real CE150 recordings, jointly')")
+    ap.add_argument("--diagnosed-model", action="store_true", help="only the estimates under the diagnosed model "
+                    "(section 'Real CE150 recordings, under the diagnosed model')")
     args = ap.parse_args()
     files = sorted({p.resolve() for f in args.folders for p in f.glob("*.mat")}, key=lambda p: p.name)
     if args.joint:
         return joint(files)
+    if args.diagnosed_model:
+        return diagnosed_model(files)
     rows, skipped = [], []
     t0 = time.perf_counter()
     for path in files:
@@ -173,6 +180,101 @@ def joint(files: list[Path]) -> None:
     from results import update_section
 
     update_section(Path(__file__).with_name("RESULTS.md"), "Real CE150 recordings, jointly", text)
+
+
+def _with_interval(v, ci) -> str:
+    if v is None or ci is None or ci[0] is None:
+        return "n.i."
+    return f"{v:.3g} [{ci[0]:.3g}, {ci[1]:.3g}]"
+
+
+def _held(h: dict | None) -> str:
+    if not h:
+        return "n/a"
+    after = h["after"] or h["before"]
+    return ", ".join(f"{a} {h['before'][a]:.1f} -> {after[a]:.1f}" for a in ("pitch", "yaw"))
+
+
+def diagnosed_model(files: list[Path]) -> None:
+    """Issue #48's real-recordings line: per recording with u1, J/B with 95 % intervals under the seed model
+    (eq. (1), the CE150's values) and under the model its diagnose found (diagnose's "under the findings' model",
+    the estimate `export` then `estimate --params` gives), each with its adequacy verdict and held-out fit; then
+    the recordings pooled under the bench file of the finding that recurs most across them."""
+    import tempfile
+    from collections import Counter
+
+    from trms_ident.commands import bench_from_diagnosis
+    from trms_ident.io.readers import read_log
+    from trms_ident.params import to_toml
+    from trms_ident.report.diagnosis import to_doc
+    from trms_ident.report.summary import to_json
+
+    t0 = time.perf_counter()
+    usable = [p for p in files if {"u1", "u2", "psi", "phi"} <= {w[0] for w in scipy.io.whosmat(p)}]
+    rows, docs = [], {}
+    tmp = Path(tempfile.mkdtemp())
+    for path in usable:
+        seed = ti.estimate(path, params="humusoft_ce150", **READ)
+        d = ti.diagnose(path, params="humusoft_ce150", **READ)
+        w = d.with_findings or {}
+        doc = to_doc(d, read_log(path, **READ))
+        (tmp / f"{path.stem}.json").write_text(to_json(doc))
+        docs[path.stem] = doc
+        rows.append({"name": path.stem, "blind": path.stem not in IN_TESTS,
+                     "seed": {k: _with_interval(seed.estimates[k], seed.ci95[k]) for k in ("J1", "B1", "J2", "B2")},
+                     "seed_fits": VERDICT[seed.adequate], "verdict": d.verdict,
+                     "findings": [f"{f.effect}:{f.axis} {f.parameter['value']:.3g}" if f.effect != "known_value"
+                                  else f"{f.parameter['name']} {f.parameter['value']:.3g}" for f in d.findings],
+                     "model": {k: _with_interval((w.get("estimates") or {}).get(k), (w.get("ci95") or {}).get(k))
+                               for k in ("J1", "B1", "J2", "B2")} if w.get("estimates") else None,
+                     "model_fits": VERDICT[w.get("adequate")] if w.get("estimates") else "-",
+                     "held_out": _held(d.held_out)})
+        print(rows[-1], flush=True)
+    counts = Counter(k for r in rows for k in dict.fromkeys(f.split(" ")[0] for f in r["findings"]))
+    pool_line = "No finding recurs across the recordings: nothing to pool under."
+    if counts:
+        key, n = counts.most_common(1)[0]
+        source = next(r["name"] for r in rows if [f.split(" ")[0] for f in r["findings"]] == [key]) if any(
+            [f.split(" ")[0] for f in r["findings"]] == [key] for r in rows) else None
+        if n >= 2 and source is not None:
+            b = bench_from_diagnosis(tmp / f"{source}.json")
+            bench = tmp / "bench.toml"
+            bench.write_text(to_toml(b["known"], b["identified"], b["header"], b["effects"], b["sources"]))
+            j = ti.estimate_joint(usable, params=bench, **READ).doc["joint"]
+            alone = {k: [r["model"][k] != "n.i." for r in rows if r["model"]] for k in ("J1", "B1", "J2", "B2")}
+            only_pool = [k for k in ("J1", "B1", "J2", "B2") if j["estimates"][k] is not None and not any(alone[k])]
+            pool_line = (f"Pooled under {key} (found in {n} of {len(rows)} recordings; the bench file exported from "
+                         f"{source}'s diagnosis, the CE150's known values): "
+                         + ", ".join(f"{k} {_with_interval(j['estimates'][k], j['ci95'][k])}"
+                                     if j["estimates"][k] is not None else f"{k} n.i. ({j['identifiability'][k]})"
+                                     for k in ("J1", "B1", "J2", "B2"))
+                         + f"; consistency: {j['sentence']} The pooled model fits every pooled recording: "
+                         f"{VERDICT[j['adequate']]}. Determined by the pool and by no single recording: "
+                         f"{', '.join(only_pool) or 'none'}. Left out: {', '.join(j['outliers']) or 'none'}.")
+    lines = ["## Real CE150 recordings, under the diagnosed model", "",
+             "`python benchmarks/real_ce150.py FOLDER --diagnosed-model`: the Data100_*.mat recordings holding u1 "
+             "(public repository JurCag/NN_for_FF_Compensation), each estimated with `--params humusoft_ce150` under "
+             "eq. (1) (the seed model) and under the model its `diagnose` found (the estimate `export` then "
+             "`estimate --params` gives: diagnose's \"under the findings' model\"), J/B with 95 % intervals (n.i.: "
+             "not identifiable), each model's adequacy verdict, and the held-out simulation fit before -> after the "
+             f"findings. Published: J1 {PUBLISHED['J1']}, B1 {PUBLISHED['B1']}, J2 {PUBLISHED['J2']}, "
+             f"B2 {PUBLISHED['B2']}.", "",
+             "| recording | blind | seed model J1 | B1 | J2 | B2 | seed verdict | diagnose | findings | diagnosed "
+             "model J1 | B1 | J2 | B2 | its verdict | held-out fit [%] |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        m = r["model"] or {k: "-" for k in ("J1", "B1", "J2", "B2")}
+        lines.append(f"| {r['name']} | {'yes' if r['blind'] else 'no'} | "
+                     + " | ".join(r["seed"][k] for k in ("J1", "B1", "J2", "B2"))
+                     + f" | {r['seed_fits']} | {r['verdict']} | {', '.join(r['findings']) or '-'} | "
+                     + " | ".join(m[k] for k in ("J1", "B1", "J2", "B2"))
+                     + f" | {r['model_fits']} | {r['held_out']} |")
+    lines += ["", pool_line, "", f"{len(rows)} recordings in {time.perf_counter() - t0:.0f} s."]
+    text = "\n".join(lines) + "\n"
+    print(text)
+    from results import update_section
+
+    update_section(Path(__file__).with_name("RESULTS.md"), "Real CE150 recordings, under the diagnosed model", text)
 
 
 if __name__ == "__main__":
