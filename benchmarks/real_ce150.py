@@ -234,8 +234,7 @@ def diagnosed_model(files: list[Path]) -> None:
     pool_line = "No finding recurs across the recordings: nothing to pool under."
     if counts:
         key, n = counts.most_common(1)[0]
-        source = next(r["name"] for r in rows if [f.split(" ")[0] for f in r["findings"]] == [key]) if any(
-            [f.split(" ")[0] for f in r["findings"]] == [key] for r in rows) else None
+        source = next((r["name"] for r in rows if [f.split(" ")[0] for f in r["findings"]] == [key]), None)
         if n >= 2 and source is not None:
             b = bench_from_diagnosis(tmp / f"{source}.json")
             bench = tmp / "bench.toml"

@@ -34,6 +34,7 @@ from ..log import Log
 from ..model import effects as room
 from ..model.bench import MODIFICATION_KEYS, TORQUE_KEYS
 from ..numerics.adequacy import RMS_OVER_NOISE
+from .oe import motor_states
 from .result import Finding
 
 #: at most this many hypotheses (findings first, then their torque-effect look-alikes) are estimated under: each
@@ -251,10 +252,7 @@ def _diagnosis(d, log: Log, p: dict, h: Hypothesis, alikes: list, record: list, 
             *known_values.against_given(value, table, (lo, hi)), alternatives, {}))
         words += f" and the known value {name} = {value:.4g} instead of {table:.4g}"
     est = dict(h.value_fit["estimates"]) if h.value_fit is not None else dict(d.augmented)
-    start = None
-    if h.value_fit is not None:
-        states = h.value_fit.get("start_states") or {}
-        start = {k: states[k] for k in ("tau1_0", "tau2_0", "zeta_0") if k in states} or None
+    start = (motor_states(h.value_fit.get("start_states") or {}) or None) if h.value_fit is not None else None
     fits_after, overlay, residual = refit({**p, **changes}, est, start, findings)
     for f in findings:
         f.fit_after = fits_after.get(f.axis, f.fit_after)

@@ -621,7 +621,13 @@ def profile_se(x: np.ndarray, block_costs: np.ndarray, at: float) -> float:
 
 def motor_start(r) -> dict:
     """The motors' start states of a refinement result (tau1_0, tau2_0, zeta_0), {} when not all finite."""
-    s = {k: float(r.start_states.get(k, math.nan)) for k in ("tau1_0", "tau2_0", "zeta_0")}
+    return motor_states(r.start_states)
+
+
+def motor_states(states: dict) -> dict:
+    """The motors' start states (tau1_0, tau2_0, zeta_0) among a fit's start states, as plant_signals takes them;
+    {} when not all three are there and finite."""
+    s = {k: float(states.get(k, math.nan)) for k in ("tau1_0", "tau2_0", "zeta_0")}
     return s if all(math.isfinite(v) for v in s.values()) else {}
 
 

@@ -48,6 +48,7 @@ from ..numerics.stats import block_length
 from .compound import together, tried_sentence
 from .fits import prediction_fits
 from .model import AXIS_ANGLE, regression
+from .oe import motor_states
 from .result import Finding
 from .select import block_ids, score
 
@@ -99,7 +100,7 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
     name, value, table = fit["name"], fit["value"], fit["table"]
     pp = {**p, name: value}
     est = dict(fit["estimates"])
-    start = _start(fit["start_states"])
+    start = motor_states(fit["start_states"]) or None
     fits_after, overlay, residual = _refitted(d, log, pp, law, est, start)
     axis = known_values.AXIS[name]
     effect_alike = (d.verdict == "explained" and len(d.findings) == 1)
@@ -161,12 +162,6 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
                    settings=_value_settings(d, ratio, start))
 
 
-def _start(states: dict) -> dict | None:
-    """The motors' start states of a known-value refit, as plant_signals takes them (None: not all finite)."""
-    start = {k: states[k] for k in ("tau1_0", "tau2_0", "zeta_0") if k in states}
-    return start if len(start) == 3 and all(math.isfinite(v) for v in start.values()) else None
-
-
 def _refitted(d, log: Log, pp: dict, law: str, est: dict, start: dict | None, findings=()):
     """The seed model with known values ``pp``, J/B ``est`` and ``findings``' effects: its 2 s prediction fits, and
     ``d``'s overlay and residual with its predictions and equation error as the "after" ones."""
@@ -214,7 +209,7 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
     no single one does, nor the effect search: each value a finding, the effect search's findings refused."""
     pp = {**p, **j.values}
     est = dict(j.estimates)
-    start = _start(j.start_states)
+    start = motor_states(j.start_states) or None
     fits_after, overlay, residual = _refitted(d, log, pp, law, est, start)
     base = d.seed_check.get("axes", {})
     before = _seed_ratios(base)
