@@ -1,6 +1,6 @@
 """Compound benches (issue #47): two differences at once, and a dead zone or saturation on both motors, blind.
 
-    python benchmarks/compound.py            # 30 compound benches + 10 on both motors, 2 processes (~30 min);
+    python benchmarks/compound.py            # 30 compound benches + 14 on both motors, 2 processes (~40 min);
                                              # writes the "Compound benches" section of RESULTS.md
     python benchmarks/compound.py --n 6      # the first 6 compound benches and 2 of both motors; print only with
                                              # --no-write
@@ -10,7 +10,8 @@ at once, drawn from the known values (each of known_values.HYPOTHESES off its ta
 and the effects (a yaw cable, Coulomb friction, quadratic drag, a transport delay, the pitch offsets, a dead zone,
 a saturation, a second-order motor), at most one known value per bench; J/B at 0.7-1.3x Table 1; one log from rest
 or cut 10-40 s into a run, 12-bit encoder or Gaussian noise (0.3-1 mrad), 100 Hz-1 kHz, 60 s, reference drawn.
-The both-motor benches carry the same dead zone (0.1-0.3 V) or saturation (1.6-2.2 V) on both motors.  diagnose
+The both-motor benches carry the same dead zone (0.1-0.3 V) or saturation (1.6-2.2 V) on both motors; the
+"unequal" ones (added after the first run, 2000 onwards) a yaw one 0.6-0.85x or 1.2-1.6x the pitch's.  diagnose
 is given nothing but the log (Table 1's values).
 
 Judged per bench: each difference the log can show (a dead zone or saturation acting on at least NOT_EXERCISED of
@@ -67,10 +68,14 @@ def _bench(kind: str, rng) -> tuple[dict, list, dict]:
     table = defaults()
     true = {k: table[k] * rng.uniform(0.7, 1.3) for k in ("J1", "B1", "J2", "B2")}
     effects, known = [], {}
-    if kind == "both motors":
+    if kind.startswith("both motors"):
         effect = str(rng.choice(["dead_zone", "input_saturation"]))
         value = float(rng.uniform(0.1, 0.3) if effect == "dead_zone" else rng.uniform(1.6, 2.2))
-        effects = [{"effect": effect, "axis": ax, "value": value} for ax in ("pitch", "yaw")]
+        other = value  # "both motors, unequal": the yaw's 0.6-0.85x or 1.2-1.6x the pitch's
+        if kind.endswith("unequal"):
+            other = value * float(rng.choice([rng.uniform(0.6, 0.85), rng.uniform(1.2, 1.6)]))
+        effects = [{"effect": effect, "axis": "pitch", "value": value}, {"effect": effect, "axis": "yaw",
+                                                                         "value": other}]
     else:
         n_known = int(rng.integers(0, 2))  # 0: two effects; 1: an effect and a known value
         if n_known:
@@ -158,7 +163,8 @@ def run(case: dict) -> dict:
 def cases(n: int) -> list[dict]:
     both = max(2, n // 3)
     return [{"i": i, "kind": "two differences"} for i in range(n)] + \
-        [{"i": 1000 + i, "kind": "both motors"} for i in range(both)]
+        [{"i": 1000 + i, "kind": "both motors"} for i in range(both)] + \
+        [{"i": 2000 + i, "kind": "both motors, unequal"} for i in range(max(1, both * 2 // 5))]
 
 
 def main() -> None:
@@ -175,7 +181,7 @@ def main() -> None:
                      f"{', '.join(r['found']) or '-'} | {sum(r['named'].values())}/{len(r['named'])} | "
                      f"{sum(r['within'].values())}/{len(r['within'])} | {', '.join(r['invented']) or '-'} |")
     two = [r for r in rows if r["kind"] == "two differences"]
-    both = [r for r in rows if r["kind"] == "both motors"]
+    both = [r for r in rows if r["kind"].startswith("both motors")]
 
     def share(rs, ok) -> str:
         k = sum(bool(ok(r)) for r in rs)
@@ -196,8 +202,8 @@ def main() -> None:
                f"a diagnose; {time.perf_counter() - t0:.0f} s on 2 processes.")
     text = (f"## Compound benches (benchmarks/compound.py, blind, seed {SEED})\n\n"
             "Benches that differ from eq. (1) with Table 1's values in two ways at once (an effect and a known value, "
-            "or two effects), and benches with the same dead zone or saturation on both motors; `diagnose` is given "
-            "the log alone.\n\n" + summary + "\n\n" + "\n".join(lines) + "\n")
+            "or two effects), and benches with a dead zone or saturation on both motors (the same, or unequal); "
+            "`diagnose` is given the log alone.\n\n" + summary + "\n\n" + "\n".join(lines) + "\n")
     publish("Compound benches", text, write=not args.no_write)
 
 

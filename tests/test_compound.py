@@ -94,3 +94,50 @@ def test_a_modification_found_under_a_wrong_known_value_is_profiled_again_beside
     assert abs(h.fitted / 0.03 - 1) < 0.02
     lo, hi = h.value_fit["ci95"]
     assert lo <= 0.83 * table["Mg"] <= hi
+
+
+def _kv_fit(name, value, table, cost, over):
+    return {"name": name, "value": value, "table": table, "cost": cost, "over_noise": {"alpha": over[0],
+                                                                                       "beta": over[1]}}
+
+
+def test_the_known_values_that_lead_are_the_best_ranked_near_the_floor_and_well_below_the_seed():
+    kv = {"fits": [_kv_fit("k1", 0.8, 1.1, 8.6e4, (3.3, 1.9)), _kv_fit("kc", -0.138, -0.2, 1.6e4, (1.3, 1.0)),
+                   _kv_fit("T0", 2.7, 3.5, 2.2e4, (12.0, 5.5)),  # too far from the floor to lead
+                   _kv_fit("Mg", -0.3, 0.32, 1e3, (1.0, 1.0)),  # wandered off (sign): not plausible
+                   _kv_fit("k2", 0.94, 0.8, 1.4e5, (1.3, 4.7))]}
+    assert [f["name"] for f in compound.leads(kv, 40.0)] == ["kc", "k1"]  # lowest cost first, MAX_LEADS of them
+    assert [f["name"] for f in compound.leads(kv, 4.0)] == ["kc"]  # k1 (3.3x) is not half of the seed's 4x
+    assert compound.leads({"fits": []}, 40.0) == []
+
+
+def test_a_known_value_leads_and_the_effect_search_under_it_finds_the_second_difference():
+    """kc 31 % low beside a pitch drag: the effect search at the table's kc invented a yaw cable; kc refitted
+    alone leaves the pitch above its floor.  value_first runs the search again with kc at its refit (stubbed here:
+    the drag it finds there), estimates the drag with kc freed beside it from the table's value, and the two
+    explain the log; the cable is refused as not needed."""
+    table = defaults()
+    kc = 0.69 * table["kc"]
+    r = simulate(SimSettings(ref="multisine", sample_rate_hz=200.0, duration_s=40.0, noise_std_rad=5e-4, seed=11,
+                             overrides={"kc": kc},
+                             effects=[{"effect": "quadratic_drag", "axis": "pitch", "value": 0.0044}]))
+    log = as_log(r)
+    d = _diagnosis([_finding("cable_stiffness", "yaw", "k", 0.048)])
+    d.seed_check = {"axes": {"pitch": {"rms_over_noise": 30.0}, "yaw": {"rms_over_noise": 20.0}}}
+    kv = {"fits": [_kv_fit("kc", 0.98 * kc, table["kc"], 1.0, (1.3, 1.0))]}
+    asked = []
+
+    def search(under):
+        asked.append(under)
+        return _diagnosis([_finding("quadratic_drag", "pitch", "c", 0.004)])
+
+    new, tried = compound.value_first(d, log, table, "quadratic", {}, kv, lambda pp, est, start, found: ({}, {}, {}),
+                                      search)
+    assert asked == [{"kc": 0.98 * kc}]
+    assert new is not None, tried
+    assert new.verdict == "explained"
+    drag, value = new.findings
+    assert (drag.effect, drag.axis) == ("quadratic_drag", "pitch") and abs(drag.parameter["value"] / 0.0044 - 1) < 0.1
+    assert value.parameter["name"] == "kc" and abs(value.parameter["value"] / kc - 1) < 0.01
+    assert [(x["effect"], "not needed" in x["reason"]) for x in new.refused] == [("cable_stiffness", True)]
+    assert tried and tried[0]["searched_under"] == "kc"

@@ -112,7 +112,7 @@ def test_the_known_value_wins_over_effects_that_need_more_parameters(monkeypatch
     from trms_ident.diagnosis import run
 
     log = as_log(_sim({"kc": -0.1}))
-    original = run._diagnose
+    original = run.effect_search
     stub = lambda effect, axis: run.Finding(effect, axis, {"name": "x", "value": 0.01, "unit": "N m/rad"}, 50.0,  # noqa
                                             99.0, "stub", "stub", 0.5, 5.0, 1e-6)
 
@@ -126,16 +126,17 @@ def test_the_known_value_wins_over_effects_that_need_more_parameters(monkeypatch
         return fake
 
     # two invented effects that leave the yaw above its floor: the one known value wins, both are refused
-    monkeypatch.setattr(run, "_diagnose", search_says([stub("cable_stiffness", "yaw"), stub("com_offset", "pitch")],
-                                                      "partly_explained", {"alpha": 1.1, "beta": 3.0}))
+    monkeypatch.setattr(run, "effect_search",
+                        search_says([stub("cable_stiffness", "yaw"), stub("com_offset", "pitch")], "partly_explained",
+                                    {"alpha": 1.1, "beta": 3.0}))
     d = diagnose(log)
     assert [f.effect for f in d.findings] == ["known_value"] and d.verdict == "explained"
     why = [r for r in d.refused if r["reason"].startswith("a known value explains the log alone")]
     assert sorted(r["effect"] for r in why) == ["cable_stiffness", "com_offset"]
 
     # a single effect that explains the log too: both one parameter at the floor, so look-alikes, never dropped
-    monkeypatch.setattr(run, "_diagnose", search_says([stub("cable_stiffness", "yaw")], "explained",
-                                                      {"alpha": 1.1, "beta": 1.15}))
+    monkeypatch.setattr(run, "effect_search", search_says([stub("cable_stiffness", "yaw")], "explained",
+                                                          {"alpha": 1.1, "beta": 1.15}))
     d2 = diagnose(log)
     assert [f.effect for f in d2.findings] == ["known_value", "cable_stiffness"]  # the value leaves less
     assert "cable_stiffness:yaw" in d2.findings[0].alternatives
@@ -152,7 +153,7 @@ def test_two_known_values_off_are_found_together_and_win_over_invented_effects(m
 
     log = as_log(_sim({"Kg": 0.1, "kc": -0.1}))
     monkeypatch.setattr(effects, "CANDIDATES", ())
-    original = run._diagnose
+    original = run.effect_search
 
     def invented(*args, **kwargs):  # an effect search that names a cable and leaves the angles above the floor
         out = original(*args, **kwargs)
@@ -161,7 +162,7 @@ def test_two_known_values_off_are_found_together_and_win_over_invented_effects(m
         out.verdict = "partly_explained"
         return out
 
-    monkeypatch.setattr(run, "_diagnose", invented)
+    monkeypatch.setattr(run, "effect_search", invented)
     d = diagnose(log)
     assert d.verdict == "explained", d.verdict_sentence
     got = {f.parameter["name"]: f.parameter["value"] for f in d.findings}

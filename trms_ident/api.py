@@ -30,7 +30,14 @@ _READ = ("angle_unit", "time_unit", "signals", "time_source", "voltage_time", "r
 
 
 def _as_log(data, read: dict) -> Log:
-    """A Log from a path, a DataFrame (columns t [s], u1, u2 [V], alpha, beta [rad], optional t_u) or a Log."""
+    """A Log from a path, a DataFrame (columns t [s], u1, u2 [V], alpha, beta [rad], optional t_u) or a Log.
+    ``read``: the reader's options (a path), angle_unit and time_unit (a DataFrame), nothing (a Log): any other
+    keyword is refused, never ignored (``overrides=`` meant for ``params=`` once went unnoticed)."""
+    if not isinstance(data, (str, Path)):
+        unknown = sorted(set(read) - ({"angle_unit", "time_unit"} if not isinstance(data, Log) else set()))
+        if unknown:
+            raise TypeError(f"unexpected keyword argument(s) {', '.join(unknown)} for a "
+                            f"{'Log' if isinstance(data, Log) else 'DataFrame'} (the values given go in params=)")
     if isinstance(data, Log):
         return data
     if isinstance(data, (str, Path)):

@@ -5,6 +5,7 @@ close rivals told apart by the misfit each leaves (_alternatives_by_output_error
 (_offsets_by_output_error).  diagnosis/run.py's rounds call these."""
 from __future__ import annotations
 
+from ..model import effects as room
 from ..model.effects import Candidate
 from ..numerics.adequacy import AXIS_OF, RMS_OVER_NOISE
 from . import oe
@@ -120,6 +121,42 @@ def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now,
         res = _at_value(r["c"], f.value, log, p, law, a, current, cache, ids, score_now, n_tests)
     else:
         res = _try(r["c"], log, p, law, a, current, cache, ids, score_now, n_tests)  # its regression (dropped before)
+    res["oe"], res["value"] = f, f.value
+    return res
+
+
+def other_motor(c, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests, fitter, tested,
+                oe_values: dict):
+    """The other motor's input nonlinearity ``c`` (run._siblings) fitted by output error on top of the current
+    model: the pair first placed at the common value that fits best (oe.Fitter.common_width), then ``c``
+    profiled with the first motor's at that value, and the first motor's profiled again beside it.  The
+    finding as _oe_rescue returns one (its "model" holds the first motor's new value, also written to
+    ``oe_values``) when the test passes, else None.  Unlike the rescue this runs with an input modification
+    already in the model (oe.representable refuses those): its value is the output error's, not the equation
+    error's."""
+    if not oe.profiled(c.key):
+        return None
+    theta0 = _oe_start(score_now, reg_now, p)
+    values = _effect_values(current, score_now, reg_now, oe_values)
+    grid = _grid(c, log, p)
+    first = f"{c.effect}:{'yaw' if c.axis == 'pitch' else 'pitch'}"
+    if not grid or first not in dict(current.mods):
+        return None
+    common = fitter.common_width(current, values, theta0, (first, c.key), min(grid), max(grid))
+    start = values[first]
+    if common is not None:
+        start = common[0]
+        current = Model(tuple((k, start if k == first else v) for k, v in current.mods), current.linear)
+        values = {**values, first: start}
+    f, why = _oe_fit(c, start, fitter, current, values, theta0, log, p, n_tests, tested)
+    if f is None or why:
+        return None
+    again = fitter.profile(current.with_mod(c.key, f.value), {**values, c.key: f.value}, theta0, first,
+                           _grid(room.by_key(first), log, p), values[first])
+    if again is not None and again.cost_drop > 0:
+        current = Model(tuple((k, again.value if k == first else v) for k, v in current.mods), current.linear)
+    oe_values[first] = dict(current.mods)[first]
+    res = _at_value(c, f.value, log, p, law, a, current, cache, ids, score_now, n_tests)
     res["oe"], res["value"] = f, f.value
     return res
 

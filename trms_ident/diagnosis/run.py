@@ -23,7 +23,7 @@ from .fits import REST, best_start, prediction_fits, start_cost, start_samples
 from .predict import HORIZON_S, fit_change, fit_text
 from .result import VERDICTS, Diagnosis, Finding
 from .judge import (TIMING_PAIR, _alternatives_by_output_error, _offsets_by_output_error, _oe_confirm, _oe_fit,
-                    _oe_rescue, _oe_start)
+                    _oe_rescue, _oe_start, other_motor)
 from .select import FAMILY_ALPHA, block_ids, score
 from .shapes import declared_shape, term_shape, thin
 from .trials import (ALIAS_GAIN_RATIO, EXACT_OFFSETS, MOTOR_LAG_NEUTRAL, _alias, _axes_of, _effect_values,
@@ -58,7 +58,7 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
     seed = seed if seed is not None else _seed_result(log, overrides, law)
     with np.errstate(all="ignore"):  # a model far off the log overflows its predictions: they score as misfits
         for attempt in range(HELD_OUT_RERUNS + 1):
-            d = weigh(_diagnose(log, overrides, law, a_rad_s, progress, tuple(g["key"] for g in gated), seed),
+            d = weigh(effect_search(log, overrides, law, a_rad_s, progress, tuple(g["key"] for g in gated), seed),
                       log, p, law, overrides)
             progress("held-out simulation fits", 0.97)
             h = held_out_fits(d, log, p, law)
@@ -135,17 +135,22 @@ class _Kept:
     over_after: dict
 
 
-def _diagnose(log: Log, overrides: dict | None, law: str, a_rad_s: float | None, progress,
-              exclude: tuple = (), seed=None) -> Diagnosis:
-    """The diagnosis in four rooms: _prepare (the seed model's check, the filter, the blocks, the start states),
-    _search (each round tests every hypothesis of the library by the equation error, the output-error fit judges,
-    the best passing one becomes a finding), _accept (the findings kept: each must raise the fit of its axes
-    with J/B physical, values profiled again given the others, earlier ones re-judged given the later) and
-    _report (predictions, per-finding evidence, where the residual sits, the verdict, corrections).  ``exclude``:
-    library keys the search leaves out (refused by the held-out gate of an earlier run)."""
+def effect_search(log: Log, overrides: dict | None, law: str, a_rad_s: float | None, progress,
+                  exclude: tuple = (), seed=None) -> Diagnosis:
+    """The effect search's diagnosis, before weigh.py's rule, in four rooms: _prepare (the seed model's check, the
+    filter, the blocks, the start states), _search (each round tests every hypothesis of the library by the
+    equation error, the output-error fit judges, the best passing one becomes a finding), _accept (the findings
+    kept: each must raise the fit of its axes with J/B physical, values profiled again given the others, earlier
+    ones re-judged given the later) and _report (predictions, per-finding evidence, where the residual sits, the
+    verdict, corrections).  ``exclude``: library keys the search leaves out (refused by the held-out gate of an
+    earlier run)."""
     run, base_reg, base = _prepare(log, overrides, law, a_rad_s, progress, seed)
     nominal = _estimates(base, base_reg)
-    found = _search(run, base_reg, base, exclude)
+    # a known value the seed check names explains the log with one parameter (weigh.py, rule 1): the effect
+    # search's findings can then only stand as its look-alikes, and only a single effect that explains the log
+    # alone does; a second round would add findings the rule refuses (the rounds after the first are skipped)
+    rounds = 1 if (run.seed.get("known_values") or {}).get("named") else MAX_FINDINGS
+    found = _search(run, base_reg, base, exclude, rounds)
     kept = _accept(run, found, nominal)
     return _report(run, found, kept, base_reg, base, nominal)
 
@@ -180,8 +185,8 @@ def _prepare(log: Log, overrides: dict | None, law: str, a_rad_s: float | None, 
             base_reg, base)
 
 
-def _search(run: _Run, base_reg, base, exclude: tuple = ()) -> _Found:
-    """The rounds (at most MAX_FINDINGS): every hypothesis of the library not yet in the model is tested by the
+def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FINDINGS) -> _Found:
+    """The rounds (at most ``rounds``): every hypothesis of the library not yet in the model is tested by the
     equation error (_try: held-out blocks, family-wise level); the output-error fit judges what the equation
     error passes (_oe_confirm), rescues when it passes nothing (_oe_rescue) and decides between close rivals;
     the best that passes becomes a finding, its look-alikes its alternatives.  The rounds stop when nothing
@@ -197,13 +202,13 @@ def _search(run: _Run, base_reg, base, exclude: tuple = ()) -> _Found:
     refused: list = []  # findings refused, first those the output-error test turned down in the rounds
     stopped = None  # the round after which the findings reached the noise floor, when they did
     span = grid_span(log, run.block, run.start)  # a long log's grids are searched on its head
-    for round_i in range(MAX_FINDINGS):
+    for round_i in range(rounds):
         results = []
         if span is not None:  # the current model's score on the grids' samples
             span.score_now = score(regression(span.log, p, law, a, current, span.cache), span.ids, ("pitch", "yaw"))
         for i, c in enumerate(cands):
             progress(f"testing {c.key} (round {round_i + 1})",
-                     _SEED_SHARE + _ROUNDS_SHARE * (round_i + i / len(cands)) / MAX_FINDINGS)
+                     _SEED_SHARE + _ROUNDS_SHARE * (round_i + i / len(cands)) / rounds)
             if c.key in current.keys or c.key in excluded or (c.effect in EXACT_OFFSETS and any(
                     k.split(":")[0] in EXACT_OFFSETS for k in current.keys)):  # one pitch offset explains both
                 continue
@@ -270,7 +275,38 @@ def _search(run: _Run, base_reg, base, exclude: tuple = ()) -> _Found:
         if _reaches_floor(fitter, current, reg_now, score_now, oe_values, p):
             stopped = round_i + 1
             break  # the findings reach the floor (STOP_OE_OVER_NOISE): a further round could only add parameters
+    for c in _siblings(findings, current, excluded) if len(findings) < MAX_FINDINGS else ():
+        progress(f"testing {c.key} (the other motor's)", _SEED_SHARE + _ROUNDS_SHARE)
+        res = other_motor(c, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests, fitter, oe_tested,
+                          oe_values)
+        if res is None:
+            continue
+        oe_values[c.key] = res["value"]
+        res["before"], res["told_apart"] = (current, reg_now, score_now), None
+        current, reg_now, score_now = res["model"], res["reg"], res["score"]
+        findings.append((res, []))
     return _Found(current, reg_now, score_now, findings, oe_values, refused, tested, stopped)
+
+
+#: input nonlinearities of a motor's drive: a bench has them on both motors or on neither more often than not
+#: (the same amplifier type drives both), so one found on a motor is tried on the other after the rounds
+SIBLING_EFFECTS = ("dead_zone", "input_saturation")
+
+
+def _siblings(findings: list, current: Model, excluded: set) -> list[Candidate]:
+    """The library's candidates for the other motor of each input nonlinearity found (SIBLING_EFFECTS), not in
+    the model nor excluded.  Each is fitted by output error (judge.other_motor: a profile over its value, the
+    family-wise test), whether or not the findings reached the floor: a yaw dead zone acting on 1-3 % of
+    the samples beside a pitch one stays near the floor, and the rounds stop before trying it."""
+    out = []
+    for best, _ in findings:
+        c = best["c"]
+        if c.effect in SIBLING_EFFECTS:
+            key = f"{c.effect}:{'yaw' if c.axis == 'pitch' else 'pitch'}"
+            sibling = effects.by_key(key)  # the library as it is now (a test may empty it)
+            if sibling is not None and key not in current.keys and key not in excluded and sibling not in out:
+                out.append(sibling)
+    return out
 
 
 def _accept(run: _Run, found: _Found, nominal: dict) -> _Kept:

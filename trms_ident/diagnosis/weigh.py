@@ -31,7 +31,10 @@ refitted with every one):
    together (known_values.joint, a forward search, each value a further parameter that must earn its place).
    A set that reaches the floor explains the log: one finding per value, the effect search's findings refused
    (they do not reach it).  A set that does not is reported in the sentence with the values the log
-   determines.  Refits that wander off to implausible numbers are never reported (known_values.far_from_table
+   determines;
+6. when that does not either, the known values that came nearest the floor alone lead (compound.value_first):
+   the effect search runs again with one of them at its refit, and its findings are estimated under with the
+   value freed beside them; a pair that reaches the floor explains the log, the first search's findings refused.  Refits that wander off to implausible numbers are never reported (known_values.far_from_table
    says the bench is far from the values given).
 """
 from __future__ import annotations
@@ -45,7 +48,8 @@ from .. import known_values
 from ..log import Log
 from ..numerics.adequacy import RMS_OVER_NOISE
 from ..numerics.stats import block_length
-from .compound import together, tried_sentence
+from . import run
+from .compound import together, tried_sentence, value_first
 from .fits import prediction_fits
 from .model import AXIS_ANGLE, regression
 from .oe import motor_states
@@ -95,6 +99,14 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
                     return _explained_by_values(d, log, p, law, j)
                 base = max(kv.get("shooting_over_noise", {}).values(), default=None)
                 d.verdict_sentence += known_values.joint_sentence(j, base)
+            first, tried_first = value_first(
+                d, log, p, law, overrides, kv, lambda pp, est, start, found: _refitted(d, log, pp, law, est, start,
+                                                                                        found),
+                lambda under: run.effect_search(log, under, law, d.settings["a_rad_s"], lambda stage, done: None))
+            if first is not None:
+                return first
+            if tried_first:
+                d.settings["together"] = tried + tried_first
         return d
     fit = next(f for f in kv["fits"] if f["name"] == named)
     name, value, table = fit["name"], fit["value"], fit["table"]

@@ -1,0 +1,46 @@
+"""Input nonlinearities on both motors together (issue #47, item 3): a dead zone or saturation found on one motor
+is tried on the other, the pair first placed where a common value fits best."""
+import math
+
+import pytest
+
+from sim import SimSettings, simulate
+from trms_ident.diagnosis import oe
+from trms_ident.diagnosis.model import Model
+from trms_ident.diagnosis.run import _siblings
+from trms_ident.model.effects import BY_KEY
+from trms_ident.params import defaults
+
+from .conftest import as_log
+
+Q12 = 2 * math.pi / 4096
+
+
+def test_the_other_motors_nonlinearity_is_tried_unless_in_the_model_or_excluded():
+    found = [({"c": BY_KEY["dead_zone:pitch"]}, []), ({"c": BY_KEY["cable_stiffness:yaw"]}, [])]
+    assert [c.key for c in _siblings(found, Model(), set())] == ["dead_zone:yaw"]
+    assert _siblings(found, Model((("dead_zone:yaw", 0.1),)), set()) == []
+    assert _siblings(found, Model(), {"dead_zone:yaw"}) == []
+    assert [c.key for c in _siblings([({"c": BY_KEY["input_saturation:yaw"]}, [])], Model(), set())] == [
+        "input_saturation:pitch"]
+    assert _siblings([({"c": BY_KEY["input_delay:both"]}, [])], Model(), set()) == []  # not a motor's own
+
+
+def _both(width_pitch, width_yaw, **kw):
+    return simulate(SimSettings(ref="square", sample_rate_hz=100.0, duration_s=40.0, noise_std_rad=5e-4, seed=4,
+                                effects=[{"effect": "dead_zone", "axis": "pitch", "value": width_pitch},
+                                         {"effect": "dead_zone", "axis": "yaw", "value": width_yaw}], **kw))
+
+
+def test_a_common_width_places_both_dead_zones_where_one_motors_profile_alone_cannot():
+    """The pitch dead zone profiled without the yaw's comes out a few per cent wide, and there the yaw's cost is
+    rugged whatever its width; one width on both motors, screened over the whole range, lands on the truth."""
+    p = defaults()
+    fitter = oe.Fitter(as_log(_both(0.25, 0.25)), p, "quadratic")
+    theta0 = {k: p[k] for k in ("J1", "B1", "J2", "B2")}
+    got = fitter.common_width(Model((("dead_zone:pitch", 0.259),)), {"dead_zone:pitch": 0.259}, theta0,
+                              ("dead_zone:pitch", "dead_zone:yaw"), 0.05, 0.6)
+    assert got is not None
+    width, cost = got
+    assert width == pytest.approx(0.25, rel=0.01)
+    assert cost < 3.0 * 2 * fitter.n  # near the noise floor (2 n: both angles at their noise level)
