@@ -43,7 +43,7 @@ from ..model import effects as room
 from ..model.bench import MODIFICATION_KEYS, TORQUE_KEYS
 from ..numerics.adequacy import RMS_OVER_NOISE
 from .oe import motor_states
-from .result import Finding
+from .result import Finding, known_value_finding
 
 #: at most this many hypotheses (findings first, then their torque-effect look-alikes) are estimated under: each
 #: is one estimate with its known-value search, 4-6 s on a 60 s log at 500 Hz
@@ -299,17 +299,14 @@ def _diagnosis(d, log: Log, p: dict, h: Hypothesis, alikes: list, record: list, 
         changes[name] = value
         lo, hi = kv["ci95"]
         alternatives = list(h.look_alikes)
-        findings.append(Finding(
-            "known_value", known_values.AXIS[name], {"name": name, "value": value, "table": table, "unit": kv["unit"],
-                                                     "ci95": [lo, hi]},
-            d.fit_before.get(known_values.AXIS[name], math.nan), math.nan,
+        findings.append(known_value_finding(
+            name, value, table, kv["unit"], (lo, hi), d.fit_before, math.nan,
             f"with {h.key} in the model (freed beside J/B where the refinement carries it), set free and refitted by "
             f"output error with J1, B1, J2, B2 and the start states, it brings the angles to "
             f"{kv['over_noise']['alpha']:.3g}x and {kv['over_noise']['beta']:.3g}x their noise floors; 95 % interval "
             f"{lo:.6g} to {hi:.6g} {kv['unit']}" + (f"; cannot be told apart with this log from "
                                                      f"{', '.join(alternatives)}" if alternatives else ""),
-            f"the bench's {name} is {value:.4g}, not the {table:.4g} it was given", math.nan,
-            *known_values.against_given(value, table, (lo, hi)), alternatives, {}))
+            alternatives=alternatives))
         words += f" and the known value {name} = {value:.4g} instead of {table:.4g}"
     est = dict(h.value_fit["estimates"]) if h.value_fit is not None else dict(d.augmented)
     start = (motor_states(h.value_fit.get("start_states") or {}) or None) if h.value_fit is not None else None

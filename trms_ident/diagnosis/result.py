@@ -2,6 +2,7 @@
 applies the rule to them, report/diagnosis.py writes them out)."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 
@@ -19,6 +20,22 @@ class Finding:
     p: float
     alternatives: list = field(default_factory=list)
     shift: dict = field(default_factory=dict)
+
+
+def known_value_finding(name: str, value: float, table: float, unit: str, ci95, fit_before: dict, fit_after: float,
+                        evidence: str, gain: float = math.nan, alternatives=(), shift: dict | None = None) -> Finding:
+    """The finding that a known value of eq. (1) is ``value``, not the ``table`` it was given (weigh.py's rule and
+    compound.py's): on its axis (known_values.AXIS), its t and p against the value given from its 95 % interval
+    ``ci95``, ``fit_before`` the axes' fits before (axis -> %)."""
+    from ..known_values import AXIS, against_given
+
+    lo, hi = ci95
+    axis = AXIS[name]
+    return Finding("known_value", axis, {"name": name, "value": value, "table": table, "unit": unit,
+                                         "ci95": [lo, hi]},
+                   fit_before.get(axis, math.nan), fit_after, evidence,
+                   f"the bench's {name} is {value:.4g}, not the {table:.4g} it was given", gain,
+                   *against_given(value, table, (lo, hi)), list(alternatives), dict(shift or {}))
 
 
 @dataclass

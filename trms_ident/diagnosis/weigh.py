@@ -53,7 +53,7 @@ from .compound import together, tried_sentence, value_first
 from .fits import prediction_fits
 from .model import AXIS_ANGLE, regression
 from .oe import motor_states
-from .result import Finding
+from .result import known_value_finding
 from .select import block_ids, score
 
 #: library effects that are a known value of eq. (1) under another name: the motor time constant the motor_lag
@@ -130,13 +130,9 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
                 f"{fit['score']:.2g} of the misfit")
     if alternatives:
         evidence += "; cannot be told apart with this log from " + ", ".join(alternatives)
-    finding = Finding(
-        "known_value", axis, {"name": name, "value": value, "table": table, "unit": fit["unit"],
-                              "ci95": [lo, hi]},
-        d.fit_before.get(axis, math.nan), fits_after.get(axis, math.nan), evidence,
-        f"the bench's {name} is {value:.4g}, not the {table:.4g} it was given", _drop(base, ratio),
-        *known_values.against_given(value, table, (lo, hi)), alternatives,
-        {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est})
+    finding = known_value_finding(name, value, table, fit["unit"], (lo, hi), d.fit_before,
+                                  fits_after.get(axis, math.nan), evidence, _drop(base, ratio), alternatives,
+                                  {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est})
     refused = list(d.refused)
     if not effect_alike:
         why = (f"a known value explains the log alone with one parameter ({name} = {value:.4g} instead of "
@@ -239,13 +235,10 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
                     ("" if name in j.determined else
                      f" (wider than {100 * known_values.DETERMINED_REL:g} % of the value: this log does not "
                      "determine it well)"))
-        findings.append(Finding(
-            "known_value", axis, {"name": name, "value": j.values[name], "table": j.table[name],
-                                  "unit": j.units[name], "ci95": [lo, hi]},
-            d.fit_before.get(axis, math.nan), fits_after.get(axis, math.nan), evidence,
-            f"the bench's {name} is {j.values[name]:.4g}, not the {j.table[name]:.4g} it was given",
-            _drop(base, j.over_noise), *known_values.against_given(j.values[name], j.table[name], (lo, hi)),
-            [], {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est}))
+        findings.append(known_value_finding(name, j.values[name], j.table[name], j.units[name], (lo, hi),
+                                            d.fit_before, fits_after.get(axis, math.nan), evidence,
+                                            _drop(base, j.over_noise), (),
+                                            {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est}))
     why = (f"{len(j.names)} known values refitted together explain the log ({listed}); the effect search's "
            "findings do not bring the angles to their noise floors")
     refused = list(d.refused) + [{"effect": f.effect, "axis": f.axis, "parameter": f.parameter["value"],
