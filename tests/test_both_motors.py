@@ -44,3 +44,16 @@ def test_a_common_width_places_both_dead_zones_where_one_motors_profile_alone_ca
     width, cost = got
     assert width == pytest.approx(0.25, rel=0.01)
     assert cost < 3.0 * 2 * fitter.n  # near the noise floor (2 n: both angles at their noise level)
+
+
+def test_a_dead_zone_on_both_motors_is_named_on_both():
+    """diagnose on a 0.25 V dead zone on the pitch motor and a 0.18 V one on the yaw motor (square, 100 Hz, from
+    rest): a finding on each motor, each width within 10 %, nothing else named, the verdict explained."""
+    from trms_ident.diagnosis.run import diagnose
+
+    d = diagnose(as_log(_both(0.25, 0.18)))
+    got = {f"{f.effect}:{f.axis}": f.parameter["value"] for f in d.findings}
+    assert set(got) == {"dead_zone:pitch", "dead_zone:yaw"}, (got, d.verdict_sentence)
+    assert got["dead_zone:pitch"] == pytest.approx(0.25, rel=0.1)
+    assert got["dead_zone:yaw"] == pytest.approx(0.18, rel=0.1)
+    assert d.verdict == "explained", d.verdict_sentence

@@ -141,3 +141,33 @@ def test_a_known_value_leads_and_the_effect_search_under_it_finds_the_second_dif
     assert value.parameter["name"] == "kc" and abs(value.parameter["value"] / kc - 1) < 0.01
     assert [(x["effect"], "not needed" in x["reason"]) for x in new.refused] == [("cable_stiffness", True)]
     assert tried and tried[0]["searched_under"] == "kc"
+
+
+def test_a_lead_that_does_not_move_leaves_the_modification_alone_as_the_explanation(monkeypatch):
+    """Freed beside a re-profiled saturation, a2 came back 0.05 % off its table value: that is the value given
+    (known_values.PRACTICAL_CHANGE), so the saturation profiled again explains the log alone, one parameter; a
+    lead that does move is the second difference."""
+    from types import SimpleNamespace
+
+    from trms_ident import model_profile
+
+    table = defaults()
+
+    def fitted(moved):
+        def fake(log, settings):
+            assert settings.free == ("input_saturation:yaw", "a2")
+            freed = {"input_saturation:yaw": {"estimate": 1.97}, "a2": {"estimate": table["a2"] * (1 + moved),
+                                                                        "ci95": [0.0, 1.0]}}
+            return SimpleNamespace(model_check={"adequate": True, "axes": {"beta": {"angle": "beta",
+                                                                                    "rms_over_noise": 1.0}}},
+                                   refined=SimpleNamespace(freed=freed, estimate={}, start_states={}))
+        return fake
+
+    kv = {"fits": [_kv_fit("a2", table["a2"] * 1.2, table["a2"], 1.0, (1.5, 1.5))]}
+    h = compound.Hypothesis("input_saturation:yaw", 1.9, 0)
+    monkeypatch.setattr(model_profile, "identify_with_profiles", fitted(5e-4))
+    got = compound._profiled_with_lead(h, None, "quadratic", {}, kv, h)
+    assert got.fits_alone and got.value_fit is None and got.fitted == 1.97 and got.parameters == 1
+    monkeypatch.setattr(model_profile, "identify_with_profiles", fitted(0.2))
+    got = compound._profiled_with_lead(h, None, "quadratic", {}, kv, h)
+    assert not got.fits_alone and got.value_fit["name"] == "a2" and got.parameters == 2
