@@ -555,7 +555,9 @@ class Fitter:
                      ) -> tuple[float, float] | None:
         """(value, cost): the input modifications ``keys`` (the same kind on both motors) set to one common value,
         screened from lo to hi (PROFILE_SCAN_RATIO apart, PROFILE_SCAN_ITERATIONS steps each), the best
-        PROFILE_SCAN_KEEP fitted fully and the best of those bisected; None when nothing can be fitted.  One
+        PROFILE_SCAN_KEEP fitted fully and the best of those bisected; None when nothing can be fitted or no common
+        value fits better than ``model`` as it is (the first motor's own value, no second one: moving the first
+        motor to a worse place would let the second's test count the way back as its own drop).  One
         motor's dead zone profiled with the other's held at a value found without it sits on a rugged cost whose
         narrow minimum it misses (measured: a pitch dead zone 3.5 % wide of its 0.25 V left the yaw at 20x its
         floor whatever the yaw's), so the pair is first placed where a common value fits best."""
@@ -581,7 +583,7 @@ class Fitter:
         for _ in range(PROFILE_BISECTIONS):
             ratio = math.sqrt(ratio)
             best = min((best, best * ratio, best / ratio), key=at)
-        return (best, at(best)) if math.isfinite(at(best)) else None
+        return (best, at(best)) if math.isfinite(at(best)) and at(best) < base.cost else None
 
     def _resolution(self, key: str, value: float) -> float:
         """A dead zone's or saturation's value is resolved only to the gap between the logged |voltages| either

@@ -288,8 +288,8 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
     return _Found(current, reg_now, score_now, findings, oe_values, refused, tested, stopped)
 
 
-#: input nonlinearities of a motor's drive: a bench has them on both motors or on neither more often than not
-#: (the same amplifier type drives both), so one found on a motor is tried on the other after the rounds
+#: input nonlinearities of a motor's drive: the same kind of drive runs both motors, so one found on a motor is
+#: tried on the other after the rounds (it must pass the output-error test like any candidate)
 SIBLING_EFFECTS = ("dead_zone", "input_saturation")
 
 
