@@ -146,7 +146,7 @@ def other_motor(c, log, p, law, a, current, cache, ids, score_now, reg_now, n_te
     start = values[first]
     if common is not None:
         start = common[0]
-        current = Model(tuple((k, start if k == first else v) for k, v in current.mods), current.linear)
+        current = current.moved(first, start)
         values = {**values, first: start}
     f, why = _oe_fit(c, start, fitter, current, values, theta0, log, p, n_tests, tested)
     if f is None or why:
@@ -154,7 +154,7 @@ def other_motor(c, log, p, law, a, current, cache, ids, score_now, reg_now, n_te
     again = fitter.profile(current.with_mod(c.key, f.value), {**values, c.key: f.value}, theta0, first,
                            _grid(room.by_key(first), log, p), values[first])
     if again is not None and again.cost_drop > 0:
-        current = Model(tuple((k, again.value if k == first else v) for k, v in current.mods), current.linear)
+        current = current.moved(first, again.value)
     oe_values[first] = dict(current.mods)[first]
     res = _at_value(c, f.value, log, p, law, a, current, cache, ids, score_now, n_tests)
     res["oe"], res["value"] = f, f.value

@@ -32,6 +32,10 @@ class Model:
     def with_mod(self, key: str, value: float) -> "Model":
         return Model(tuple((k, v) for k, v in self.mods if k != key) + ((key, value),), self.linear)
 
+    def moved(self, key: str, value: float) -> "Model":
+        """The model with input modification ``key`` (already in it) at ``value``, the order of mods kept."""
+        return Model(tuple((k, value if k == key else v) for k, v in self.mods), self.linear)
+
     def with_linear(self, key: str) -> "Model":
         return Model(self.mods, self.linear + (key,))
 

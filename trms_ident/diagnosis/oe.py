@@ -506,7 +506,7 @@ class Fitter:
             at(vs[0] / ratio if j == 0 else vs[-1] * ratio)
         if cost(min(tried, key=cost)) > PROFILE_SCAN_OVER_FLOOR * 2.0 * self.n:  # far from the noise: rugged?
             ratio = min(ratio, PROFILE_SCAN_RATIO)
-            for v in sorted(self._screen(model, values, base.estimate, key, g[0], g[-1], ratio,
+            for v in sorted(self._screen(model, values, base.estimate, (key,), g[0], g[-1], ratio,
                                          base.start_states))[:PROFILE_SCAN_KEEP]:
                 at(v[1])
         for _ in range(PROFILE_BISECTIONS):
@@ -566,19 +566,20 @@ class Fitter:
             return None
         tried: dict = {}
 
-        def at(v: float, iterations: int = PROFILE_ITERATIONS) -> float:
-            if (v, iterations) not in tried:
+        def at(v: float) -> float:
+            if v not in tried:
                 try:
-                    r = self._fit(model, values, base.estimate, None, {k: v for k in keys}, iterations,
+                    r = self._fit(model, values, base.estimate, None, {k: v for k in keys}, PROFILE_ITERATIONS,
                                   start=base.start_states)
-                    tried[v, iterations] = float(r.cost) if math.isfinite(r.cost) else math.inf
+                    tried[v] = float(r.cost) if math.isfinite(r.cost) else math.inf
                 except _FAILED:
-                    tried[v, iterations] = math.inf
-            return tried[v, iterations]
+                    tried[v] = math.inf
+            return tried[v]
 
         ratio = PROFILE_SCAN_RATIO
-        grid = np.geomspace(lo, hi, int(math.ceil(math.log(hi / lo) / math.log(ratio))) + 1)
-        screened = sorted((at(float(v), PROFILE_SCAN_ITERATIONS), float(v)) for v in grid)
+        screened = sorted(self._screen(model, values, base.estimate, keys, lo, hi, ratio, base.start_states))
+        if not screened:
+            return None
         best = min((v for _, v in screened[:PROFILE_SCAN_KEEP]), key=at)
         for _ in range(PROFILE_BISECTIONS):
             ratio = math.sqrt(ratio)
@@ -599,14 +600,15 @@ class Fitter:
             return math.inf
         return float(above.min() - below.max()) / math.sqrt(12.0)
 
-    def _screen(self, model: Model, values: dict, theta0: dict, key: str, lo: float, hi: float, ratio: float,
+    def _screen(self, model: Model, values: dict, theta0: dict, keys: tuple, lo: float, hi: float, ratio: float,
                 start: dict | None = None) -> list[tuple[float, float]]:
-        """(cost after PROFILE_SCAN_ITERATIONS steps, value) for input modification ``key`` at values from lo to
-        hi spaced by ``ratio`` (geometric); failed fits left out."""
+        """(cost after PROFILE_SCAN_ITERATIONS steps, value) for the input modifications ``keys``, all at one value,
+        at values from lo to hi spaced by ``ratio`` (geometric); failed fits left out."""
         out = []
         for v in np.geomspace(lo, hi, int(math.ceil(math.log(hi / lo) / math.log(ratio))) + 1):
             try:
-                r = self._fit(model, values, theta0, None, {key: float(v)}, PROFILE_SCAN_ITERATIONS, start=start)
+                r = self._fit(model, values, theta0, None, {k: float(v) for k in keys}, PROFILE_SCAN_ITERATIONS,
+                              start=start)
             except _FAILED:
                 continue
             if math.isfinite(r.cost):

@@ -705,7 +705,7 @@ def _polish(findings, current, values, oe_values, fitter, log, p, theta0) -> Mod
         f = fitter.profile(model, values, theta0, c.key, _grid(c, log, p), old)
         if f is None or f.value == old or not f.cost_drop > 0:
             continue
-        model = Model(tuple((k, f.value if k == c.key else v) for k, v in model.mods), model.linear)
+        model = model.moved(c.key, f.value)
         oe_values[c.key] = values[c.key] = f.value
         best["polished"] = (old, f)
     return model

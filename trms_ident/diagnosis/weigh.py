@@ -34,7 +34,8 @@ refitted with every one):
    determines;
 6. when that does not either, the known values that came nearest the floor alone lead (compound.value_first):
    the effect search runs again with one of them at its refit, and its findings are estimated under with the
-   value freed beside them; a pair that reaches the floor explains the log, the first search's findings refused.  Refits that wander off to implausible numbers are never reported (known_values.far_from_table
+   value freed beside them; a pair that reaches the floor explains the log, the first search's findings
+   refused.  Refits that wander off to implausible numbers are never reported (known_values.far_from_table
    says the bench is far from the values given).
 """
 from __future__ import annotations
@@ -86,8 +87,10 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
                 d.verdict_sentence += (" No known value explains the log alone (each refitted by output error, the "
                                        "most likely leave the angles above their noise floors: "
                                        f"{tried or 'none could be fitted'}).")
-            both, tried = together(d, log, p, law, overrides,
-                                   lambda pp, est, start, found: _refitted(d, log, pp, law, est, start, found))
+            def refit(pp, est, start, found):
+                return _refitted(d, log, pp, law, est, start, found)
+
+            both, tried = together(d, log, p, law, overrides, refit)
             if both is not None:
                 return both
             d.settings = {**d.settings, "together": tried}
@@ -100,8 +103,7 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
                 base = max(kv.get("shooting_over_noise", {}).values(), default=None)
                 d.verdict_sentence += known_values.joint_sentence(j, base)
             first, tried_first = value_first(
-                d, log, p, law, overrides, kv, lambda pp, est, start, found: _refitted(d, log, pp, law, est, start,
-                                                                                        found),
+                d, log, p, law, overrides, kv, refit,
                 lambda under: run.effect_search(log, under, law, d.settings["a_rad_s"], lambda stage, done: None))
             if first is not None:
                 return first
