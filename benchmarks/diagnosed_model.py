@@ -87,7 +87,7 @@ def _diagnosed_file(log_path: Path, folder: Path) -> tuple[Path, dict, object]:
     (folder / "diagnosis.json").write_text(to_json(to_doc(d, log)))
     b = bench_from_diagnosis(folder / "diagnosis.json")
     path = folder / "bench.toml"
-    path.write_text(to_toml(b["known"], b["identified"], b["header"], b["effects"], b["sources"]))
+    path.write_text(to_toml(b["known"], b["identified"], b["header"], b["effects"], b["sources"], b["intervals"]))
     return path, b, d
 
 

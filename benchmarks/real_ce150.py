@@ -238,7 +238,8 @@ def diagnosed_model(files: list[Path]) -> None:
         if n >= 2 and source is not None:
             b = bench_from_diagnosis(tmp / f"{source}.json")
             bench = tmp / "bench.toml"
-            bench.write_text(to_toml(b["known"], b["identified"], b["header"], b["effects"], b["sources"]))
+            bench.write_text(to_toml(b["known"], b["identified"], b["header"], b["effects"], b["sources"],
+                                     b["intervals"]))
             j = ti.estimate_joint(usable, params=bench, **READ).doc["joint"]
             alone = {k: [r["model"][k] != "n.i." for r in rows if r["model"]] for k in ("J1", "B1", "J2", "B2")}
             only_pool = [k for k in ("J1", "B1", "J2", "B2") if j["estimates"][k] is not None and not any(alone[k])]

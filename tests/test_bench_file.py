@@ -86,6 +86,28 @@ def test_an_effects_value_freed_comes_back_from_a_wrong_start(bench_log):
     assert "motor_second_lag:yaw = " in err and "(estimated with --free; given 0.2)" in err
 
 
+def test_a_held_value_with_its_interval_widens_jb_so_they_cover(bench_log):
+    """A value the file holds with a 95 % interval (estimated elsewhere: diagnose exports one) is uncertain: J/B's
+    intervals widen by what it moves them.  The cable 0.075 % (12 of its standard errors on this log) off its
+    truth, held: J2 or B2 miss the truth; with the file's interval, which holds the truth, they cover it, and the
+    note says why."""
+    off = BENCH.replace('"cable_stiffness:yaw" = 0.004', '"cable_stiffness:yaw" = 0.004003')
+    bare, with_ci = bench_log / "off.toml", bench_log / "off_ci.toml"
+    bare.write_text(off)
+    with_ci.write_text(off.replace('= 0.004003', '= { k = 0.004003, ci95 = [0.003996, 0.00401] }'))
+    doc0, _ = _estimate(bench_log, "--params", str(bare))
+    doc1, _ = _estimate(bench_log, "--params", str(with_ci))
+    missed = [k for k in ("J2", "B2") if not doc0["ci95"][k][0] <= TRUTH[k] <= doc0["ci95"][k][1]]
+    assert missed, "the test needs a held value that biases J/B beyond their own intervals"
+    for k, v in TRUTH.items():
+        lo, hi = doc1["ci95"][k]
+        assert lo <= v <= hi, (k, doc1["estimates"][k], lo, hi)
+        assert hi - lo >= doc0["ci95"][k][1] - doc0["ci95"][k][0]
+    assert doc1["estimates"] == doc0["estimates"]  # the value is held: the estimate is the same
+    assert "uncertainty of the values the bench file holds" in doc1["refinement"]
+    assert "cable_stiffness:yaw 0.004003 [0.003996, 0.00401]" in doc1["refinement"]
+
+
 @pytest.mark.parametrize("entry, message", [
     ('"wind_gust:yaw" = 0.1', 'line 3: [effects] "wind_gust:yaw": unknown effect \'wind_gust\'; expected one of'),
     ('"cable_stiffness:pitch" = 0.1', 'line 3: [effects] "cable_stiffness:pitch": cable_stiffness acts on yaw, '
@@ -104,6 +126,34 @@ def test_a_bad_effect_entry_is_one_line_naming_the_line(tmp_path, square_csv, en
         lines = res.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith(f"error: {bad}, {message}"), res.stderr
         assert "Traceback" not in res.output
+
+
+@pytest.mark.parametrize("entry, message", [
+    ("Mg = { value = 0.29, ci95 = [0.3, 0.28] }", "line 3: parameter Mg: ci95 must be [low, high] with low <= high"),
+    ("Mg = { value = 0.29, sd = 0.01 }", "line 3: parameter Mg as a table takes value and optionally ci95"),
+    ("Mg = { ci95 = [0.28, 0.3] }", "line 3: parameter Mg as a table takes value and optionally ci95"),
+])
+def test_a_bad_known_value_interval_is_one_line_naming_the_line(tmp_path, square_csv, entry, message):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(f"# a bench\n[parameters]\n{entry}\n")
+    res = runner.invoke(app, ["estimate", str(square_csv), "-o", str(tmp_path / "o"), "--params", str(bad)])
+    assert res.exit_code == EXIT_BAD_PARAMETERS, res.output
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: {bad}, {message}"), res.stderr
+
+
+def test_a_known_value_with_its_interval_widens_the_intervals_it_moves(bench_log):
+    """A known value estimated elsewhere (diagnose's refit: export writes it as { value, ci95 }) is held at its
+    value and widens the intervals of the J/B it moves: Mg's gravity torque trades against J1's inertia."""
+    doc0, _ = _estimate(bench_log, "--params", str(bench_log / "bench.toml"))
+    ci = bench_log / "mg_ci.toml"
+    ci.write_text(BENCH.replace("Mg = 0.29", "Mg = { value = 0.29, ci95 = [0.287, 0.293] }"))
+    doc1, _ = _estimate(bench_log, "--params", str(ci))
+    assert doc1["estimates"] == doc0["estimates"]
+    width = {k: (doc0["ci95"][k][1] - doc0["ci95"][k][0], doc1["ci95"][k][1] - doc1["ci95"][k][0]) for k in TRUTH}
+    assert width["J1"][1] > 1.5 * width["J1"][0], width
+    assert all(w1 >= w0 for w0, w1 in width.values()), width
+    assert "Mg 0.29 [0.287, 0.293]" in doc1["refinement"]
 
 
 def test_freeing_an_effect_the_file_does_not_hold_is_refused(tmp_path, square_csv):

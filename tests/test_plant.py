@@ -111,7 +111,7 @@ def test_model_vector_layout():
     assert [pv[P.slot(k)] for k in P.PARAM_ORDER] == [p[k] for k in P.PARAM_ORDER]
     assert pv[P.GRAVITY_OFFSET_SLOT] == 0.03 and pv[P.slot("cable_stiffness:yaw")] == 0.01
     assert P.slot("gain", ("gain",)) == P.N_SLOTS and pv[P.N_SLOTS] == 0.0
-    assert sorted(P.EFFECT_SLOTS.values()) == list(range(P.GRAVITY_OFFSET_SLOT, P.N_SLOTS))
+    assert sorted([*P.EFFECT_SLOTS.values(), *P.LAG_SLOTS.values()]) == list(range(P.GRAVITY_OFFSET_SLOT, P.N_SLOTS))
     with pytest.raises(ValueError, match="nosuch"):
         P.slot("nosuch")
 

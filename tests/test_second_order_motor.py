@@ -103,3 +103,19 @@ def test_the_search_stops_only_below_its_own_stricter_bar(worst, stops):
 
     assert run._reaches_floor(Checked(), Model(), Reg(), Score(), {}, defaults()) is stops
     assert worst <= run.EXPLAINED_OE_OVER_NOISE  # both would be "explained": the bar is the search's own
+
+
+def test_estimate_under_a_second_order_motor_is_exact_on_a_noise_free_log(tmp_path):
+    """The further lag is a state of the output-error kernel (model.plant.LAG_SLOTS), not a held drive: on a
+    noise-free 100 Hz log J/B come back to 1e-5 (the interval mean of the lag, held, left them 1.2e-4 to 1.6e-4
+    off at 100 Hz and four times less at 200 Hz: the hold's error, larger than a low-noise log's intervals)."""
+    import trms_ident as ti
+
+    true = {"J1": 0.0516, "B1": 0.0067, "J2": 0.0247, "B2": 0.102}
+    r = simulate(SimSettings(ref="steps", duration_s=30.0, sample_rate_hz=100.0, overrides=true,
+                             effects=[{"effect": "motor_second_lag", "axis": "pitch", "value": 0.17}]))
+    bench = tmp_path / "bench.toml"
+    bench.write_text('[effects]\n"motor_second_lag:pitch" = 0.17\n')
+    est = ti.estimate(as_log(r), params=bench).doc
+    for k, v in true.items():
+        assert abs(est["estimates"][k] / v - 1) < 1e-5, (k, est["estimates"][k], v)

@@ -990,7 +990,7 @@ def export(
     if bench is not None:  # a diagnosis.json: the bench as diagnosed
         path = output or result.with_name("bench.toml")
         write_text(path, to_toml(bench["known"], bench["identified"], bench["header"], bench["effects"],
-                                 bench["sources"]))
+                                 bench["sources"], bench["intervals"]))
         for w in bench["warnings"]:
             say(f"warning: {w}")
         what = ", ".join(e.key for e in bench["effects"]) or "no effect"

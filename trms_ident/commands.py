@@ -64,6 +64,7 @@ def read_result(result: Path) -> tuple[dict, dict, dict, dict]:
 def bench_from_diagnosis(path: Path) -> dict | None:
     """The bench file ``export`` writes from a diagnosis.json of diagnose, or None when the file is not one:
     {"known": the known values given with the known-value findings' refits, "sources": name -> where from,
+    "intervals": name -> the 95 % interval of a known value refitted with the findings,
     "effects": the findings as model.bench.BenchEffect, "identified": J/B of the findings' model, "header",
     "warnings": what cannot go into the file or does not hold}.  One-line errors naming the file."""
     import json
@@ -91,9 +92,11 @@ def bench_from_diagnosis(path: Path) -> dict | None:
         jb = together.get("estimates") or doc["estimates"]["augmented"]
         verdict = doc["verdict"]
         # the findings' parameters refitted together with J/B (estimates.with_findings.values): one fit, the model
+        intervals = {}
         for name, v in (together.get("values") or {}).items():
             if name in known:
                 known[name] = float(v["estimate"])
+                intervals[name] = tuple(float(x) for x in v["ci95"])
                 was = (given.get(name) or {}).get("value")  # (v["given"] is where that fit started: the refit)
                 sources[name] = (f"refitted with J/B and the other findings by {where}; "
                                  + (f"the table's {was}" if given.get(name, {}).get("source") == "table" else
@@ -121,7 +124,7 @@ def bench_from_diagnosis(path: Path) -> dict | None:
               "them as the true values, estimate ignores them)"]
     identified = {k: v for k, v in (jb or {}).items() if isinstance(v, (int, float)) and v > 0}
     return {"known": known, "sources": sources, "effects": tuple(effects), "identified": identified,
-            "header": header, "warnings": warnings}
+            "header": header, "warnings": warnings, "intervals": intervals}
 
 
 def read_diagnosis(path: Path) -> tuple[dict, object, tuple, dict, dict]:

@@ -536,13 +536,13 @@ def as_estimated(t_s: np.ndarray, u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad:
         return u1_v, u2_v, alpha_rad, beta_rad, params, {}
     from .identify import under_model
     from .log import Log
-    from .model.bench import TORQUE_KEYS
+    from .model.bench import KERNEL_KEYS, TORQUE_KEYS
 
     log = Log(np.asarray(t_s, dtype=float), np.asarray(u1_v, dtype=float), np.asarray(u2_v, dtype=float),
               np.asarray(alpha_rad, dtype=float), np.asarray(beta_rad, dtype=float), "design")
-    seen, known = under_model(log, params, dict(bench))
+    seen, known = under_model(log, params, dict(bench), kernel=True)
     return (seen.u1_v, seen.u2_v, seen.alpha_rad, seen.beta_rad, known,
-            {k: float(v) for k, v in bench.items() if k in TORQUE_KEYS})
+            {k: float(v) for k, v in bench.items() if k in TORQUE_KEYS + KERNEL_KEYS})
 
 
 def _effects_of(effect, discriminate) -> list:

@@ -91,15 +91,17 @@ def on_uniform_grid(log: Log, params: dict) -> tuple[Log, tuple | None]:
                    beta_rad=ang[:, 1], u_switch_s=None), motor
 
 
-def under_model(log: Log, params: dict, effects: dict) -> tuple[Log, dict]:
+def under_model(log: Log, params: dict, effects: dict, kernel: bool = False) -> tuple[Log, dict]:
     """The log and known values as the bench's model sees them (model/bench.py): the voltages through its input
     modifications (dead zone, saturation, transport delay, second-order motor), a motor time constant in place of
     T11 or T21, the angles with an acquisition lag undone (diagnosis.model.observed_log).  Its torque effects are
-    the refinement's (model_kw).  Unchanged without modifications."""
-    from .model.bench import MODIFICATION_KEYS
+    the refinement's (model_kw).  Unchanged without modifications.  ``kernel``: as the output-error refinement
+    sees it, the modifications it integrates itself (model.bench.KERNEL_KEYS: a second-order motor's further
+    lag, exact within each sample interval; model_kw hands it over) left out of the voltages."""
+    from .model.bench import KERNEL_KEYS, MODIFICATION_KEYS
     from .model.effects import SENSOR_LAG
 
-    mods = {k: v for k, v in effects.items() if k in MODIFICATION_KEYS}
+    mods = {k: v for k, v in effects.items() if k in MODIFICATION_KEYS and not (kernel and k in KERNEL_KEYS)}
     if not mods:
         return log, params
     from .diagnosis.model import modified_inputs, observed_log
@@ -128,10 +130,11 @@ def refined_free(settings: Settings) -> tuple:
 
 def model_kw(settings: Settings, values: dict | None = None) -> dict:
     """refine's ``effects``: the bench's torque effects at their values (``values``: freed ones' estimates in
-    their place); empty under eq. (1) alone."""
-    from .model.bench import TORQUE_KEYS
+    their place) and the modifications the kernel integrates (model.bench.KERNEL_KEYS, on voltages from
+    under_model(..., kernel=True)); empty under eq. (1) alone."""
+    from .model.bench import KERNEL_KEYS, TORQUE_KEYS
 
-    effects = {k: (values or {}).get(k, v) for k, v in settings.effects.items() if k in TORQUE_KEYS}
+    effects = {k: (values or {}).get(k, v) for k, v in settings.effects.items() if k in TORQUE_KEYS + KERNEL_KEYS}
     return {"effects": effects} if effects else {}
 
 
@@ -154,9 +157,10 @@ def identify(log: Log, settings: Settings | None = None) -> Result:
         raise SettingsError(f"--free {', '.join(profiled)}: an input modification's value is profiled "
                             "(model_profile.identify_with_profiles), not estimated by identify")
     params = merge(settings.overrides, source="parameter overrides")
-    log, params = under_model(log, params, settings.effects)
+    drem_log, _ = under_model(log, params, settings.effects)  # DREM's regressions: every modification applied
+    log, params = under_model(log, params, settings.effects, kernel=True)  # the refinement's voltages (model_kw)
     _long_enough(log, params)
-    grid_log, motor = on_uniform_grid(log, params)
+    grid_log, motor = on_uniform_grid(drem_log, params)
     settings, design = resolve_filters(grid_log, settings)
     dt = log.sample_time_s
     f_gain, h_gain = settings.filter_gains()

@@ -99,7 +99,7 @@ def identify_joint(logs: list[Log], settings: Settings | None = None, names: lis
     params = merge(settings.overrides, source="parameter overrides")
     verdicts = [_alone(log, name, settings) for log, name in zip(logs, names)]
     # the pooled fit and its checks see the logs as the bench file's model does (identify does so per log)
-    seen = [under_model(log, params, settings.effects) for log in logs]
+    seen = [under_model(log, params, settings.effects, kernel=True) for log in logs]
     logs, params = [v[0] for v in seen], (seen[0][1] if seen else params)
     pool = list(range(len(logs)))
     fit = _pooled(logs, verdicts, pool, params, settings)

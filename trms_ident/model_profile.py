@@ -13,7 +13,9 @@ The value's standard error is the batch-means one of diagnose's profiles (oe.pro
 slopes at the minimum over the profile's curvature, never below what white errors give); its 95 % interval is
 Student t over the blocks.  J/B's intervals are widened by what that uncertainty moves them (the delta method:
 their slopes along the profile times the value's half-width, added in quadrature): the interval of a J or B
-then holds whether or not the value was known.  Pure numerics on a validated log: no files.
+then holds whether or not the value was known.  A value the bench file holds with its 95 % interval (exported by
+diagnose, or from another log) widens them alike, its slopes from two fits a quarter of the interval either side:
+the intervals then hold over the file's own uncertainty.  Pure numerics on a validated log: no files.
 """
 from __future__ import annotations
 
@@ -26,6 +28,7 @@ from scipy.special import stdtrit
 
 from .errors import IdentificationError, SettingsError
 from .identify import _noise, _refine_first, _refined_interval, identify, under_model
+from .model.bench import MODIFICATION_KEYS
 from .model.effects import BY_KEY, SENSOR_LAG
 from .params import ESTIMATED, merge
 
@@ -44,11 +47,13 @@ SE_STEP = 0.02
 def identify_with_profiles(log, settings):
     """identify's Result, with each input modification of settings.free (a bench file's, --free
     dead_zone:yaw, ...) estimated by its profile: its estimate, ci95, se and how it was found in
-    ``refined.freed[key]``.  Without one, identify itself."""
-    from .model.bench import MODIFICATION_KEYS
-
+    ``refined.freed[key]``.  A value the file holds with a 95 % interval (its ``ci95``: estimated elsewhere, by
+    diagnose or another estimate) widens J/B's intervals by what it moves them, as a profiled one does (the
+    refinement's note names them).  Without either, identify itself."""
     keys = [k for k in settings.free if k in MODIFICATION_KEYS]
-    if not keys:
+    held = {k: ci for k, ci in settings.held_ci95.items()
+            if (k in settings.effects or k in settings.overrides) and k not in settings.free and k != SENSOR_LAG}
+    if not keys and not held:
         return identify(log, settings)
     if SENSOR_LAG in keys:
         raise SettingsError(f"--free {SENSOR_LAG}: an acquisition lag changes the angles the fit is scored on; "
@@ -91,31 +96,66 @@ def identify_with_profiles(log, settings):
                       "table_or_file_value": v0, "profiled": True, "at_search_edge": at_edge,
                       "jb_slopes": slopes, "unit": BY_KEY[key].unit}
     res = identify(log, settings)
-    if res.refined is not None:
-        freed = {**res.refined.freed, **{k: {kk: vv for kk, vv in v.items() if kk != "jb_slopes"}
-                                         for k, v in found.items()}}
-        ci95 = dict(res.refined.ci95)
-        for k in ESTIMATED:  # the delta method: the modification's half-width moves J/B along the profile
-            est = res.refined.estimate[k]
-            lo, hi = ci95[k]
-            extra = math.sqrt(sum((v["jb_slopes"][k] * (v["ci95"][1] - v["ci95"][0]) / 2.0) ** 2
-                                  for v in found.values()))
-            half = math.hypot((hi - lo) / 2.0, extra)
-            ci95[k] = (est - half, est + half)
-        refined = replace(res.refined, freed=freed, ci95=ci95)
-        res = _with_refined(res, refined, settings)
+    if res.refined is None:
+        return res
+    moved = {k: (v["jb_slopes"], (v["ci95"][1] - v["ci95"][0]) / 2.0) for k, v in found.items()}
+    moved.update(_held_slopes(log, settings, res.refined, held))
+    freed = {**res.refined.freed, **{k: {kk: vv for kk, vv in v.items() if kk != "jb_slopes"}
+                                     for k, v in found.items()}}
+    ci95 = dict(res.refined.ci95)
+    for k in ESTIMATED:  # the delta method: each value's half-width moves J/B along its slope, in quadrature
+        est = res.refined.estimate[k]
+        lo, hi = ci95[k]
+        extra = math.sqrt(sum((slopes[k] * half) ** 2 for slopes, half in moved.values()))
+        half = math.hypot((hi - lo) / 2.0, extra)
+        ci95[k] = (est - half, est + half)
+    refined = replace(res.refined, freed=freed, ci95=ci95)
+    res = _with_refined(res, refined, settings)
+    if held and res.headline == "refined":
+        res = replace(res, refine_note=res.refine_note + "; J/B's intervals include the uncertainty of the values "
+                      "the bench file holds with their 95 % intervals (" + ", ".join(
+                          f"{k} {_held(settings, k):.4g} [{lo:.4g}, {hi:.4g}]" for k, (lo, hi) in held.items()) + ")")
     return res
 
 
+def _held_slopes(log, settings, r0, held: dict) -> dict:
+    """key -> (J/B's slopes along the value [unit of J/B per unit], the value's 95 % half-width) for each value
+    the bench file holds with an interval (Settings.held_ci95): central differences of the output-error fit a
+    quarter of the interval either side of the value, from the estimate ``r0``.  A value whose fits fail moves
+    nothing it can measure: left out."""
+    out = {}
+    for key, (lo, hi) in held.items():
+        v0, half = _held(settings, key), (float(hi) - float(lo)) / 2.0
+        if not half > 0:
+            continue
+        step = half / 2.0
+        if key in MODIFICATION_KEYS and v0 - step <= 0:  # a width, a lag, a delay: positive
+            step = 0.5 * v0
+        fit, _ = _profile_fit(log, settings, key, r0)
+        try:
+            lo_fit, hi_fit = fit(v0 - step), fit(v0 + step)
+        except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
+            continue
+        out[key] = ({k: (hi_fit.estimate[k] - lo_fit.estimate[k]) / (2.0 * step) for k in ESTIMATED}, half)
+    return out
+
+
+def _held(settings, key: str) -> float:
+    """The value the settings hold for an effect key or a known value's name."""
+    return float(settings.effects[key] if key in settings.effects else settings.overrides[key])
+
+
 def _profile_fit(log, settings, key: str, r0):
-    """(value -> the output-error fit with ``key`` at that value, from ``r0``'s J/B and start states; the angles'
-    noise floors)."""
-    params0 = merge(settings.overrides, source="parameter overrides")
+    """(value -> the output-error fit with ``key`` (an effect's key, or a known value's name) at that value, from
+    ``r0``'s J/B and start states; the angles' noise floors)."""
     n, noise = len(log), _noise(log, len(log))
 
     def fit(v: float):
-        lg, pp = under_model(log, params0, {**settings.effects, key: v})
-        return _refine_first(lg, n, pp, settings, r0.estimate, noise, tuple(settings.free),
+        at = (replace(settings, effects={**settings.effects, key: v}) if key in settings.effects else
+              replace(settings, overrides={**settings.overrides, key: v}))
+        params0 = merge(at.overrides, source="parameter overrides")
+        lg, pp = under_model(log, params0, at.effects, kernel=True)
+        return _refine_first(lg, n, pp, at, r0.estimate, noise, tuple(settings.free),
                              max_iterations=ITERATIONS, start_states0=r0.start_states)
 
     return fit, noise

@@ -122,14 +122,22 @@ def merge(overrides: Mapping[str, float] | None, *, source: str = "overrides") -
 
 
 def to_toml(known: dict[str, float], identified: dict[str, float], header: list[str], effects: tuple = (),
-            sources: dict | None = None) -> str:
+            sources: dict | None = None, intervals: dict | None = None) -> str:
     """A parameter file: comment lines, [parameters] (known values, each with where it came from when
-    ``sources`` says), [effects] (model.bench.BenchEffect each) and [identified] (J/B), with units."""
+    ``sources`` says, and as ``{ value = ..., ci95 = [low, high] }`` when ``intervals`` holds its 95 % interval:
+    an estimated value), [effects] (model.bench.BenchEffect each) and [identified] (J/B), with units."""
     from .model.bench import to_toml_lines
 
-    sources = sources or {}
+    sources, intervals = sources or {}, intervals or {}
+
+    def entry(k, v):
+        if k not in intervals:
+            return f"{float(v)!r}"
+        lo, hi = intervals[k]
+        return f"{{ value = {float(v)!r}, ci95 = [{float(lo)!r}, {float(hi)!r}] }}"
+
     lines = [f"# {h}" for h in header] + ["", "[parameters]"]
-    lines += [f"{k} = {float(v)!r}  # {UNITS[k]}" + (f"; {sources[k]}" if k in sources else "")
+    lines += [f"{k} = {entry(k, v)}  # {UNITS[k]}" + (f"; {sources[k]}" if k in sources else "")
               for k, v in known.items()]
     lines += to_toml_lines(tuple(effects))
     lines += ["", "# estimated; `simulate --params` uses them as the true values, `estimate --params` ignores them",
@@ -192,6 +200,7 @@ def load_parameter_file(path: str | Path, allow_estimated: bool = False) -> dict
     if not isinstance(table, dict):
         raise ParameterFileError(f"{path}: [parameters] must be a table of name = value")
     overrides = {k: v for k, v in table.items() if k not in ("parameters", "identified", "units", "effects")}
+    overrides = {k: _value_of(path, k, v) for k, v in overrides.items()}
     identified = raw.get("identified", {})  # an exported model's J/B: true values for the simulator only
     if allow_estimated and isinstance(identified, dict):
         overrides.update({k: v for k, v in identified.items() if k in ESTIMATED})
@@ -205,6 +214,38 @@ def load_parameter_file(path: str | Path, allow_estimated: bool = False) -> dict
     return overrides
 
 
+def _value_of(path: Path, name: str, entry):
+    """A [parameters] entry's value: ``name = value``, or ``name = { value = ..., ci95 = [low, high] }`` (an
+    estimated value with its 95 % interval: known_value_intervals); anything else is refused naming the line."""
+    if not isinstance(entry, dict):
+        return entry
+    line = _line_of(path, name)
+    where = f"{path}" + (f", line {line}" if line else "")
+    extra = sorted(set(entry) - {"value", "ci95"})
+    if "value" not in entry or extra:
+        raise ParameterFileError(f"{where}: parameter {name} as a table takes value and optionally ci95 = [low, "
+                                 f"high]; got {', '.join(sorted(entry))}")
+    ci = entry.get("ci95")
+    if ci is not None and not (isinstance(ci, list) and len(ci) == 2 and all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in ci)
+            and ci[0] <= ci[1]):
+        raise ParameterFileError(f"{where}: parameter {name}: ci95 must be [low, high] with low <= high, got {ci!r}")
+    return entry["value"]
+
+
+def known_value_intervals(path: str | Path | None) -> dict:
+    """name -> (low, high): the 95 % intervals a parameter file gives its known values (``{ value = ..., ci95 =
+    [...] }``: values estimated elsewhere, e.g. refitted by diagnose); empty without.  Read after
+    :func:`load_parameter_file` has checked the file."""
+    if not path:
+        return {}
+    path = resolve_parameter_file(path)
+    raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    table = raw.get("parameters", raw)
+    return {k: (float(v["ci95"][0]), float(v["ci95"][1])) for k, v in table.items()
+            if isinstance(v, dict) and k in BY_NAME and v.get("ci95") is not None}
+
+
 def bench_settings(path: str | Path | None) -> dict:
     """What a parameter file sets of the estimate's Settings: overrides (known values), inputs_unit, effects and
     effect_sources (its [effects]); empty for None."""
@@ -213,7 +254,9 @@ def bench_settings(path: str | Path | None) -> dict:
     overrides = load_parameter_file(path)  # checks the whole file, [effects] too
     effects = parameter_file_effects(path)
     return {"overrides": overrides, "inputs_unit": parameter_file_inputs_unit(path),
-            "effects": {e.key: e.value for e in effects}, "effect_sources": {e.key: e.source for e in effects}}
+            "effects": {e.key: e.value for e in effects}, "effect_sources": {e.key: e.source for e in effects},
+            "held_ci95": {**{e.key: tuple(e.ci95) for e in effects if e.ci95 is not None},
+                            **known_value_intervals(path)}}
 
 
 def parameter_file_effects(path: str | Path) -> tuple:

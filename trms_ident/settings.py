@@ -36,6 +36,9 @@ class Settings:
     #: the bench's effects and structures beyond eq. (1) ([effects] of --params, model/bench.py): key -> value
     effects: dict = field(default_factory=dict)
     effect_sources: dict = field(default_factory=dict)  # key -> where its value came from ("" when not said)
+    #: effect key or known value's name -> the file's 95 % interval (low, high) of a value estimated elsewhere (its
+    #: ci95): held at its value, it widens J/B's intervals by what it moves them (model_profile.py)
+    held_ci95: dict = field(default_factory=dict)
 
     def validate(self) -> None:
         for name in ("filter_a_rad_s", "filter_b_rad_s", "settle_time_s"):

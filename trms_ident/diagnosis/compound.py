@@ -280,7 +280,10 @@ def _effect_finding(d, h: Hypothesis, alikes: list[Hypothesis]) -> Finding:
         value = h.fitted if math.isfinite(h.fitted) else f.parameter["value"]
         again = (f"; estimated again in the model with {h.value_fit['name']} free beside it: {value:.4g}"
                  if h.value_fit is not None and h.key in TORQUE_KEYS else "")
-        return replace(f, parameter={**f.parameter, "value": float(value)}, evidence=f.evidence + again,
+        param = {**f.parameter, "value": float(value)}
+        if float(value) != f.parameter["value"]:  # the search's interval was for its own value
+            param.pop("ci95", None)
+        return replace(f, parameter=param, evidence=f.evidence + again,
                        alternatives=list(dict.fromkeys(f.alternatives + others)))
     c = room.BY_KEY[h.key]
     origin = next(f for f in d.findings if h.key in f.alternatives)

@@ -50,6 +50,7 @@ from scipy.special import stdtr
 from ..log import Log
 from ..model import effects as room
 from ..model.plant import EFFECT_SLOTS, thrust_law
+from ..model.bench import KERNEL_KEYS
 from ..numerics import safe
 from ..numerics.adequacy import judging_floors
 from ..numerics.design import angle_noise_rad
@@ -296,22 +297,29 @@ class Fitter:
             part = observed_log(part, lag)
             gain = delag_noise_gain(log.sample_time_s, lag)
             noise = {k: v * gain for k, v in noise.items()}
+        # a second-order motor's further lag is a state of the fit's own simulation (exact within each sample
+        # interval; the voltages held through it are not: model.bench.KERNEL_KEYS), held at its value
+        kernel = {k: mods[k] for k in KERNEL_KEYS if k in mods}
+        t1, t2 = u1, u2  # the voltages the torque effects' motor states see: through every modification
         if mods:
-            u1, u2, changes = modified_inputs(part, mods)
+            t1, t2, changes = modified_inputs(part, mods)
             p = {**p, **changes}
+            u1, u2 = (t1, t2) if not kernel else modified_inputs(
+                part, {k: v for k, v in mods.items() if k not in kernel})[:2]
         kw = {} if max_iterations is None else {"max_iterations": max_iterations}
         torques = {}
         for k in (k for k in free if room.generic(k)):
             if span is not None:  # a part of the samples: its own torques (not cached)
-                torques[k] = unit_torques(part, p, self.law, (k,), u1, u2, {})[k]
+                torques[k] = unit_torques(part, p, self.law, (k,), t1, t2, {})[k]
                 continue
             ck = (k, tuple(sorted(mods.items())), lag)  # de-lagged angles make other torques
             if ck not in self._torques:
-                self._torques[ck] = unit_torques(part, p, self.law, (k,), u1, u2,
+                self._torques[ck] = unit_torques(part, p, self.law, (k,), t1, t2,
                                                  self._signals if lag is None else {})[k]
             torques[k] = self._torques[ck]
         r = oe_refine(u1, u2, part.alpha_rad, part.beta_rad, log.sample_time_s, p, self.law, theta0,
-                      noise, free=free, effects=effects, torques=torques or None, hold=hold, start_states0=start, **kw)
+                      noise, free=free, effects={**effects, **kernel}, torques=torques or None, hold=hold,
+                      start_states0=start, **kw)
         return r if lag is None else self._lagged(r, measured, lag)
 
     def _lagged(self, r, measured: Log, lag: float):

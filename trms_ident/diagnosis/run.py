@@ -13,7 +13,7 @@ from ..model import effects
 from ..model.effects import UNOBSERVABLE, Candidate
 from ..numerics.adequacy import AXIS_OF, RMS_OVER_NOISE
 from ..numerics.design import design_filters
-from ..numerics.stats import block_length
+from ..numerics.stats import Z95, block_length
 from ..params import KNOWN, PLAUSIBLE_FACTOR, merge, not_credible
 from . import oe
 from .discriminate import PAIR
@@ -447,7 +447,11 @@ def _report(run: _Run, found: _Found, kept: _Kept, base_reg, base, nominal: dict
                          f"{old:.4g}; noise-weighted squared angle error {-100 * f.cost_drop:+.1f} %)")
         if alts:
             evidence += "; cannot be told apart with this excitation from " + ", ".join(alts)
-        out.append(Finding(c.effect, c.axis, {"name": c.parameter, "value": v, "unit": c.unit}, fb, fa, evidence,
+        param = {"name": c.parameter, "value": v, "unit": c.unit}
+        fit = best["polished"][1] if best.get("polished") else best.get("oe")
+        if oe.profiled(c.key) and fit is not None and fit.value == v and math.isfinite(fit.se) and fit.se > 0:
+            param["ci95"] = [v - Z95 * fit.se, v + Z95 * fit.se]  # its profile's batch-means standard error
+        out.append(Finding(c.effect, c.axis, param, fb, fa, evidence,
                            c.sentence.format(value=v, unit=c.unit), best["test"].gain, best["test"].t,
                            best["test"].p, alts, shift))
     seg, reg_stats = {}, {}

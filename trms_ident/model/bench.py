@@ -27,6 +27,10 @@ from . import effects as room
 TORQUE_KEYS = ("com_offset:pitch", "coulomb_friction:pitch", "coulomb_friction:yaw", "quadratic_drag:pitch",
                "quadratic_drag:yaw", "cable_stiffness:yaw", "thrust_asymmetry:pitch", "thrust_asymmetry:yaw",
                "yaw_inertia_pitch:yaw", "sensor_offset:pitch")
+#: input modifications the output-error kernel integrates as states of its own (model.plant.LAG_SLOTS: exact
+#: within each sample interval): the refinement takes them with the torque effects (identify.model_kw) and the
+#: voltages without them (identify.under_model's ``kernel``); DREM's regressions take the voltages through them
+KERNEL_KEYS = ("motor_second_lag:pitch", "motor_second_lag:yaw")
 #: effects that change what drives the plant (the voltages, a motor's time constant) or what the log records
 #: (the acquisition lag): applied to the log before the fit, their value held
 MODIFICATION_KEYS = ("dead_zone:pitch", "dead_zone:yaw", "input_saturation:pitch", "input_saturation:yaw",
@@ -177,7 +181,8 @@ def from_findings(findings, source: str = "") -> tuple[dict, tuple, list]:
             left.append(f"{key}: not an effect a bench file can hold; left out")
             continue
         try:
-            effects.append(parse_effect(key, {"from": source, p["name"]: p["value"]}))
+            effects.append(parse_effect(key, {"from": source, p["name"]: p["value"],
+                                              **({"ci95": list(p["ci95"])} if p.get("ci95") else {})}))
         except BenchEffectError as exc:
             left.append(f"{exc}; left out")
     return known, tuple(effects), left

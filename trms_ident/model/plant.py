@@ -18,8 +18,8 @@ testing, or a kernel compiled with the old term is loaded.
 
 The model vector (``model_vector``) is what the compiled output-error kernel reads: the parameter table's values
 in PARAM_ORDER, the centre-of-mass offset delta, then one slot per effect the kernel carries (EFFECT_SLOTS;
-0 = absent), then the parameters of exogenous torques (effects declared by their torque in
-model/effects.py, computed from the measured states by the caller).
+0 = absent), the motors' further lags (LAG_SLOTS), then the parameters of exogenous torques (effects declared
+by their torque in model/effects.py, computed from the measured states by the caller).
 """
 from __future__ import annotations
 
@@ -44,8 +44,15 @@ EFFECT_SLOTS = {"com_offset:pitch": GRAVITY_OFFSET_SLOT, "coulomb_friction:pitch
                 "sensor_offset:pitch": 28}
 YAW_INERTIA_SLOT = EFFECT_SLOTS["yaw_inertia_pitch:yaw"]
 SENSOR_OFFSET_SLOT = EFFECT_SLOTS["sensor_offset:pitch"]
+#: then a second-order motor's further lag T2 [s] on each motor (0 = first order, eq. 1): the voltage drives
+#: the motor through 1/(T2 s + 1), integrated as a state of the kernel (exact within each sample interval,
+#: where a held drive is not: model/effects.second_lag).  Held at its value, never freed in the kernel (an
+#: input modification's value is profiled: model_profile.py)
+LAG_SLOTS = {"motor_second_lag:pitch": max(EFFECT_SLOTS.values()) + 1,
+             "motor_second_lag:yaw": max(EFFECT_SLOTS.values()) + 2}
+LAG1_SLOT, LAG2_SLOT = LAG_SLOTS["motor_second_lag:pitch"], LAG_SLOTS["motor_second_lag:yaw"]
 #: the model vector's length without exogenous torques (their parameters follow from here on)
-N_SLOTS = max(EFFECT_SLOTS.values()) + 1
+N_SLOTS = LAG2_SLOT + 1
 #: Coulomb friction's sign is smoothed as tanh(omega / FRICTION_SMOOTH_RAD_S) [rad/s] (RK4 needs a smooth right
 #: side; the diagnosis' prediction model uses the same)
 FRICTION_SMOOTH_RAD_S = 1e-3
@@ -156,6 +163,8 @@ def slot(name: str, exogenous: tuple[str, ...] = ()) -> int:
     torque's parameter (after them, in the order of ``exogenous``)."""
     if name in EFFECT_SLOTS:
         return EFFECT_SLOTS[name]
+    if name in LAG_SLOTS:
+        return LAG_SLOTS[name]
     if name in exogenous:
         return N_SLOTS + exogenous.index(name)
     if name in PARAM_ORDER:

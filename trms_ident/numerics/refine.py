@@ -45,7 +45,7 @@ from numba import njit
 from scipy.special import stdtrit
 
 from . import safe
-from ..model.plant import (FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, N_SLOTS, PARAM_ORDER,
+from ..model.plant import (FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, LAG1_SLOT, LAG2_SLOT, N_SLOTS, PARAM_ORDER,
                            SENSOR_OFFSET_SLOT, YAW_INERTIA_SLOT, centrifugal_pitch, coriolis_yaw, coulomb_sign,
                            friction, lag_rate, model_vector, motor_rate, pitch_torque, reaction_moment, reversed_gain,
                            slot, steady_motor_states, thrust, thrust_slope, yaw_inertia, yaw_torque)
@@ -84,10 +84,12 @@ _NP = N_SLOTS
 # state layout: [0:7] alpha, alpha', beta, beta', tau1, tau2, zeta; then per unknown c in the NU order (J1, B1,
 # J2, B2, tau1(0), tau2(0), zeta(0), alpha0, alpha'0, beta0, beta'0) the sensitivities of alpha, alpha', beta,
 # beta' at [7 + 4c : 11 + 4c]; then the motor-state sensitivities d tau1/d tau1(0), d tau2/d tau2(0),
-# d zeta/d tau1(0), d zeta/d zeta(0) at [51:55]
+# d zeta/d tau1(0), d zeta/d zeta(0) at [51:55]; then a second-order motor's further lag states (the drives the
+# motors see, model.plant.LAG_SLOTS; unused when its T2 is 0) at [55:57]; then the freed values' sensitivities
 _S0 = 7
 _MS = _S0 + 4 * NU  # 51
-_NS = _MS + 4
+_LAG = _MS + 4  # 55
+_NS = _LAG + 2
 
 
 @dataclass(frozen=True)
@@ -160,6 +162,18 @@ def _direct(slot, x, p, signed, g1, g2, m1, sg, cg, sa, ca, th1, th2, f3, fe1, f
     return fe1, fe2  # an exogenous torque's parameter
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _drive(u, lag, t2):
+    """The voltage a motor's first-order lag sees: u itself, or a second-order motor's further lag state (T2 > 0)."""
+    return lag if t2 > 0.0 else u
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _lag_drive_rate(u, lag, t2):
+    """The further lag's rate, 1/(T2 s + 1) of the held voltage u (0 when T2 = 0: no lag)."""
+    return (u - lag) / t2 if t2 > 0.0 else 0.0
+
+
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
 def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe):
     """Paper eq. (1) with the motor lags, M_R's lag state and the effects in p's slots, and the exact forward
@@ -193,9 +207,11 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe):
     d[1] = f1
     d[2] = x[3]
     d[3] = f3
-    d[4] = motor_rate(u1, x[4], p[10], p[12], p[13])
-    d[5] = motor_rate(u2, x[5], p[11], p[14], p[15])
+    d[4] = motor_rate(_drive(u1, x[_LAG], p[LAG1_SLOT]), x[4], p[10], p[12], p[13])
+    d[5] = motor_rate(_drive(u2, x[_LAG + 1], p[LAG2_SLOT]), x[5], p[11], p[14], p[15])
     d[6] = lag_rate(x[4], x[6], p[18])
+    d[_LAG] = _lag_drive_rate(u1, x[_LAG], p[LAG1_SLOT])
+    d[_LAG + 1] = _lag_drive_rate(u2, x[_LAG + 1], p[LAG2_SLOT])
     # the Jacobian A: pitch row (alpha'') and yaw row (beta''); alpha'' does not depend on beta, and beta'' depends
     # on alpha and alpha' only through the yaw inertia's terms
     a10 = (-p[8] * cg + p[9] * m1 * x[3] * sa) / j1
@@ -283,31 +299,37 @@ def _pieces(k, u1, u2, h, dsw):
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
 def _motor_rhs(x, u1, u2, p, d):
-    """The motor lags and M_R's lag state of eq. (1) with their sensitivities to the start states: the layout's
-    states 4, 5, 6, 39, 40, 41, 42 as x[0..6] (the same formulas as _rhs; they depend on no J/B or angle)."""
-    d[0] = motor_rate(u1, x[0], p[10], p[12], p[13])
-    d[1] = motor_rate(u2, x[1], p[11], p[14], p[15])
+    """The motor lags and M_R's lag state of eq. (1) with their sensitivities to the start states, and the
+    further lags of second-order motors: the layout's states 4, 5, 6, 51..54, 55, 56 as x[0..8] (the same
+    formulas as _rhs; they depend on no J/B or angle)."""
+    d[0] = motor_rate(_drive(u1, x[7], p[LAG1_SLOT]), x[0], p[10], p[12], p[13])
+    d[1] = motor_rate(_drive(u2, x[8], p[LAG2_SLOT]), x[1], p[11], p[14], p[15])
     d[2] = lag_rate(x[0], x[2], p[18])
     d[3] = -p[13] / p[12] * x[3]
     d[4] = -p[15] / p[14] * x[4]
     d[5] = (x[3] - x[5]) / p[18]
     d[6] = -x[6] / p[18]
+    d[7] = _lag_drive_rate(u1, x[7], p[LAG1_SLOT])
+    d[8] = _lag_drive_rate(u2, x[8], p[LAG2_SLOT])
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
 def motor_starts(u1, u2, p, h, dsw, max_sub, win, nw, m0):
-    """(nw, 7) motor states and their start-state sensitivities (layout states 4, 5, 6, 39..42) at each window's
-    first sample, integrated through the log from m0 = tau1(0), tau2(0), zeta(0) with the same RK4 sub-steps as
-    the full pass.  They depend on no J/B or angle, so the windows can then be integrated independently."""
-    out = np.zeros((nw, 7))
-    x = np.zeros(7)
-    xt = np.empty(7)
-    k1 = np.empty(7)
-    k2 = np.empty(7)
-    k3 = np.empty(7)
-    k4 = np.empty(7)
+    """(nw, 9) motor states and their start-state sensitivities (layout states 4, 5, 6, 51..54) and the further
+    lags' states (55, 56) at each window's first sample, integrated through the log from m0 = tau1(0), tau2(0),
+    zeta(0) (a further lag from the steady state of the first voltage, as model/effects.second_lag) with the same
+    RK4 sub-steps as the full pass.  They depend on no J/B or angle, so the windows can then be integrated
+    independently."""
+    out = np.zeros((nw, 9))
+    x = np.zeros(9)
+    xt = np.empty(9)
+    k1 = np.empty(9)
+    k2 = np.empty(9)
+    k3 = np.empty(9)
+    k4 = np.empty(9)
     x[0], x[1], x[2] = m0[0], m0[1], m0[2]
     x[3], x[4], x[6] = 1.0, 1.0, 1.0
+    x[7], x[8] = u1[0], u2[0]
     for w in range(nw):
         for i in range(3, 7):  # the start states' influence has died out: exactly 0, never subnormal numbers
             if abs(x[i]) < 1e-200:  # (whose arithmetic is ~100x slower: an hour took 62 s instead of 5 s)
@@ -325,23 +347,24 @@ def motor_starts(u1, u2, p, h, dsw, max_sub, win, nw, m0):
                 hs = dur / nsub
                 for _ in range(nsub):
                     _motor_rhs(x, v1[j], v2[j], p, k1)
-                    for i in range(7):
+                    for i in range(9):
                         xt[i] = x[i] + 0.5 * hs * k1[i]
                     _motor_rhs(xt, v1[j], v2[j], p, k2)
-                    for i in range(7):
+                    for i in range(9):
                         xt[i] = x[i] + 0.5 * hs * k2[i]
                     _motor_rhs(xt, v1[j], v2[j], p, k3)
-                    for i in range(7):
+                    for i in range(9):
                         xt[i] = x[i] + hs * k3[i]
                     _motor_rhs(xt, v1[j], v2[j], p, k4)
-                    for i in range(7):
+                    for i in range(9):
                         x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
     return out
 
 
-_MOTOR = (4, 5, 6, _MS, _MS + 1, _MS + 2, _MS + 3)
-#: the model values the motor states depend on (k1, k2, T11, T10, T21, T20, Tp): keys of the motor cache
-_MOTOR_P = np.array([_P.index(k) for k in ("k1", "k2", "T11", "T10", "T21", "T20", "Tp")])
+_MOTOR = (4, 5, 6, _MS, _MS + 1, _MS + 2, _MS + 3, _LAG, _LAG + 1)
+#: the model values the motor states depend on (k1, k2, T11, T10, T21, T20, Tp, the further lags): keys of the
+#: motor cache
+_MOTOR_P = np.array([_P.index(k) for k in ("k1", "k2", "T11", "T10", "T21", "T20", "Tp")] + [LAG1_SLOT, LAG2_SLOT])
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
@@ -377,7 +400,7 @@ def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub,
         e = n if w == nw - 1 else s + win
         for i in range(ns):  # the angles restart: their sensitivities are relative to this window's start
             x[i] = 0.0
-        for i in range(7):
+        for i in range(9):
             x[_MOTOR[i]] = mstart[w, i]
         x[0], x[1], x[2], x[3] = starts[w, 0], starts[w, 1], starts[w, 2], starts[w, 3]
         for j in range(4):  # d (alpha, alpha', beta, beta') / d (alpha0, alpha'0, beta0, beta'0) = identity
@@ -547,10 +570,11 @@ def _scaled_inverse(s_mat):
 
 #: model-vector slots whose sensitivities the kernel integrates exactly (_direct): every known value but the
 #: motors' (k1, k2, T11, T10, T21, T20, Tp act through the motor states, which run on through the whole log and
-#: are integrated before the windows: theirs are forward differences), every effect slot and every exogenous
-#: torque's parameter (slots from _NP on)
+#: are integrated before the windows: theirs are forward differences), every effect slot (not the further lags of
+#: LAG_SLOTS: a second-order motor's value is profiled, never freed here) and every exogenous torque's parameter
+#: (slots from _NP on)
 DIRECT_SLOTS = frozenset([_P.index(k) for k in ("a1", "b1", "a2", "b2", "Mg", "Kg", "kc", "T0")] +
-                         list(range(GRAVITY_OFFSET_SLOT, _NP)))
+                         list(range(GRAVITY_OFFSET_SLOT, LAG1_SLOT)))
 
 
 def _exact(i: int) -> bool:

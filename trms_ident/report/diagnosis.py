@@ -65,6 +65,11 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                                              "value diagnose was given, ci95 its 95 % interval; it wins over effects "
                                              "that need more parameters (diagnosis/weigh.py), and one-parameter "
                                              "explanations that also reach the floor are its alternatives",
+            "findings (input modification)": "a dead zone, saturation, delay or second-order motor whose value "
+                                              "the output-error profile set: parameter.ci95 its 95 % interval "
+                                              "(the profile's batch-means standard error, normal quantile; absent "
+                                              "when another step moved the value); `export` writes it, and "
+                                              "`estimate --params` widens J/B's intervals by it",
             "seed_model_check.known_values": "the known-value search estimate's adequacy check ran on this log "
                                              "(trms_ident/known_values.py): score-test ranking, the refits and "
                                              "the value named",
