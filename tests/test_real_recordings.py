@@ -228,6 +228,32 @@ def test_diagnose_on_real_ce150_recordings_under_table_1_is_honest(tmp_path, nam
         assert "are not credible" in doc["verdict_sentence"]
 
 
+def test_a_recording_without_a_noise_floor_is_checked_half_against_half(tmp_path):
+    """Under the model diagnose finds for the elevation ramp (the CE150's published values and a second-order tail
+    motor) the smoothed recording is simulated as well as a black box does, and its noise floor cannot be
+    measured: that alone would leave the verdict undecided, with intervals that measure nothing but the noise
+    (J2 under this model differs 4x between three ramps of the same bench, each with a +-1 % interval).  The
+    halves check estimates each half alone: J1 is 0.0057 on the first and 0.0036 on the second, further apart
+    than their intervals allow, so the model is said not to fit, and --strict exits 10."""
+    path = CE150 / "Data100_ea_a0.mat"
+    if not path.exists():
+        pytest.skip("the shared real recordings are not beside this checkout")
+    bench = tmp_path / "ce150_diagnosed.toml"
+    bench.write_text((Path(__file__).parents[1] / "trms_ident" / "benches" / "humusoft_ce150.toml").read_text()
+                     + '\n[effects]\n"motor_second_lag:yaw" = 0.463\n')
+    res = runner.invoke(app, ["estimate", str(path), "--rate", "100", "--angle-unit", "deg", "--no-report", "--strict",
+                              "-o", str(tmp_path / "o"), "--json", "-", "--params", str(bench)])
+    assert res.exit_code == EXIT_INADEQUATE, res.output
+    check = json.loads(res.stdout)["model_check"]
+    assert check["adequate"] is False and check["undecided_because"] is None
+    halves = check["halves"]
+    assert "J1" in halves["differ"] and halves["z"]["J1"] > halves["critical_z"]
+    assert all(k in halves["first"] and k in halves["second"] for k in halves["compared"])
+    assert check["sentence"].startswith("The model does NOT fit this log: its J/B change along it: J1 ")
+    assert "noise floor cannot be measured" in check["sentence"]
+    assert _verdict_line(res.stderr).startswith("MODEL DOES NOT FIT:")
+
+
 def _published_values(tmp_path, name: str, axis: str, table1: dict) -> None:
     # the bench's own published identification (the bundled bench humusoft_ce150, mapped onto eq. (1)) in place
     # of Table 1's known values: the axis each sweep moves is simulated far better (measured 64 % -> 99.8 %

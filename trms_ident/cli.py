@@ -147,7 +147,8 @@ FreeOpt = Annotated[str, typer.Option("--free", help="Known values to estimate w
                                       "results in refined.known_values_estimated.")]
 StrictOpt = Annotated[bool, typer.Option("--strict", help="Exit with code 10 when the model does not fit the log "
                                           "(model_check.adequate false), 11 when that is not decided (adequate "
-                                          "null: the fit did not converge); batch: any log.")]
+                                          "null: the fit did not converge, or the log's noise floor cannot be "
+                                          "measured and its halves agree); batch: any log.")]
 NoReportOpt = Annotated[bool, typer.Option("--no-report", help="Skip the HTML report.")]
 SignalOpt = Annotated[Optional[list[str]], typer.Option("--signal", help="MCAP: where a signal comes from, "
                                                         "NAME=TOPIC:FIELD, e.g. alpha=/arm/joint_states:position[pitch]; "
@@ -228,7 +229,7 @@ def exit_if_strict(strict: bool, verdicts) -> None:
 #: the first words of estimate's verdict line, by model_check.adequate
 VERDICT_HEAD = {True: "MODEL FITS: ", False: "MODEL DOES NOT FIT: ", None: "FIT NOT DECIDED: "}
 CONDITIONAL = {False: " (conditional on a model that does not fit)",
-               None: " (no adequacy verdict: the fit did not converge)"}
+               None: " (no adequacy verdict: {because}; the interval assumes the model is right)"}
 
 @app.command()
 @handled
@@ -352,7 +353,8 @@ def _say_estimate(res, log: Path, json_path: str | None, strict: bool) -> None:
             continue
         line = f"  {k} = {est:<11.6g} {UNITS[k]:<10}"
         line += f" 95 % {interval_text(lo, hi, est)}" if lo is not None else " (no interval: log too short)"
-        line += "" if check["adequate"] or lo is None else CONDITIONAL[check["adequate"]]
+        line += "" if check["adequate"] or lo is None else CONDITIONAL[check["adequate"]].format(
+            because=check.get("undecided_because") or "not decided")
         if k in s["not_credible"]:
             line += (f" ({s['not_credible'][k]}: check the log's units and the known values; for a bench with "
                      f"its own: --params FILE or a bundled one, {', '.join(bench_names())})")
@@ -465,7 +467,8 @@ def batch(
     if recurring:
         say("findings across the logs: " + "; ".join(f"{k} in {n} of {m} diagnosed" for k, (n, m) in recurring.items()))
     for r in undecided:
-        say(f"not decided whether the model fits (the fit did not converge): {r['path']}")
+        say(f"not decided whether the model fits (its fit did not converge, or its noise floor cannot be measured: "
+            f"model_check in its result.json): {r['path']}")
     say(f"{ok} ok ({skipped} up to date, skipped), {len(rows) - ok} failed, the model does not fit {len(bad_fit)}; "
         "wrote " + ", ".join(map(str, written)))
     if json_path:
@@ -1013,7 +1016,8 @@ def export(
     if check["adequate"] is False:
         say("warning: the model did NOT fit that log; these values are those of a model that does not fit")
     elif check["adequate"] is None:
-        say("warning: whether the model fits that log was not decided (its fit did not converge)")
+        why = check.get("undecided_because") or "see its model_check"
+        say(f"warning: whether the model fits that log was not decided ({why})")
     say(f"wrote {path}" + (f" (without {', '.join(missing)}: not identifiable)" if missing else ""))
 
 

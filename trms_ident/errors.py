@@ -13,7 +13,8 @@ EXIT_SOME_FAILED = 8  # batch: at least one log failed, at least one succeeded
 EXIT_ALL_FAILED = 9  # batch: every log failed
 EXIT_INADEQUATE = 10  # --strict: the model does not fit the log (model_check.adequate is false)
 EXIT_UNDECIDED = 11  # --strict: whether the model fits is not decided (model_check.adequate is null: the fit did
-# not converge and could still reach the noise level)
+# not converge and could still reach the noise level, or the log's noise floor cannot be measured, the model
+# simulates it as well as a black box and its halves give the same J/B)
 
 
 class TrmsError(Exception):

@@ -122,7 +122,7 @@ def estimate_under(h: Hypothesis, log: Log, law: str, overrides: dict) -> Hypoth
                         free=(h.key,) if torque else ())
     try:
         with np.errstate(all="ignore"):
-            res = identify(log, settings)
+            res = identify(log, settings, halves=False)  # judged by the angles' floors, as the search judges
     except (TrmsError, np.linalg.LinAlgError, FloatingPointError, ValueError, ZeroDivisionError) as exc:
         return replace(h, error=str(exc))
     check = res.model_check

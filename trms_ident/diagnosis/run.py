@@ -815,10 +815,11 @@ def _choose_start(log: Log, p: dict, law: str, a: float, estimated: dict | None,
 
 def _seed_result(log: Log, overrides: dict | None, law: str):
     """identify's Result for the seed model (output-error fit with start states); an axis with no excitation
-    raises IdentificationError (exit 6), as in estimate."""
+    raises IdentificationError (exit 6), as in estimate.  Without estimate's halves check: the search judges
+    models by their angle errors against the floors, which a drift of J/B between the halves does not move."""
     from ..identify import Settings, identify
 
-    return identify(log, Settings(thrust_law=law, overrides=dict(overrides or {})))
+    return identify(log, Settings(thrust_law=law, overrides=dict(overrides or {})), halves=False)
 
 
 def _seed_check(res) -> dict:

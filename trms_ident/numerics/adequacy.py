@@ -209,7 +209,14 @@ def model_check(y: np.ndarray, pred: np.ndarray, u: np.ndarray, noise_rad: dict,
                    f"(below {SMOOTHED_FLOOR_RAD:g} rad): the recording smoothed or interpolated the angles, or the "
                    "log is simulated without noise, so the noise floor is a lower bound this log cannot measure "
                    "and the error ratios overstate the misfit; the simulation fit is the measure to read.")
-    return {"adequate": adequate, "axes": axes, "simulation": scope, "sentence": sentence, "caution": caution}
+    return {"adequate": adequate, "axes": axes, "simulation": scope, "sentence": sentence, "caution": caution,
+            "undecided_because": UNMEASURABLE if adequate is None else None}
+
+
+#: why a verdict is not decided (model_check's ``undecided_because``): the noise floor cannot be measured and the
+#: model simulates the angles as well as a black box; or (identify) the output-error fit did not converge
+UNMEASURABLE = "the log's noise floor cannot be measured"
+NOT_CONVERGED = "the output-error fit did not converge"
 
 
 def judging_floors(check: dict | None, noise_rad: dict) -> tuple[dict, dict]:

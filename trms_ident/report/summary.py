@@ -60,8 +60,10 @@ def summarize(result: Result, log: Log, truth: dict | None = None, truth_source:
                          False: "95 % intervals CONDITIONAL on a model that does not fit this log (model_check): "
                                 "they measure the noise, not the model's error, and the true values may lie far "
                                 "outside",
-                         None: "95 % intervals with no adequacy verdict: the output-error fit did not converge, so "
-                               "whether the model fits this log is not decided (model_check)"}[check["adequate"]],
+                         None: "95 % intervals with no adequacy verdict: "
+                               f"{check.get('undecided_because') or 'not decided'}, so whether the model fits this "
+                               "log is not decided (model_check); they measure the noise alone and assume the model "
+                               "is right"}[check["adequate"]],
         "identifiable": {k: result.intervals[k].identifiable for k in ESTIMATED},
         "identifiability": {k: result.intervals[k].reason for k in ESTIMATED},
         "not_credible": not_credible(result.estimates),
