@@ -132,11 +132,11 @@ def test_a_folder_diagnosed_names_each_misfits_findings_and_which_recur(tmp_path
         assert "Under the findings' model</b> (eq. (1) + a cable on yaw (k = 0.004 N m/rad); it fits this log)" in page
     assert doc["findings_across_logs"] == {"cable_stiffness:yaw": {"logs": 2, "diagnosed": 2}}
     rows = {r[0].rsplit("/", 1)[-1]: r for r in csv.reader((out / "summary.csv").read_text().splitlines()[1:])}
-    assert rows["cable_a.csv"][-2] == "explained" and rows["cable_a.csv"][-1].startswith("cable_stiffness:yaw k = 0.004")
+    assert rows["cable_a.csv"][-2] == "explained" and rows["cable_a.csv"][-1].startswith("a cable on yaw (k = 0.004")
     assert rows["clean.csv"][-2:] == ["", ""]
     page = (out / "index.html").read_text()
     assert "Findings across the logs" in page and "cable_stiffness:yaw: in 2 of the 2 logs diagnosed" in page
-    assert "diagnose: EXPLAINED: cable_stiffness:yaw k = 0.004" in res.stderr
+    assert "diagnose: EXPLAINED: a cable on yaw (k = 0.004" in res.stderr
     assert "findings across the logs: cable_stiffness:yaw in 2 of 2 diagnosed" in res.stderr
 
 

@@ -196,7 +196,8 @@ def test_cli_json_contract_and_report(tmp_path):
 
 def test_cli_clean_log_says_no_mismatch(square_csv):
     res = runner.invoke(app, ["diagnose", str(square_csv)])
-    assert res.exit_code == 0 and "CONSISTENT: the seed model already fits the log" in res.output
+    assert res.exit_code == 0 and "CONSISTENT: the model fits this log as it is" in res.output
+    assert "why: the seed model already fits the log" in res.output
 
 
 @pytest.mark.parametrize("grid, vertex, log_space", [

@@ -146,16 +146,12 @@ def _diagnosed(log, out: Path, settings: Settings, options: dict, estimated=None
 
 
 def diagnosis_row(doc: dict, out: Path) -> dict:
-    """A diagnosis.json's verdict and findings for the batch summary: each finding as "key: NAME = value unit"
-    (a known value as "NAME = value (table ...)")."""
-    found = []
-    for f in doc["findings"]:
-        p = f["parameter"]
-        if f["effect"] == "known_value":
-            found.append({"key": p["name"], "text": f"{p['name']} = {p['value']:.4g} (table {p.get('table')})"})
-        else:
-            found.append({"key": f"{f['effect']}:{f['axis']}",
-                          "text": f"{f['effect']}:{f['axis']} {p['name']} = {p['value']:.4g} {p.get('unit', '')}".strip()})
+    """A diagnosis.json's verdict and findings for the batch summary: each finding's key ("effect:axis", or a
+    known value's name) and its plain words (report.terminal.finding_words, as diagnose's first line names it)."""
+    from .report.terminal import finding_words
+
+    found = [{"key": f["parameter"]["name"] if f["effect"] == "known_value" else f"{f['effect']}:{f['axis']}",
+              "text": finding_words(f)} for f in doc["findings"]]
     return {"verdict": doc["verdict"], "findings": found, "file": str(out / "diagnosis.json")}
 
 

@@ -29,7 +29,7 @@ from . import __version__
 from .errors import (EXIT_ALL_FAILED, EXIT_INADEQUATE, EXIT_INTERNAL, EXIT_SOME_FAILED, EXIT_UNDECIDED,
                      JoinedRunsError, SettingsError, TrmsError)
 from .settings import GAIN_CONVENTIONS, HEADLINES, Settings
-from .params import (ESTIMATED, THRUST_LAWS, UNITS, bench_names, bench_settings, load_parameter_file, marked,
+from .params import (ESTIMATED, THRUST_LAWS, UNITS, bench_names, bench_settings, load_parameter_file,
                      parameter_file_inputs_unit, unit_of)
 
 app = typer.Typer(
@@ -496,13 +496,11 @@ def diagnose(
     rate: RateOpt = None,
 ) -> None:
     """Find where the model and the recording disagree, name the missing physics, fit it, show the gain."""
-    from .model.effects import with_unit
-    from .diagnosis.held_out import sentence as held_out_sentence
-    from .diagnosis.predict import fit_change, fit_text
     from .io.atomic import write_text
     from .io.readers import read_log
     from .report.diagnosis import render, to_doc
     from .report.summary import to_json
+    from .report.terminal import diagnosis_lines
 
     from .api import diagnose as run_diagnosis
     from .api import with_inputs_unit
@@ -531,39 +529,8 @@ def diagnose(
         d = run_diagnosis(data, params=overrides, thrust_law=thrust_law, filter_a_rad_s=parse_auto("--a", a),
                           progress=advance)
     doc = to_doc(d, data)
-    fits = ", ".join(f"{k} {fit_text(v)}" for k, v in d.fit_before.items())
-    say(f"{log}: {d.verdict.upper().replace('_', ' ')}: {d.verdict_sentence}")
-    if not d.findings:
-        say(f"  no effect in the library is found ({d.settings['candidates']} candidates tested; prediction fit {fits})")
-    else:
-        say(f"  {len(d.findings)} finding(s) (prediction fit before: {fits})")
-        for i, f in enumerate(d.findings, 1):
-            if f.effect == "known_value":
-                say(f"  {i}. known value {f.parameter['name']} ({f.axis}) = "
-                    f"{with_unit(f.parameter['value'], f.parameter['unit'])}, given "
-                    f"{with_unit(f.parameter['table'], f.parameter['unit'])}")
-            else:
-                say(f"  {i}. {f.effect} on {f.axis}: {f.parameter['name']} = "
-                    f"{with_unit(f.parameter['value'], f.parameter['unit'])}")
-            say(f"     {f.explanation[0].upper() + f.explanation[1:]}.")
-            say(f"     fit {fit_change(f.fit_before, f.fit_after)}; {f.evidence}")
-        say("  estimates  " + "  ".join(f"{k} {marked(k, d.nominal[k])} -> {marked(k, d.augmented[k])}"
-                                        for k in ESTIMATED))
-        w = d.with_findings
-        if w is not None and w.get("estimates") is not None:
-            fits = {True: "fits", False: "does NOT fit", None: "fit not decided"}[w["adequate"]]
-            say(f"  under the findings' model ({fits}; `trms-ident export` writes it for --params), 95 %: {w['text']}")
-        elif w is not None:
-            say(f"  under the findings' model: no estimate ({w['error']})")
-    if d.held_out is not None:
-        say("  " + held_out_sentence(d.held_out, bool(d.findings)))
-    for r in d.refused:
-        say(f"  refused: {r['effect']} on {r['axis']}: {r['reason']}")
-    for c in d.corrections:
-        say(f"  outside the library, {c.axis}: {c.sentence}")
-        terms = ", ".join(f"{t['term']} = {with_unit(t['coefficient'], t['unit'])}" for t in c.terms)
-        say(f"     data-driven correction (not a named effect): prediction fit "
-            f"{fit_change(c.fit_before, c.fit_after)}; terms {terms}")
+    for line in diagnosis_lines(d, str(log)):
+        say(line)
     if report is not None:
         write_text(report / "diagnosis.json", to_json(doc))
         write_text(report / "report.html", render(doc, d, data))
