@@ -116,6 +116,8 @@ def test_a_held_value_with_its_interval_widens_jb_so_they_cover(bench_log):
     ('"motor_second_lag:yaw" = { from = "a log" }', 'line 3: [effects] "motor_second_lag:yaw": no value for its '
                                                   "parameter T2 [s]"),
     ('"dead_zone:yaw" = -0.1', 'line 3: [effects] "dead_zone:yaw": w = -0.1 V is not physical; expected > 0'),
+    ('"motor_second_lag:yaw" = 0.001', 'line 3: [effects] "motor_second_lag:yaw": T2 = 0.001 s is shorter than the '
+                                       "output-error fit integrates (at least 0.0025 s"),
 ])
 def test_a_bad_effect_entry_is_one_line_naming_the_line(tmp_path, square_csv, entry, message):
     bad = tmp_path / "bad.toml"

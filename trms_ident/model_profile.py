@@ -28,7 +28,7 @@ from scipy.special import stdtrit
 
 from .errors import IdentificationError, SettingsError
 from .identify import _noise, _refine_first, _refined_interval, identify, under_model
-from .model.bench import MODIFICATION_KEYS
+from .model.bench import KERNEL_KEYS, MIN_KERNEL_LAG_S, MODIFICATION_KEYS
 from .model.effects import BY_KEY, SENSOR_LAG
 from .params import ESTIMATED, merge
 
@@ -151,6 +151,8 @@ def _profile_fit(log, settings, key: str, r0):
     n, noise = len(log), _noise(log, len(log))
 
     def fit(v: float):
+        if key in KERNEL_KEYS and v < MIN_KERNEL_LAG_S:  # below what the kernel integrates: no fit there
+            raise FloatingPointError(f"{key} = {v:g} s is shorter than {MIN_KERNEL_LAG_S:g} s")
         at = (replace(settings, effects={**settings.effects, key: v}) if key in settings.effects else
               replace(settings, overrides={**settings.overrides, key: v}))
         params0 = merge(at.overrides, source="parameter overrides")

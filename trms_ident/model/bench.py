@@ -31,6 +31,9 @@ TORQUE_KEYS = ("com_offset:pitch", "coulomb_friction:pitch", "coulomb_friction:y
 #: within each sample interval): the refinement takes them with the torque effects (identify.model_kw) and the
 #: voltages without them (identify.under_model's ``kernel``); DREM's regressions take the voltages through them
 KERNEL_KEYS = ("motor_second_lag:pitch", "motor_second_lag:yaw")
+#: the shortest further lag [s] the kernel integrates: its RK4 sub-steps are up to numerics.refine.MAX_SUBSTEP_S
+#: (2.5 ms) long, and a lag much shorter than a sub-step is neither stable nor resolved by a 100 Hz-1 kHz log
+MIN_KERNEL_LAG_S = 2.5e-3
 #: effects that change what drives the plant (the voltages, a motor's time constant) or what the log records
 #: (the acquisition lag): applied to the log before the fit, their value held
 MODIFICATION_KEYS = ("dead_zone:pitch", "dead_zone:yaw", "input_saturation:pitch", "input_saturation:yaw",
@@ -133,6 +136,10 @@ def parse_effect(key: str, spec) -> BenchEffect:
         lo, hi = c.bounds
         rng = (f"> {lo:g}" if math.isinf(hi) else f"between {lo:g} and {hi:g}")
         raise BenchEffectError(f"\"{key}\": {c.parameter} = {value:g} {c.unit} is not physical; expected {rng}")
+    if key in KERNEL_KEYS and value < MIN_KERNEL_LAG_S:
+        raise BenchEffectError(f"\"{key}\": {c.parameter} = {value:g} {c.unit} is shorter than the output-error fit "
+                               f"integrates (at least {MIN_KERNEL_LAG_S:g} s, its sub-step); a lag this short is not "
+                               "resolved by the log: leave the entry out")
     return BenchEffect(key, value, source, ci95)
 
 
