@@ -111,7 +111,11 @@ def test_a_fit_that_did_not_converge_is_not_decided(off_table_midrun, tmp_path, 
     assert check["sentence"].startswith("Not decided: the output-error fit did not converge (Gauss-Newton stopped "
                                         "after 1 iteration(s)")
     assert res.stderr.startswith("FIT NOT DECIDED: Not decided")
-    assert "with no adequacy verdict" in doc["ci95_meaning"]
+    assert "with no adequacy verdict: the output-error fit did not converge" in doc["ci95_meaning"]
+    assert check["undecided_because"] == "the output-error fit did not converge"
+    # each interval says why it carries no verdict: the real reason, never a stock one
+    assert "(no adequacy verdict: the output-error fit did not converge; the interval assumes the model is right)" \
+        in res.stderr
     assert "Not decided whether the model fits this log" in (tmp_path / "o" / "report.html").read_text()
 
 
