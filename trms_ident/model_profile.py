@@ -26,7 +26,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.special import stdtrit
 
-from .errors import IdentificationError, SettingsError
+from .errors import IdentificationError, SettingsError, TrmsError
 from .identify import _noise, _refine_first, _refined_interval, identify, under_model
 from .model.bench import KERNEL_KEYS, MIN_KERNEL_LAG_S, MODIFICATION_KEYS
 from .model.effects import BY_KEY, SENSOR_LAG
@@ -99,7 +99,8 @@ def identify_with_profiles(log, settings):
     if res.refined is None:
         return res
     moved = {k: (v["jb_slopes"], (v["ci95"][1] - v["ci95"][0]) / 2.0) for k, v in found.items()}
-    moved.update(_held_slopes(log, settings, res.refined, held))
+    slopes_of, unmeasured = _held_slopes(log, settings, res.refined, held)
+    moved.update(slopes_of)
     freed = {**res.refined.freed, **{k: {kk: vv for kk, vv in v.items() if kk != "jb_slopes"}
                                      for k, v in found.items()}}
     ci95 = dict(res.refined.ci95)
@@ -112,18 +113,23 @@ def identify_with_profiles(log, settings):
     refined = replace(res.refined, freed=freed, ci95=ci95)
     res = _with_refined(res, refined, settings)
     if held and res.headline == "refined":
-        res = replace(res, refine_note=res.refine_note + "; J/B's intervals include the uncertainty of the values "
-                      "the bench file holds with their 95 % intervals (" + ", ".join(
-                          f"{k} {_held(settings, k):.4g} [{lo:.4g}, {hi:.4g}]" for k, (lo, hi) in held.items()) + ")")
+        widened = [f"{k} {_held(settings, k):.4g} [{lo:.4g}, {hi:.4g}]" for k, (lo, hi) in held.items()
+                   if k not in unmeasured]
+        note = ("; J/B's intervals include the uncertainty of the values the bench file holds with their 95 % "
+                f"intervals ({', '.join(widened)})") if widened else ""
+        if unmeasured:
+            note += (f"; held as exact although the file gives an interval: {', '.join(unmeasured)} (the fits "
+                     "either side of its value failed)")
+        res = replace(res, refine_note=res.refine_note + note)
     return res
 
 
 def _held_slopes(log, settings, r0, held: dict) -> dict:
     """key -> (J/B's slopes along the value [unit of J/B per unit], the value's 95 % half-width) for each value
     the bench file holds with an interval (Settings.held_ci95): central differences of the output-error fit a
-    quarter of the interval either side of the value, from the estimate ``r0``.  A value whose fits fail moves
-    nothing it can measure: left out."""
-    out = {}
+    quarter of the interval either side of the value, from the estimate ``r0``; and the keys whose fits failed
+    (held as exact, and said so)."""
+    out, failed = {}, []
     for key, (lo, hi) in held.items():
         v0, half = _held(settings, key), (float(hi) - float(lo)) / 2.0
         if not half > 0:
@@ -132,12 +138,13 @@ def _held_slopes(log, settings, r0, held: dict) -> dict:
         if key in MODIFICATION_KEYS and v0 - step <= 0:  # a width, a lag, a delay: positive
             step = 0.5 * v0
         fit, _ = _profile_fit(log, settings, key, r0)
-        try:
+        try:  # (a known value stepped out of its physical range is refused by merge: no slope there either)
             lo_fit, hi_fit = fit(v0 - step), fit(v0 + step)
-        except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
+        except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError, TrmsError):
+            failed.append(key)
             continue
         out[key] = ({k: (hi_fit.estimate[k] - lo_fit.estimate[k]) / (2.0 * step) for k in ESTIMATED}, half)
-    return out
+    return out, failed
 
 
 def _held(settings, key: str) -> float:
