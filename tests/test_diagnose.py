@@ -191,6 +191,11 @@ def test_cli_json_contract_and_report(tmp_path):
     assert html.count("data:image/png;base64,") == 5
     assert "<h2>Held-out simulation</h2>" in html and "Held-out simulation fit (fitted on one half" in html
     assert "Finding 1: coulomb_friction on yaw" in html
+    # the page says the verdict as the terminal's first line does: the findings in plain words, then why
+    from trms_ident.report.terminal import headline
+    assert f"</span> {headline(doc['verdict'], doc['findings'])}</b>." in html and "Coulomb friction on yaw (Fc = " in html
+    import html as html_mod
+    assert f"Why: {html_mod.escape(doc['verdict_sentence'])}" in html
     assert json.loads((tmp_path / "rep" / "diagnosis.json").read_text())["mismatch"] is True
 
 

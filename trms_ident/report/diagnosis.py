@@ -10,6 +10,7 @@ from ..diagnosis.result import Diagnosis
 from ..log import Log
 from ..params import PLAUSIBLE_FACTOR, marked, not_credible
 from .summary import units_text, versions
+from .terminal import headline
 
 
 def to_doc(d: Diagnosis, log: Log) -> dict:
@@ -309,9 +310,12 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
     imgs = "".join(f"<h2>{html.escape(title)}</h2><img alt='{html.escape(title)}' src='{uri}'>" for title, uri in figs)
     colour = {"consistent": "#e8f5e9", "explained": "#e8f5e9", "partly_explained": "#fff4e0"}.get(doc["verdict"],
                                                                                                    "#fdecea")
+    # as the terminal says it (report/terminal.py): the verdict and the findings in plain words, then why
     verdict = (f'<span style="background:{colour};padding:2px 6px;border-radius:4px">'
                f'{html.escape(doc["verdict"].replace("_", " ").upper())}</span> '
-               f'{html.escape(doc["verdict_sentence"])} {len(doc["findings"])} finding(s)')
+               f'{html.escape(headline(doc["verdict"], doc["findings"]))}')
+    why = f'Why: {html.escape(doc["verdict_sentence"])} {len(doc["findings"])} finding(s).'
+
     check = doc["settings"].get("output_error_check")
     oe_line = html.escape("" if check is None else " Output-error check of the findings' model: error RMS over its "
                           "floor (settings.floors) " + ", ".join(f"{ang} {r:.2f}x" if r >= 0.01 else f"{ang} {r:.2g}x"
@@ -324,7 +328,7 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
     return f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident diagnose</title>
 <style>body{{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto}}img{{max-width:100%}}
 table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px}}.note{{color:#555;font-size:.9em}}</style>
-</head><body><h1>Diagnosis of {html.escape(log.source)}</h1><p><b>{verdict}</b>.
+</head><body><h1>Diagnosis of {html.escape(log.source)}</h1><p><b>{verdict}</b>.</p><p>{why}
 Fit measure: {html.escape(doc['fit']['measure'])}.{oe_line}</p><ol>{items}{corrections}</ol>
 <table><tr><th>parameter</th><th>seed model</th><th>with findings{aug_from}</th>{est_head}</tr>{est}</table>{under}{imgs}
 <p class="note">{units}sha256 {log.sha256}; versions {html.escape(str(doc['versions']))}</p></body></html>
