@@ -153,15 +153,18 @@ def identify(log: Log, settings: Settings | None = None, halves: bool = True) ->
     settings = settings or Settings()
     given = log
     settings.validate()
-    from .model.bench import MODIFICATION_KEYS
+    from .model.bench import KERNEL_KEYS, MODIFICATION_KEYS
 
     profiled = [k for k in settings.free if k in MODIFICATION_KEYS]
     if profiled:  # the refinement has no sensitivity for them: model_profile.identify_with_profiles fits them
         raise SettingsError(f"--free {', '.join(profiled)}: an input modification's value is profiled "
                             "(model_profile.identify_with_profiles), not estimated by identify")
     params = merge(settings.overrides, source="parameter overrides")
-    drem_log, _ = under_model(log, params, settings.effects)  # DREM's regressions: every modification applied
+    given_params = params
     log, params = under_model(log, params, settings.effects, kernel=True)  # the refinement's voltages (model_kw)
+    # DREM's regressions see every modification, the kernel's lags too (the same log when there are none)
+    drem_log = (under_model(given, given_params, settings.effects)[0]
+                if any(k in KERNEL_KEYS for k in settings.effects) else log)
     _long_enough(log, params)
     grid_log, motor = on_uniform_grid(drem_log, params)
     settings, design = resolve_filters(grid_log, settings)

@@ -225,10 +225,11 @@ def _value_of(path: Path, name: str, entry):
     if "value" not in entry or extra:
         raise ParameterFileError(f"{where}: parameter {name} as a table takes value and optionally ci95 = [low, "
                                  f"high]; got {', '.join(sorted(entry))}")
+    from .model.bench import finite_number
+
     ci = entry.get("ci95")
-    if ci is not None and not (isinstance(ci, list) and len(ci) == 2 and all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in ci)
-            and ci[0] <= ci[1]):
+    if ci is not None and not (isinstance(ci, list) and len(ci) == 2 and all(map(finite_number, ci))
+                               and ci[0] <= ci[1]):
         raise ParameterFileError(f"{where}: parameter {name}: ci95 must be [low, high] with low <= high, got {ci!r}")
     return entry["value"]
 

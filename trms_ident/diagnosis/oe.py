@@ -300,15 +300,15 @@ class Fitter:
         # a second-order motor's further lag is a state of the fit's own simulation (exact within each sample
         # interval; the voltages held through it are not: model.bench.KERNEL_KEYS), held at its value
         kernel = {k: mods[k] for k in KERNEL_KEYS if k in mods}
-        t1, t2 = u1, u2  # the voltages the torque effects' motor states see: through every modification
         if mods:
-            t1, t2, changes = modified_inputs(part, mods)
+            u1, u2, changes = modified_inputs(part, {k: v for k, v in mods.items() if k not in kernel})
             p = {**p, **changes}
-            u1, u2 = (t1, t2) if not kernel else modified_inputs(
-                part, {k: v for k, v in mods.items() if k not in kernel})[:2]
         kw = {} if max_iterations is None else {"max_iterations": max_iterations}
         torques = {}
-        for k in (k for k in free if room.generic(k)):
+        generic = [k for k in free if room.generic(k)]
+        # the voltages the torque effects' motor states see: through every modification, the kernel's lags too
+        t1, t2 = modified_inputs(part, mods)[:2] if generic and kernel else (u1, u2)
+        for k in generic:
             if span is not None:  # a part of the samples: its own torques (not cached)
                 torques[k] = unit_torques(part, p, self.law, (k,), t1, t2, {})[k]
                 continue

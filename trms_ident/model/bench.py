@@ -124,12 +124,12 @@ def parse_effect(key: str, spec) -> BenchEffect:
             raise BenchEffectError(f"\"{key}\": from must be text (where the value came from), got {source!r}")
         ci95 = spec.get("ci95")
         if ci95 is not None and not (isinstance(ci95, list) and len(ci95) == 2 and
-                                     all(_number(v) for v in ci95)):
+                                     all(map(finite_number, ci95))):
             raise BenchEffectError(f"\"{key}\": ci95 must be [low, high], got {ci95!r}")
         ci95 = tuple(float(v) for v in ci95) if ci95 is not None else None
     else:
         value = spec
-    if not _number(value):
+    if not finite_number(value):
         raise BenchEffectError(f"\"{key}\": {c.parameter} must be a finite number [{c.unit}], got {value!r}")
     value = float(value)
     if not c.plausible(value) or (effect == "motor_lag" and not value > 0):
@@ -143,7 +143,8 @@ def parse_effect(key: str, spec) -> BenchEffect:
     return BenchEffect(key, value, source, ci95)
 
 
-def _number(v) -> bool:
+def finite_number(v) -> bool:
+    """A finite int or float, not a bool (a TOML value that can stand for a number)."""
     return not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
 
 

@@ -315,7 +315,6 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
                f'{html.escape(doc["verdict"].replace("_", " ").upper())}</span> '
                f'{html.escape(headline(doc["verdict"], doc["findings"]))}')
     why = f'Why: {html.escape(doc["verdict_sentence"])} {len(doc["findings"])} finding(s).'
-
     check = doc["settings"].get("output_error_check")
     oe_line = html.escape("" if check is None else " Output-error check of the findings' model: error RMS over its "
                           "floor (settings.floors) " + ", ".join(f"{ang} {r:.2f}x" if r >= 0.01 else f"{ang} {r:.2g}x"
