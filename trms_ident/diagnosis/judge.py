@@ -99,10 +99,10 @@ OE_TOP_K = 3
 
 
 def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests, fitter, tested,
-               oe_values: dict):
+               oe_values: dict, scan: bool = True):
     """The equation-error test passed no candidate: fit its best OE_TOP_K output-error candidates by output
     error (oe.py) and return the one that passes there with the largest drop in angle error (its regression
-    and value, as _try returns them, with "oe": the fit), or None."""
+    and value, as _try returns them, with "oe": the fit), or None.  ``scan``: as oe.Fitter.profile's."""
     if not oe.representable(current):
         return None
     theta0 = _oe_start(score_now, reg_now, p)
@@ -111,7 +111,7 @@ def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now,
     order = _rescue_order((r for r in results if oe.fittable(r["c"].key) and r["c"].key not in current.keys), off)
     good = []
     for r in order:
-        f, short = _oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested)
+        f, short = _oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested, scan=scan)
         if not short:
             good.append((r, f))
     if not good:
@@ -196,13 +196,14 @@ def _oe_start(sc, reg, p: dict) -> dict:
     return jb_start(_estimates(sc, reg), p)
 
 
-def _oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested, torque_floor: bool = True):
+def _oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested, torque_floor: bool = True,
+            scan: bool = True):
     """Candidate c fitted by output error on top of ``current`` (an input modification by a profile over its
     value, from the equation error's ``value0``); the fit (or None) and what keeps it from passing, in words
     (oe.shortfall, with or without the torque-share floor, and the value's plausibility; empty: it passes).
-    Recorded in ``tested``."""
+    Recorded in ``tested``.  ``scan``: as oe.Fitter.profile's."""
     if oe.profiled(c.key):
-        f = fitter.profile(current, values, theta0, c.key, _grid(c, log, p), value0)
+        f = fitter.profile(current, values, theta0, c.key, _grid(c, log, p), value0, scan)
     else:
         f = fitter.candidate(current, values, theta0, c.key)
     if f is None:

@@ -471,18 +471,22 @@ class Fitter:
         excess = max(base.cost - floor, MIN_COST_DROP * base.cost)
         return float((base.cost - cost) / base.cost), float(explained), float((base.cost - cost) / excess)
 
-    def profile(self, model: Model, values: dict, theta0: dict, key: str, grid: tuple, value0: float) -> OEFit | None:
+    def profile(self, model: Model, values: dict, theta0: dict, key: str, grid: tuple, value0: float,
+                scan: bool = True) -> OEFit | None:
         """Input modification ``key`` (profiled(), a positive value) fitted by output error over its value:
         the grid's values near ``value0`` (the equation error's), the whole range more finely when the best of
-        those is far from the noise floor (PROFILE_SCAN_OVER_FLOOR), then finer around the best; J/B, the start
+        those is far from the noise floor (PROFILE_SCAN_OVER_FLOOR) and ``scan``, then finer around the best; J/B,
+        the start
         states and the current findings' parameters refitted at each.  None when the current model cannot be
-        fitted or no trial value can.  The current model's fit need not have converged (a model that misses a
+        fitted or no trial value can.  ``scan`` False: only a value that brings the log to its noise floor
+        matters (a look-alike of a known value that already does, run.effect_search); there the equation
+        error's value is consistent, so its neighbourhood holds the answer and the screen is not needed.  The current model's fit need not have converged (a model that misses a
         delay drove B1 to its bound of 0 and stopped there): the held-out test's scale grows with whatever misfit
         the candidate leaves, so a base far from its own optimum does not make a partial explanation pass."""
-        return self._asked(self._profile, model, values, theta0, key, tuple(grid), float(value0))
+        return self._asked(self._profile, model, values, theta0, key, tuple(grid), float(value0), bool(scan))
 
-    def _profile(self, model: Model, values: dict, theta0: dict, key: str, grid: tuple, value0: float
-                 ) -> OEFit | None:
+    def _profile(self, model: Model, values: dict, theta0: dict, key: str, grid: tuple, value0: float,
+                 scan: bool = True) -> OEFit | None:
         base = self.base(model, values, theta0)
         if base is None or not value0 > 0:
             return None
@@ -512,7 +516,7 @@ class Fitter:
             if 0 < j < len(vs) - 1 or not math.isfinite(cost(vs[j])):
                 break
             at(vs[0] / ratio if j == 0 else vs[-1] * ratio)
-        if cost(min(tried, key=cost)) > PROFILE_SCAN_OVER_FLOOR * 2.0 * self.n:  # far from the noise: rugged?
+        if scan and cost(min(tried, key=cost)) > PROFILE_SCAN_OVER_FLOOR * 2.0 * self.n:  # far from the noise
             ratio = min(ratio, PROFILE_SCAN_RATIO)
             for v in sorted(self._screen(model, values, base.estimate, (key,), g[0], g[-1], ratio,
                                          base.start_states))[:PROFILE_SCAN_KEEP]:
