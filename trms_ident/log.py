@@ -21,6 +21,8 @@ import numpy as np
 from .errors import JoinedRunsError, LogFormatError
 
 COLUMNS = ("t", "u1", "u2", "alpha", "beta")
+#: optional column: when the row's voltages took effect (same unit as t)
+VOLTAGE_TIME = "t_u"
 COLUMN_UNITS = {"t": "s", "u1": "V", "u2": "V", "alpha": "rad", "beta": "rad"}
 MIN_SAMPLES = 10
 #: steps within this relative deviation of the median step are jitter, accepted and measured

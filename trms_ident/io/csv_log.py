@@ -19,11 +19,10 @@ import numpy as np
 
 from .._memory import give_back
 from ..errors import InputNotFoundError, LogFormatError, SettingsError
-from ..log import COLUMNS, Log, validated
+from ..log import COLUMNS, VOLTAGE_TIME, Log, validated
 from .atomic import atomic_path
+from .signals import held_note
 
-#: optional column: when the row's voltages took effect (same unit as t)
-VOLTAGE_TIME = "t_u"
 UNIT_SCALE = {
     "t": {"s": 1.0, "ms": 1e-3},
     "u1": {"v": 1.0},
@@ -152,8 +151,6 @@ def read_csv_log(path: str | Path, angle_unit: str = "auto", time_unit: str = "a
     if parsed is None:  # something is off: the slow parser names the line and cell
         parsed = _parse_located(path, delim, first_data_line, wanted, names)
     if held:
-        from .signals import held_note
-
         parsed.update({c: np.full(parsed["t"].size, v) for c, v in held.items()})
         meta.update(held_note(held))
     cols = [parsed[c] * scale[c] if scale[c] != 1.0 else parsed[c] for c in COLUMNS]

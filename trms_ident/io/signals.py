@@ -10,8 +10,7 @@ import re
 from dataclasses import dataclass
 
 from ..errors import SettingsError
-from ..log import COLUMNS
-from .csv_log import VOLTAGE_TIME
+from ..log import COLUMNS, VOLTAGE_TIME
 
 SIGNALS = ("alpha", "beta", "u1", "u2")
 _STEP = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)(?:\[([^\]]+)\])?")
