@@ -7,7 +7,7 @@ import pytest
 from sim import SimSettings, simulate
 from trms_ident.diagnosis import oe
 from trms_ident.diagnosis.model import Model
-from trms_ident.diagnosis.run import _siblings
+from trms_ident.diagnosis.search import _siblings
 from trms_ident.model.effects import BY_KEY
 from trms_ident.params import defaults
 

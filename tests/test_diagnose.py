@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 
 from trms_ident.cli import app
 from trms_ident.diagnosis import oe
-from trms_ident.diagnosis.model import _delay
+from trms_ident.diagnosis.model import delayed
 from trms_ident.diagnosis.predict import predict, predict_fitted_start
 from trms_ident.diagnosis.run import diagnose
 from trms_ident.diagnosis.select import Score, compare
@@ -157,8 +157,8 @@ def test_prediction_windows_start_from_the_state_that_fits_them():
 
 def test_fractional_delay_of_a_held_signal():
     u = np.array([0.0, 0, 1, 1, 1, 0, 0])
-    np.testing.assert_allclose(_delay(u, 1.0), [0, 0, 0, 1, 1, 1, 0])
-    np.testing.assert_allclose(_delay(u, 0.5), [0, 0, 0.5, 1, 1, 0.5, 0])
+    np.testing.assert_allclose(delayed(u, 1.0), [0, 0, 0, 1, 1, 1, 0])
+    np.testing.assert_allclose(delayed(u, 0.5), [0, 0, 0.5, 1, 1, 0.5, 0])
 
 
 def test_cli_json_contract_and_report(tmp_path):
@@ -376,8 +376,8 @@ def test_output_error_profile_fits_an_input_modification_and_leaves_a_clean_log_
     from trms_ident.diagnosis import oe
     from trms_ident.model.effects import BY_KEY
     from trms_ident.diagnosis.model import Model
-    from trms_ident.diagnosis.run import FAMILY_ALPHA
-    from trms_ident.diagnosis.trials import _grid
+    from trms_ident.diagnosis.select import FAMILY_ALPHA
+    from trms_ident.diagnosis.trials import value_grid
     from trms_ident.params import defaults
 
     p = defaults()
@@ -388,7 +388,7 @@ def test_output_error_profile_fits_an_input_modification_and_leaves_a_clean_log_
         log = as_log(simulate(SimSettings(ref=ref, sample_rate_hz=200.0, duration_s=60.0, quantization_rad=Q12,
                                           seed=7, start_s=start, effects=effects)))
         fits[bool(effects)] = oe.Fitter(log, p, "quadratic").profile(Model(), {}, theta0, key,
-                                                                     _grid(BY_KEY[key], log, p), 0.8 * value)
+                                                                     value_grid(BY_KEY[key], log, p), 0.8 * value)
     f = fits[True]
     assert f.profiled and f.value == pytest.approx(value, rel=0.03)
     assert oe.passes(f, 24, FAMILY_ALPHA) and f.t > 10 and f.cost_drop > 0.3
@@ -444,8 +444,8 @@ def test_an_earlier_finding_is_judged_again_given_the_later_ones(first, value, s
     from trms_ident.model.effects import BY_KEY
     from trms_ident.diagnosis.model import Model, regression
     from trms_ident.diagnosis.fits import prediction_fits
-    from trms_ident.diagnosis.run import _backward, block_ids, block_length, score
-    from trms_ident.diagnosis.trials import _at_value, _effect_values, _estimates, _try
+    from trms_ident.diagnosis.search import _backward, block_ids, block_length, score
+    from trms_ident.diagnosis.trials import at_value, effect_values, jb_estimates, try_candidate
     from trms_ident.numerics.design import design_filters
     from trms_ident.params import defaults
 
@@ -459,14 +459,14 @@ def test_an_earlier_finding_is_judged_again_given_the_later_ones(first, value, s
     reg0 = regression(log, p, law, a, Model(), cache)
     sc0 = score(reg0, ids, ("pitch", "yaw"))
     c = BY_KEY[first]
-    res = (_try(c, log, p, law, a, Model(), cache, ids, sc0, n) if value is None else
-           _at_value(c, value, log, p, law, a, Model(), cache, ids, sc0, n))
+    res = (try_candidate(c, log, p, law, a, Model(), cache, ids, sc0, n) if value is None else
+           at_value(c, value, log, p, law, a, Model(), cache, ids, sc0, n))
     res["before"] = (Model(), reg0, sc0)
-    last = _at_value(BY_KEY["input_delay:both"], 0.03, log, p, law, a, res["model"], cache, ids, res["score"], n)
+    last = at_value(BY_KEY["input_delay:both"], 0.03, log, p, law, a, res["model"], cache, ids, res["score"], n)
     last["before"] = (res["model"], res["reg"], res["score"])
     findings = [(res, []), (last, [])]
-    current, augmented = last["model"], _estimates(last["score"], last["reg"])
-    values = _effect_values(current, last["score"], last["reg"])
+    current, augmented = last["model"], jb_estimates(last["score"], last["reg"])
+    values = effect_values(current, last["score"], last["reg"])
     fit_after, _ = prediction_fits(log, p, law, current, values, augmented)
     dropped = _backward(findings, current, augmented, values, fit_after, log, p, law, a, cache, ids, n,
                         oe.Fitter(log, p, law), [], {}, None)
@@ -485,7 +485,7 @@ def test_a_rugged_dead_zone_profile_is_scanned_and_a_wrong_width_is_never_called
     # by that profile; left at the equation error's grid value (0.386 V) the findings' model does not fit, and
     # the verdict must say so rather than "explained"
     from sim import SimSettings, simulate
-    from trms_ident.diagnosis import oe, run, trials
+    from trms_ident.diagnosis import oe, search, trials
     from trms_ident.model import effects
     from trms_ident.model.effects import BY_KEY
     from trms_ident.diagnosis.model import Model
@@ -500,7 +500,7 @@ def test_a_rugged_dead_zone_profile_is_scanned_and_a_wrong_width_is_never_called
 
     def profiled():
         fitter = oe.Fitter(log, p, "quadratic")
-        f = fitter.profile(Model(), {}, theta0, key, trials._grid(BY_KEY[key], log, p), 0.15)
+        f = fitter.profile(Model(), {}, theta0, key, trials.value_grid(BY_KEY[key], log, p), 0.15)
         return f, fitter.check(Model().with_mod(key, f.value), {}, theta0)
 
     f, check = profiled()
@@ -517,7 +517,7 @@ def test_a_rugged_dead_zone_profile_is_scanned_and_a_wrong_width_is_never_called
     # the dead zone as a modification whose value the equation error's grid sets (not a step one)
     monkeypatch.setattr(effects, "CANDIDATES", tuple(dataclasses.replace(c, step=False) if c.effect == "dead_zone"
                                                      else c for c in effects.CANDIDATES))
-    monkeypatch.setattr(run, "_polish", lambda findings, current, *args: current)
+    monkeypatch.setattr(search, "_polish", lambda findings, current, *args: current)
     d = diagnose(log)
     assert [(x.effect, x.axis) for x in d.findings] == [("dead_zone", "yaw")]
     assert abs(d.findings[0].parameter["value"] / 0.4 - 1) > 0.02
@@ -551,7 +551,7 @@ def test_a_pitch_offset_of_no_practical_size_is_not_a_finding():
     gravity torque by oe.MIN_TORQUE_SHARE of the thrust torque, as the output-error fit asks of its candidates."""
     from trms_ident.diagnosis import oe
     from trms_ident.model.effects import CANDIDATES
-    from trms_ident.diagnosis.trials import _practical
+    from trms_ident.diagnosis.trials import practical
     from trms_ident.params import defaults
 
     r = sim_cached("square", 100.0, 90.0, 0.0, 0.0, 7, ())
@@ -563,10 +563,10 @@ def test_a_pitch_offset_of_no_practical_size_is_not_a_finding():
         per_n_m = oe.torque_share("coulomb_friction:pitch", 1.0, log, p, "quadratic")  # 1 / RMS thrust torque
         assert share == pytest.approx(0.005 * p["Mg"] * np.sqrt(np.mean(np.cos(r.alpha_rad) ** 2)) * per_n_m,
                                       rel=1e-9)
-        assert _practical(c, 0.005, log, p, "quadratic") and _practical(c, -0.04, log, p, "quadratic")
-        assert not _practical(c, 2.6e-5, log, p, "quadratic") and not _practical(c, -2.6e-5, log, p, "quadratic")
+        assert practical(c, 0.005, log, p, "quadratic") and practical(c, -0.04, log, p, "quadratic")
+        assert not practical(c, 2.6e-5, log, p, "quadratic") and not practical(c, -2.6e-5, log, p, "quadratic")
     # the floor is the offsets' only: other equation-error findings keep the tests that passed them
-    assert _practical(by_key["quadratic_drag:pitch"], 1e-6, log, p, "quadratic")
+    assert practical(by_key["quadratic_drag:pitch"], 1e-6, log, p, "quadratic")
 
 
 def test_a_friction_the_equation_error_cannot_fit_physically_is_judged_by_output_error():
@@ -625,7 +625,7 @@ def test_the_findings_model_is_checked_at_its_converged_fit(monkeypatch):
     # friction found at 0.00799 N m was called partly explained.  A check whose fit stopped short goes on from there
     from trms_ident.diagnosis import oe
     from trms_ident.diagnosis.model import Model
-    from trms_ident.diagnosis.run import EXPLAINED_OE_OVER_NOISE
+    from trms_ident.diagnosis.verdict import EXPLAINED_OE_OVER_NOISE
     from trms_ident.params import defaults
 
     r = sim_cached("multisine", 100.0, 30.0, 0.0, Q12, 3, ((("axis", "pitch"), ("effect", "coulomb_friction"),
@@ -656,10 +656,10 @@ def test_the_findings_model_is_checked_at_its_converged_fit(monkeypatch):
 def test_the_equation_error_orders_and_the_output_error_test_decides(monkeypatch):
     # a clean log, with the equation-error test made to pass a yaw cable that is not there: the output-error fit
     # carries a cable, so its held-out test decides, and it does not pass it (the equation error used to decide)
-    import trms_ident.diagnosis.run as run_mod
+    from trms_ident.diagnosis import search
     from trms_ident.diagnosis.select import Test
 
-    real = run_mod._try
+    real = search.try_candidate
 
     def forced(c, *args):
         res = real(c, *args)
@@ -667,7 +667,7 @@ def test_the_equation_error_orders_and_the_output_error_test_decides(monkeypatch
             res = {**res, "test": Test(gain=0.5, t=20.0, p=1e-12, share=0.1, passed=True), "value": 0.005}
         return res
 
-    monkeypatch.setattr(run_mod, "_try", forced)
+    monkeypatch.setattr(search, "try_candidate", forced)
     d, _ = _diag("multisine", 200.0, 60.0, noise=5e-4, seed=41)
     assert not d.findings and d.verdict == "consistent"
     (refused,) = [r for r in d.refused if r["effect"] == "cable_stiffness"]
@@ -684,13 +684,13 @@ def test_the_equation_error_orders_and_the_output_error_test_decides(monkeypatch
 
 
 def test_findings_whose_refitted_j_b_are_not_credible_never_explain_the_log():
-    from trms_ident.diagnosis.run import _credible
+    from trms_ident.diagnosis.verdict import credible
     good = {"J1": 0.07, "B1": 0.005, "J2": 0.021, "B2": 0.09}
-    assert _credible("explained", "s.", good) == ("explained", "s.")
-    verdict, sentence = _credible("explained", "s.", {**good, "J1": 1.3e15})
+    assert credible("explained", "s.", good) == ("explained", "s.")
+    verdict, sentence = credible("explained", "s.", {**good, "J1": 1.3e15})
     assert verdict == "partly_explained"
     assert "(J1 = 1.3e+15: not positive, or more than 100x from Table 1)" in sentence and "leads" in sentence
-    assert _credible("partly_explained", "s.", {**good, "B2": -1.0})[0] == "partly_explained"
+    assert credible("partly_explained", "s.", {**good, "B2": -1.0})[0] == "partly_explained"
 
 
 @pytest.mark.parametrize("rho, within", [(0.0, 0.1), (0.95, 0.3)])
@@ -726,11 +726,11 @@ def test_an_axis_the_findings_model_cannot_predict_is_never_explained():
     # false with every threshold: such a model could be called explained; a real CE150 sweep printed "nanx"
     from types import SimpleNamespace
 
-    from trms_ident.diagnosis.run import _verdict
+    from trms_ident.diagnosis.verdict import verdict_of
 
     log = SimpleNamespace(alpha_rad=np.linspace(0, 0.3, 100), beta_rad=np.linspace(0, 0.2, 100))
     seed = {"adequate": False, "axes": {"pitch": {"noise_floor_rad": 1e-3}, "yaw": {"noise_floor_rad": 1e-3}}}
-    verdict, sentence = _verdict(log, seed, ["a finding"], {"pitch": math.nan, "yaw": 99.99}, {}, None)
+    verdict, sentence = verdict_of(log, seed, ["a finding"], {"pitch": math.nan, "yaw": 99.99}, {}, None)
     assert verdict == "partly_explained"
     assert "(the pitch prediction error cannot be told: the findings' model has no prediction of it)" in sentence
     assert "nan" not in sentence
@@ -742,19 +742,19 @@ def test_a_seed_model_as_good_as_the_black_box_on_a_smoothed_log_is_consistent_w
     # on a real CE150 azimuth sweep: "unexplained" beside estimate's "not decided")
     from types import SimpleNamespace
 
-    from trms_ident.diagnosis.run import _verdict
+    from trms_ident.diagnosis.verdict import verdict_of
 
     log = SimpleNamespace(alpha_rad=np.linspace(0, 0.3, 100), beta_rad=np.linspace(0, 0.2, 100))
     undecided = {"adequate": None, "floor_used": "black_box"}
     seed = {"adequate": None, "sentence": "Not decided: ...", "axes": {"pitch": dict(undecided), "yaw": dict(undecided)}}
-    verdict, sentence = _verdict(log, seed, [], {"pitch": 99.0, "yaw": 99.0}, {}, None)
+    verdict, sentence = verdict_of(log, seed, [], {"pitch": 99.0, "yaw": 99.0}, {}, None)
     assert verdict == "consistent" and sentence.startswith("the seed model simulates this log as well as a flexible")
     assert sentence.endswith("Not decided: ...")
     # an axis the black box beats does not fit; a fit that did not converge decides nothing: both stay unexplained
     for axis in ({"adequate": False, "floor_used": "black_box"}, {"adequate": None, "floor_used": "noise"}):
         seed["axes"]["yaw"] = axis
         seed["adequate"] = axis["adequate"]
-        assert _verdict(log, seed, [], {"pitch": 99.0, "yaw": 99.0}, {}, None)[0] == "unexplained"
+        assert verdict_of(log, seed, [], {"pitch": 99.0, "yaw": 99.0}, {}, None)[0] == "unexplained"
 
 
 def test_the_output_error_check_decides_the_verdict_when_it_can_carry_the_findings():
@@ -763,15 +763,15 @@ def test_the_output_error_check_decides_the_verdict_when_it_can_carry_the_findin
     the equation error's J/B; a ratio that is not a number never passes."""
     from types import SimpleNamespace
 
-    from trms_ident.diagnosis.run import _verdict
+    from trms_ident.diagnosis.verdict import verdict_of
 
     log = SimpleNamespace(alpha_rad=np.linspace(0, 0.3, 100), beta_rad=np.linspace(0, 0.2, 100))
     seed = {"adequate": False, "axes": {"pitch": {"noise_floor_rad": 1e-3}, "yaw": {"noise_floor_rad": 1e-3}}}
     poor_predictions = {"pitch": 50.0, "yaw": 50.0}
-    assert _verdict(log, seed, ["f"], poor_predictions, {}, {"alpha": 1.0, "beta": 1.1})[0] == "explained"
-    verdict, sentence = _verdict(log, seed, ["f"], {"pitch": 99.99, "yaw": 99.99}, {}, {"alpha": 1.0, "beta": 1.3})
+    assert verdict_of(log, seed, ["f"], poor_predictions, {}, {"alpha": 1.0, "beta": 1.1})[0] == "explained"
+    verdict, sentence = verdict_of(log, seed, ["f"], {"pitch": 99.99, "yaw": 99.99}, {}, {"alpha": 1.0, "beta": 1.3})
     assert verdict == "partly_explained" and "yaw angle's error is still 1.3x" in sentence
-    assert _verdict(log, seed, ["f"], {"pitch": 99.99, "yaw": 99.99}, {}, {"alpha": math.nan, "beta": 1.0})[0] \
+    assert verdict_of(log, seed, ["f"], {"pitch": 99.99, "yaw": 99.99}, {}, {"alpha": math.nan, "beta": 1.0})[0] \
         == "partly_explained"
 
 
@@ -819,7 +819,7 @@ def test_a_profile_on_a_log_cut_mid_run_starts_where_the_current_models_fit_did(
     # and the 0.08 s delay's profile ran off to 0.176 s (power benchmark, seed 5093)
     from sim import SimSettings, simulate
     from trms_ident.diagnosis.model import Model
-    from trms_ident.diagnosis.trials import _grid
+    from trms_ident.diagnosis.trials import value_grid
     from trms_ident.model.effects import BY_KEY
     from trms_ident.params import defaults
 
@@ -830,7 +830,7 @@ def test_a_profile_on_a_log_cut_mid_run_starts_where_the_current_models_fit_did(
                                       seed=5093, start_s=30.0,
                                       effects=[dict(effect="input_delay", axis="both", value=0.08)])))
     fitter = oe.Fitter(log, p, "quadratic")
-    f = fitter.profile(Model(), {}, theta0, key, _grid(BY_KEY[key], log, p), 0.06)
+    f = fitter.profile(Model(), {}, theta0, key, value_grid(BY_KEY[key], log, p), 0.06)
     assert f.value == pytest.approx(0.08, rel=0.02)
     assert oe.passes(f, 24, 0.05) and f.excess_share > 0.99
     base = fitter.base(Model(), {}, theta0)
@@ -841,7 +841,7 @@ def test_a_profile_on_a_log_cut_mid_run_starts_where_the_current_models_fit_did(
 def test_a_refusal_says_a_fit_that_is_not_a_number_in_words():
     """A finding refused while the model has no physical J/B to predict with (the CE150 elevation ramp, measured)
     says so in words; 'nan %' reached the user once (CI, Data100_ea_a0)."""
-    from trms_ident.diagnosis.run import _refusal
+    from trms_ident.diagnosis.search import _refusal
     from trms_ident.model.effects import Candidate
     c = Candidate("com_offset", "pitch", "delta", "rad", "linear")
     ok = {"J1": 0.07, "B1": 0.006, "J2": 0.02, "B2": 0.1}

@@ -11,7 +11,7 @@ from trms_ident import known_values
 from trms_ident.params import ESTIMATED, defaults
 
 
-def _verdict(name: str, j1: float, sd: float) -> joint.LogVerdict:
+def verdict_of(name: str, j1: float, sd: float) -> joint.LogVerdict:
     """A log that determines J1 alone [kg m^2], with standard deviation ``sd``."""
     cov = np.full((4, 4), np.nan)
     cov[0, 0] = sd ** 2
@@ -28,7 +28,7 @@ def test_the_joint_consistency_test_rejects_a_run_three_standard_deviations_off_
     j1, sd = 0.068, 0.068 * 0.005
     off = z * sd * math.sqrt(1.5)  # the difference's sd: its own and the other two's mean, sd^2 (1 + 1/2)
     assert off / j1 >= joint.PRACTICAL_REL
-    logs = [_verdict("a", j1, sd), _verdict("b", j1, sd), _verdict("c", j1 + off, sd)]
+    logs = [verdict_of("a", j1, sd), verdict_of("b", j1, sd), verdict_of("c", j1 + off, sd)]
     test = joint._test(logs, [0, 1, 2], fit=None)
     assert logs[2].z["J1"] == pytest.approx(z, rel=1e-9)
     assert test["level"] == 0.05 and test["consistent"] is consistent
@@ -69,7 +69,7 @@ def test_findings_whose_predictions_stay_3x_the_noise_are_not_called_explained(o
     """diagnose's verdict when the output-error simulation cannot carry the findings: their 2 s predictions within
     EXPLAINED_RMS_OVER_NOISE (1.5x) of the noise floor explain the log, 3x does not.  The angles have a standard
     deviation 100x the floor, so a prediction fit of 100 - r % is r times the floor."""
-    from trms_ident.diagnosis.run import EXPLAINED_RMS_OVER_NOISE, _verdict
+    from trms_ident.diagnosis.verdict import EXPLAINED_RMS_OVER_NOISE, verdict_of
     from trms_ident.log import validated
 
     assert EXPLAINED_RMS_OVER_NOISE == 1.5
@@ -78,7 +78,7 @@ def test_findings_whose_predictions_stay_3x_the_noise_are_not_called_explained(o
     log = validated(t, 0 * t, 0 * t, wave, wave, source="x")
     seed = {"adequate": False, "axes": {a: {"noise_floor_rad": 1e-3} for a in ("pitch", "yaw")}}
     fit = {"pitch": 100.0 - over_noise, "yaw": 100.0 - 1.0}
-    got, sentence = _verdict(log, seed, ["a finding"], fit, {}, None)
+    got, sentence = verdict_of(log, seed, ["a finding"], fit, {}, None)
     assert got == verdict
     if verdict == "partly_explained":
         assert "the pitch prediction error is still 3x its noise level" in sentence
@@ -87,12 +87,12 @@ def test_findings_whose_predictions_stay_3x_the_noise_are_not_called_explained(o
 @pytest.mark.parametrize("over_noise, verdict", [(1.1, "explained"), (1.4, "partly_explained")])
 def test_findings_whose_simulation_stays_above_1_2x_the_noise_are_not_called_explained(over_noise, verdict):
     """With the output-error simulation of the findings' model (estimate's adequacy threshold, 1.2x)."""
-    from trms_ident.diagnosis.run import EXPLAINED_OE_OVER_NOISE, _verdict
+    from trms_ident.diagnosis.verdict import EXPLAINED_OE_OVER_NOISE, verdict_of
     from trms_ident.log import validated
 
     assert EXPLAINED_OE_OVER_NOISE == 1.2
     t = np.arange(2000) * 0.01
     log = validated(t, 0 * t, 0 * t, 0.1 * np.sin(t), 0.1 * np.cos(t), source="x")
     seed = {"adequate": False, "axes": {}}
-    got, _ = _verdict(log, seed, ["a finding"], {}, {}, {"alpha": over_noise, "beta": 1.0}, {"alpha": "noise"})
+    got, _ = verdict_of(log, seed, ["a finding"], {}, {}, {"alpha": over_noise, "beta": 1.0}, {"alpha": "noise"})
     assert got == verdict

@@ -109,11 +109,11 @@ def test_a_value_whose_shooting_fit_stays_above_the_floor_is_not_refitted_in_ful
 def test_the_known_value_wins_over_effects_that_need_more_parameters(monkeypatch):
     """The rule: with a known value at the noise floor, the effect search's findings are refused (each with
     the reason) unless one effect alone explains the log as well, and then it is a flagged look-alike."""
-    from trms_ident.diagnosis import run
+    from trms_ident.diagnosis import search
 
     log = as_log(_sim({"kc": -0.1}))
-    original = run.effect_search
-    stub = lambda effect, axis: run.Finding(effect, axis, {"name": "x", "value": 0.01, "unit": "N m/rad"}, 50.0,  # noqa
+    original = search.effect_search
+    stub = lambda effect, axis: search.Finding(effect, axis, {"name": "x", "value": 0.01, "unit": "N m/rad"}, 50.0,  # noqa
                                             99.0, "stub", "stub", 0.5, 5.0, 1e-6)
 
     def search_says(findings, verdict, ratios):
@@ -126,7 +126,7 @@ def test_the_known_value_wins_over_effects_that_need_more_parameters(monkeypatch
         return fake
 
     # two invented effects that leave the yaw above its floor: the one known value wins, both are refused
-    monkeypatch.setattr(run, "effect_search",
+    monkeypatch.setattr(search, "effect_search",
                         search_says([stub("cable_stiffness", "yaw"), stub("com_offset", "pitch")], "partly_explained",
                                     {"alpha": 1.1, "beta": 3.0}))
     d = diagnose(log)
@@ -135,7 +135,7 @@ def test_the_known_value_wins_over_effects_that_need_more_parameters(monkeypatch
     assert sorted(r["effect"] for r in why) == ["cable_stiffness", "com_offset"]
 
     # a single effect that explains the log too: both one parameter at the floor, so look-alikes, never dropped
-    monkeypatch.setattr(run, "effect_search", search_says([stub("cable_stiffness", "yaw")], "explained",
+    monkeypatch.setattr(search, "effect_search", search_says([stub("cable_stiffness", "yaw")], "explained",
                                                           {"alpha": 1.1, "beta": 1.15}))
     d2 = diagnose(log)
     assert [f.effect for f in d2.findings] == ["known_value", "cable_stiffness"]  # the value leaves less
@@ -148,21 +148,21 @@ def test_two_known_values_off_are_found_together_and_win_over_invented_effects(m
     """Kg doubled and kc halved: each alone misses the floor in the standard windows (kc alone fits 1 s shooting
     windows, not 40 s ones), the two refitted together reach it.  diagnose names both, with their values, and
     refuses effects that do not reach the floor; the library is emptied here so that the test is quick."""
-    from trms_ident.diagnosis import run
+    from trms_ident.diagnosis import search
     from trms_ident.model import effects
 
     log = as_log(_sim({"Kg": 0.1, "kc": -0.1}))
     monkeypatch.setattr(effects, "CANDIDATES", ())
-    original = run.effect_search
+    original = search.effect_search
 
     def invented(*args, **kwargs):  # an effect search that names a cable and leaves the angles above the floor
         out = original(*args, **kwargs)
-        out.findings = [run.Finding("cable_stiffness", "yaw", {"name": "k", "value": 0.07, "unit": "N m/rad"}, 50.0,
+        out.findings = [search.Finding("cable_stiffness", "yaw", {"name": "k", "value": 0.07, "unit": "N m/rad"}, 50.0,
                                     90.0, "stub", "stub", 0.5, 5.0, 1e-6)]
         out.verdict = "partly_explained"
         return out
 
-    monkeypatch.setattr(run, "effect_search", invented)
+    monkeypatch.setattr(search, "effect_search", invented)
     d = diagnose(log)
     assert d.verdict == "explained", d.verdict_sentence
     got = {f.parameter["name"]: f.parameter["value"] for f in d.findings}

@@ -15,7 +15,8 @@ from trms_ident.cli import app
 from trms_ident.diagnosis import oe
 from trms_ident.model import effects
 from trms_ident.diagnosis.model import Model
-from trms_ident.diagnosis.run import FAMILY_ALPHA, diagnose
+from trms_ident.diagnosis.run import diagnose
+from trms_ident.diagnosis.select import FAMILY_ALPHA
 from trms_ident.diagnosis.shapes import declared_shape
 from trms_ident.io.csv_log import write_csv_log
 from trms_ident.params import defaults

@@ -278,15 +278,15 @@ def test_backtracking_goes_to_the_parabolas_minimum_within_its_safeguards():
     for q, expected in ((5.0, 0.4), (20.0, 0.1), (4.5, 0.4444444444444444)):
         trial = 10.0 - 4.0 + q
         assert trial > 10.0
-        assert R._backtrack(1.0, 10.0, -4.0, trial) == pytest.approx(min(max(expected, 0.1), 0.5))
-    assert R._backtrack(1.0, 10.0, -4.0, 10.0 - 4.0 * 0.5 + 2.5 * 0.25) == pytest.approx(0.5)  # clipped: halving
-    assert R._backtrack(0.5, 10.0, -4.0, float("nan")) == pytest.approx(0.05)  # no cost there: a tenth
-    assert R._backtrack(0.5, 10.0, 0.0, 12.0) == pytest.approx(0.25)  # no descent known: halving
+        assert R.backtrack(1.0, 10.0, -4.0, trial) == pytest.approx(min(max(expected, 0.1), 0.5))
+    assert R.backtrack(1.0, 10.0, -4.0, 10.0 - 4.0 * 0.5 + 2.5 * 0.25) == pytest.approx(0.5)  # clipped: halving
+    assert R.backtrack(0.5, 10.0, -4.0, float("nan")) == pytest.approx(0.05)  # no cost there: a tenth
+    assert R.backtrack(0.5, 10.0, 0.0, 12.0) == pytest.approx(0.25)  # no descent known: halving
     # every step length shrinks at least two-fold, ten-fold when the cost soars: a search that never descends
     # ends within 5 trials (halving took 14 to reach 1e-4)
     lam, n = 1.0, 0
     while lam >= 1e-4:
-        lam, n = R._backtrack(lam, 10.0, -4.0, 1e6), n + 1
+        lam, n = R.backtrack(lam, 10.0, -4.0, 1e6), n + 1
     assert n <= 5
 
 

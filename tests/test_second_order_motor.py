@@ -74,7 +74,7 @@ def test_a_saturation_above_every_logged_voltage_is_refused_as_changing_nothing(
     """The backward pass refuses a saturation whose limit, given the other findings, sits above every logged
     voltage of its motor (measured: a 2.49 V pitch saturation found beside a 0.145 s second-order motor came back
     at 2.58 V on a log whose u1 peaks at 2.5 V, and stood as a finding that clipped nothing)."""
-    from trms_ident.diagnosis.run import _negligible
+    from trms_ident.diagnosis.search import _negligible
 
     r = simulate(SimSettings(ref="square", sample_rate_hz=100.0, duration_s=10.0, seed=1))
     log = as_log(r)
@@ -88,7 +88,7 @@ def test_a_saturation_above_every_logged_voltage_is_refused_as_changing_nothing(
 def test_the_search_stops_only_below_its_own_stricter_bar(worst, stops):
     """The rounds stop when the findings leave both angles within 1.1x their floors by output error, not at the
     verdict's 1.2x: a 0.01 pitch drag beside a 2.1 V saturation hid at 1.18x behind the saturation alone."""
-    from trms_ident.diagnosis import run
+    from trms_ident.diagnosis import search, verdict
     from trms_ident.diagnosis.model import Model
 
     class Checked:
@@ -101,8 +101,8 @@ def test_the_search_stops_only_below_its_own_stricter_bar(worst, stops):
     class Reg:
         names = {"pitch": ["J", "B"], "yaw": ["J", "B"]}
 
-    assert run._reaches_floor(Checked(), Model(), Reg(), Score(), {}, defaults()) is stops
-    assert worst <= run.EXPLAINED_OE_OVER_NOISE  # both would be "explained": the bar is the search's own
+    assert search._reaches_floor(Checked(), Model(), Reg(), Score(), {}, defaults()) is stops
+    assert worst <= verdict.EXPLAINED_OE_OVER_NOISE  # both would be "explained": the bar is the search's own
 
 
 def test_estimate_under_a_second_order_motor_is_exact_on_a_noise_free_log(tmp_path):

@@ -201,7 +201,7 @@ def identify(log: Log, settings: Settings | None = None, halves: bool = True) ->
     if headline == "refined" and not usable:
         headline = "offline"
     if headline == "refined":
-        head_intervals = {k: _refined_interval(refined, k) for k in ESTIMATED}
+        head_intervals = {k: refined_interval(refined, k) for k in ESTIMATED}
         chosen = refined.estimate
     else:
         head_intervals = intervals
@@ -306,7 +306,7 @@ def _usable_start(offline: dict) -> bool:
     return all(math.isfinite(offline[k]) and offline[k] > 0 for k in ESTIMATED)
 
 
-def _refine_first(log: Log, n: int, params: dict, settings: Settings, start: dict, noise: dict,
+def refine_first(log: Log, n: int, params: dict, settings: Settings, start: dict, noise: dict,
                   free: tuple = (), **options) -> Refined:
     """The refinement on the log's first n samples, with its stamps and voltage switch times; ``options``:
     refine's (window_s, start_states0)."""
@@ -328,7 +328,7 @@ def _settled(r: Refined, noise: dict) -> bool:
     return r.converged and max(_over_noise(r, noise).values()) <= ADEQUATE_RMS_OVER_NOISE
 
 
-def _noise(log: Log, n: int) -> dict:
+def noise_floors(log: Log, n: int) -> dict:
     """The angles' measurement-noise floor [rad] over the first n samples."""
     t = None if log.uniform else log.t_s[:n]
     return {"alpha": angle_noise_rad(log.alpha_rad[:n], t), "beta": angle_noise_rad(log.beta_rad[:n], t)}
@@ -342,11 +342,11 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
     scope = (f"output-error simulation of {model_name(settings)} at the refined parameters, in {WINDOW_S:g} s "
              "windows from fitted starts (start states estimated)")
     n = len(log) if r is not None else min(len(log), max(CHECK_MAX_STEPS // substeps(dt), 10))
-    noise = _noise(log, n)
+    noise = noise_floors(log, n)
     if r is None:
         start = offline if _usable_start(offline) else {k: params[k] for k in ESTIMATED}
         try:
-            r = _refine_first(log, n, params, settings, start, noise)
+            r = refine_first(log, n, params, settings, start, noise)
         except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as e:
             return {"adequate": False, "axes": {}, "simulation": "none", "caution": None,
                     "sentence": f"The model could not be fitted to this log for the adequacy check ({e}); treat "
@@ -402,10 +402,10 @@ def known_value_fit(log: Log, settings: Settings, check: dict | None = None
     ``check``: the seed model's model_check, whose black-box floor stands in for a noise floor the log cannot
     measure (adequacy.judging_floors), for the fits' weights and for the verdict on them alike."""
     n = min(len(log), max(SUSPECT_MAX_STEPS // substeps(log.sample_time_s), 10))
-    noise = judging_floors(check, _noise(log, n))[0]
+    noise = judging_floors(check, noise_floors(log, n))[0]
 
     def fit(free_now: tuple, theta0: dict, values: dict, **options) -> Refined:
-        return _refine_first(log, n, values, settings, theta0, noise, free_now, **options)
+        return refine_first(log, n, values, settings, theta0, noise, free_now, **options)
 
     return fit, noise, n
 
@@ -441,7 +441,7 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
         return None, (f"refinement skipped: the log needs {steps:,} integration steps, more than the automatic "
                       f"limit of {REFINE_AUTO_MAX_STEPS:,} (use --refine on to force it); DREM's offline "
                       "optimum is the estimate"), False
-    noise = _noise(log, len(log))
+    noise = noise_floors(log, len(log))
 
     # starts in turn until one converges at the noise level: DREM's offline optimum, then the table's J/B. DREM's
     # numbers can be no start at all (a value not positive: a log cut mid-run starts its filters off their steady
@@ -455,7 +455,7 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
     free = refined_free(settings)
     try:
         for name, start in starts:
-            cand = _refine_first(log, len(log), params, settings, start, noise, free)
+            cand = refine_first(log, len(log), params, settings, start, noise, free)
             if r is None or cand.cost < r.cost:
                 r, origin = cand, name
             if _settled(r, noise):
@@ -468,14 +468,14 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
         if not _settled(r, noise):
             start = r.estimate if _usable_start(r.estimate) else {k: params[k] for k in ESTIMATED}
             base = origin.split(" (")[0]
-            cand = _refine_first(log, len(log), params, settings, start, noise, free, start_states0=MOTORS_AT_REST)
+            cand = refine_first(log, len(log), params, settings, start, noise, free, start_states0=MOTORS_AT_REST)
             if cand.cost < r.cost:
                 r, origin = cand, f"{base}, then the motors started from rest"
             if not _settled(r, noise):
-                short = _refine_first(log, len(log), params, settings, start, noise, free,
+                short = refine_first(log, len(log), params, settings, start, noise, free,
                                       window_s=SHOOTING_WINDOW_S)
                 if _usable_start(short.estimate):
-                    cand = _refine_first(log, len(log), params, settings, short.estimate, noise, free,
+                    cand = refine_first(log, len(log), params, settings, short.estimate, noise, free,
                                          start_states0=short.start_states)
                     if cand.cost < r.cost:
                         r, origin = cand, f"{base}, then through {SHOOTING_WINDOW_S:g} s windows first"
@@ -533,7 +533,7 @@ def _with_rounding(log: Log, settings: Settings, params: dict, r: Refined, noise
         f"{QUANTIZATION_OFFSETS} grid offsets): {', '.join(wider)}")
 
 
-def _refined_interval(r: Refined, name: str) -> Interval:
+def refined_interval(r: Refined, name: str) -> Interval:
     est = r.estimate[name]
     lo, hi = r.ci95[name]
     rel = (hi - lo) / 2 / est

@@ -24,7 +24,7 @@ import numpy as np
 from scipy.special import chdtrc, stdtrit
 
 from .errors import IdentificationError
-from .identify import MOTORS_AT_REST, Result, _noise, identify, model_kw, model_name, timing, under_model
+from .identify import MOTORS_AT_REST, Result, noise_floors, identify, model_kw, model_name, timing, under_model
 from .log import Log
 from .numerics.adequacy import model_check
 from .numerics.joint import JointFit, Run, noise_inflation, refine_joint
@@ -177,7 +177,7 @@ def _pooled(logs: list[Log], verdicts: list[LogVerdict], pool: list[int], params
         r = res.refined
         starts0 = r.start_states if (r is not None and r.converged) else MOTORS_AT_REST
         tm = timing(log, len(log))
-        runs.append(Run(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, log.sample_time_s, _noise(log, len(log)),
+        runs.append(Run(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, log.sample_time_s, noise_floors(log, len(log)),
                         tm["t_s"], tm["switch_delay_s"], starts0,
                         1.0 / max(noise_inflation(r if res.headline == "refined" else None), 1e-6),
                         _own_cov(verdicts[i], res)))
@@ -270,7 +270,7 @@ def _check_log(log: Log, fit: JointFit, k: int, model: str = "eq. (1)") -> dict:
     u = np.column_stack([log.u1_v, log.u2_v])
     scope = (f"output-error simulation of {model} at the pooled J/B, this log's own start states, in 40 s windows "
              "from fitted starts")
-    return model_check(y, run["prediction"], u, _noise(log, n), log.sample_time_s, scope)
+    return model_check(y, run["prediction"], u, noise_floors(log, n), log.sample_time_s, scope)
 
 
 def _sentence(verdicts: list[LogVerdict], test: dict, outliers: list, fit: JointFit) -> str:

@@ -27,7 +27,7 @@ from scipy.optimize import minimize_scalar
 from scipy.special import stdtrit
 
 from .errors import IdentificationError, SettingsError, TrmsError
-from .identify import _noise, _refine_first, _refined_interval, identify, under_model
+from .identify import noise_floors, refine_first, refined_interval, identify, under_model
 from .model.bench import KERNEL_KEYS, MIN_KERNEL_LAG_S, MODIFICATION_KEYS
 from .model.effects import BY_KEY, SENSOR_LAG
 from .params import ESTIMATED, merge
@@ -155,7 +155,7 @@ def _held(settings, key: str) -> float:
 def _profile_fit(log, settings, key: str, r0):
     """(value -> the output-error fit with ``key`` (an effect's key, or a known value's name) at that value, from
     ``r0``'s J/B and start states; the angles' noise floors)."""
-    n, noise = len(log), _noise(log, len(log))
+    n, noise = len(log), noise_floors(log, len(log))
 
     def fit(v: float):
         if key in KERNEL_KEYS and v < MIN_KERNEL_LAG_S:  # below what the kernel integrates: no fit there
@@ -164,7 +164,7 @@ def _profile_fit(log, settings, key: str, r0):
               replace(settings, overrides={**settings.overrides, key: v}))
         params0 = merge(at.overrides, source="parameter overrides")
         lg, pp = under_model(log, params0, at.effects, kernel=True)
-        return _refine_first(lg, n, pp, at, r0.estimate, noise, tuple(settings.free),
+        return refine_first(lg, n, pp, at, r0.estimate, noise, tuple(settings.free),
                              max_iterations=ITERATIONS, start_states0=r0.start_states)
 
     return fit, noise
@@ -194,6 +194,6 @@ def _with_refined(res, refined, settings):
     res = replace(res, refined=refined, settings=replace(res.settings, effects=settings.effects))
     if res.headline != "refined":
         return res
-    intervals = {k: _refined_interval(refined, k) for k in ESTIMATED}
+    intervals = {k: refined_interval(refined, k) for k in ESTIMATED}
     return replace(res, intervals=intervals,
                    estimates={k: (refined.estimate[k] if intervals[k].identifiable else None) for k in ESTIMATED})

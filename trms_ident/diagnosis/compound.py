@@ -1,7 +1,7 @@
 """Two differences at once: an effect the search found, with a known value off its table.
 
 A real bench differs from eq. (1) with Table 1's values in several ways at once (its own known values, a
-second-order motor, a cable).  The effect search (run.py) finds the first difference well, but it works at the
+second-order motor, a cable).  The effect search (search.py) finds the first difference well, but it works at the
 table's known values, so a second difference that is a known value (Mg 10 % low beside a yaw cable) is then
 explained by invented physics (thrust asymmetry, a centre-of-mass offset).  The known-value search
 (known_values.py) frees one value at a time in eq. (1) alone, so it cannot reach the noise floor while the
@@ -240,7 +240,7 @@ def value_first(d, log: Log, p: dict, law: str, overrides: dict | None, kv: dict
                 ) -> tuple[object | None, list]:
     """(the diagnosis explained by a known value and the effects the search finds once that value is set, or None;
     the hypotheses tried).  ``search(overrides)``: the effect search's Diagnosis of ``log`` under those values
-    (run.effect_search); ``refit`` as in together()."""
+    (search.effect_search); ``refit`` as in together()."""
     record = []
     given = dict(overrides or {})
     seed = [v.get("rms_over_noise", math.nan) for v in d.seed_check.get("axes", {}).values()]

@@ -1,7 +1,7 @@
 """The 2 s prediction fits diagnose reports for each model it judges (the seed model, each finding's step, the
 findings' model), and the motors' start states each model predicts from.
 
-A room of its own: run.py (the search), weigh.py (the rule) and the report read these numbers; nothing here
+A room of its own: search.py (the search), weigh.py (the rule) and the report read these numbers; nothing here
 chooses a finding.  predict.py holds the compiled predictions; this file feeds them the model's inputs.
 """
 from __future__ import annotations
@@ -20,7 +20,7 @@ from .model import AXIS_ANGLE, Model, modified_inputs, observed_log, restart_vel
 from .predict import HORIZON_S, nrmse_fit, predict_fitted_start
 
 
-#: how much of the log's beginning decides the motors' start states (run._choose_start, best_start) [s]
+#: how much of the log's beginning decides the motors' start states (search._choose_start, best_start) [s]
 START_JUDGE_S = 60.0
 #: the motors at rest at the first sample
 REST = {"tau1_0": 0.0, "tau2_0": 0.0, "zeta_0": 0.0}

@@ -21,7 +21,7 @@ from ..log import Log
 from ..model import effects
 from . import oe
 from .model import Model
-from .trials import _axes_of, jb_start
+from .trials import axes_of, jb_start
 
 #: the held-out fits use at most this many seconds of the output-error fit's samples (two halves): on an hour
 #: at 1 kHz the seed model's fit of a half that misses physics runs to its iteration limit, and 2 x 60 s of a
@@ -112,7 +112,7 @@ def lowering(findings, h: dict | None) -> list[dict]:
     told = ", ".join(f"{a} {h['before'][a]:.1f} % -> {h['after'][a]:.1f} %" for a in sorted(worse))
     out = []
     for f in findings:
-        if f.effect == "known_value" or not set(_axes_of(effects.by_key(f"{f.effect}:{f.axis}"))) & worse:
+        if f.effect == "known_value" or not set(axes_of(effects.by_key(f"{f.effect}:{f.axis}"))) & worse:
             continue
         out.append({"key": f"{f.effect}:{f.axis}", "effect": f.effect, "axis": f.axis,
                     "parameter": float(f.parameter["value"]),

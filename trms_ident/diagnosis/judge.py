@@ -1,8 +1,8 @@
 """Where the output-error fit decides (oe.py): a finding the equation error passed, confirmed or refused by
-the output-error held-out test (_oe_confirm); the rescue when the equation error passes nothing
-(_oe_rescue: its best candidates fitted by output error, those on an axis left above its floor first);
-close rivals told apart by the misfit each leaves (_alternatives_by_output_error), and the two pitch offsets
-(_offsets_by_output_error).  diagnosis/run.py's rounds call these."""
+the output-error held-out test (oe_confirm); the rescue when the equation error passes nothing
+(oe_rescue: its best candidates fitted by output error, those on an axis left above its floor first);
+close rivals told apart by the misfit each leaves (alternatives_by_output_error), and the two pitch offsets
+(offsets_by_output_error).  diagnosis/search.py's rounds call these."""
 from __future__ import annotations
 
 from ..model import effects as room
@@ -12,14 +12,14 @@ from . import oe
 from .discriminate import PAIR, tell_offsets_apart
 from .model import Model, modified_inputs
 from .select import FAMILY_ALPHA
-from .trials import (ALIAS_GAIN_RATIO, _at_value, _axes_of, _effect_values, _estimates, _grid, _try,
-                     jb_start)
+from .trials import (ALIAS_GAIN_RATIO, at_value, axes_of, effect_values, jb_estimates, jb_start, try_candidate,
+                     value_grid)
 
-def _offsets_by_output_error(best, alts, ok, log, p, law, current):
+def offsets_by_output_error(best, alts, ok, log, p, law, current):
     """The two offsets look alike in the equation error; the output-error fit may still tell them apart
     (diagnose/discriminate.py).  Only for models the fit can carry: input modifications, no extra torques."""
     other = next(r for r in ok if r["c"].key in PAIR and r["c"].key != best["c"].key)
-    theta0 = _estimates(best["score"], best["reg"])
+    theta0 = jb_estimates(best["score"], best["reg"])
     if current.linear or not all(v > 0 for v in theta0.values()) or best["value"] == 0 or other["value"] == 0:
         return best, alts, None
     u1, u2, changes = modified_inputs(log, dict(current.mods))
@@ -38,7 +38,7 @@ def _offsets_by_output_error(best, alts, ok, log, p, law, current):
 TIMING_PAIR = {"input_delay:both": "sensor_lag:both", "sensor_lag:both": "input_delay:both"}
 
 
-def _alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests,
+def alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests,
                                   fitter, tested, partners=()):
     """The equation error's best candidate has rivals: passing candidates whose held-out gain comes within
     ALIAS_GAIN_RATIO of its gain (``alts``, its look-alikes, among them).  The equation error only orders them
@@ -57,11 +57,11 @@ def _alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache
     if not oe.fittable(best["c"].key) or not rivals or not oe.representable(current):
         return best, alts, None
     pool = [best] + rivals[:OE_TOP_K]
-    theta0 = _oe_start(score_now, reg_now, p)
-    values = _effect_values(current, score_now, reg_now)
+    theta0 = oe_start(score_now, reg_now, p)
+    values = effect_values(current, score_now, reg_now)
     fits, fitted = {}, []
     for r in pool:
-        f, short = _oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested)
+        f, short = oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested)
         if f is None and r is best:  # the best cannot be fitted (a torque needs a converged current model, a
             return best, alts, None  # profile does not): nothing to compare the rivals with
         if f is not None:
@@ -82,7 +82,7 @@ def _alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache
     r = best if best in close else min(close, key=lambda q: left[q["c"].key])  # the equation error's, if it holds
     f = fits[r["c"].key]
     if oe.profiled(r["c"].key):  # the model at the output error's value, with its regression
-        res = _at_value(r["c"], f.value, log, p, law, a, current, cache, ids, score_now, n_tests)
+        res = at_value(r["c"], f.value, log, p, law, a, current, cache, ids, score_now, n_tests)
     else:
         res = dict(r)
     res["oe"], res["value"] = f, f.value
@@ -98,47 +98,48 @@ def _alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache
 OE_TOP_K = 3
 
 
-def _oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests, fitter, tested,
+def oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests, fitter, tested,
                oe_values: dict, scan: bool = True):
     """The equation-error test passed no candidate: fit its best OE_TOP_K output-error candidates by output
     error (oe.py) and return the one that passes there with the largest drop in angle error (its regression
-    and value, as _try returns them, with "oe": the fit), or None.  ``scan``: as oe.Fitter.profile's."""
+    and value, as try_candidate returns them, with "oe": the fit), or None.  ``scan``: as oe.Fitter.profile's."""
     if not oe.representable(current):
         return None
-    theta0 = _oe_start(score_now, reg_now, p)
-    values = _effect_values(current, score_now, reg_now)
-    off = _misfit_axes(fitter, current, _effect_values(current, score_now, reg_now, oe_values), theta0)
+    theta0 = oe_start(score_now, reg_now, p)
+    values = effect_values(current, score_now, reg_now)
+    off = _misfit_axes(fitter, current, effect_values(current, score_now, reg_now, oe_values), theta0)
     order = _rescue_order((r for r in results if oe.fittable(r["c"].key) and r["c"].key not in current.keys), off)
     good = []
     for r in order:
-        f, short = _oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested, scan=scan)
+        f, short = oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested, scan=scan)
         if not short:
             good.append((r, f))
     if not good:
         return None
     r, f = max(good, key=lambda rf: rf[1].cost_drop)
     if oe.profiled(r["c"].key):  # the model at the output error's value, with its regression
-        res = _at_value(r["c"], f.value, log, p, law, a, current, cache, ids, score_now, n_tests)
+        res = at_value(r["c"], f.value, log, p, law, a, current, cache, ids, score_now, n_tests)
     else:
-        res = _try(r["c"], log, p, law, a, current, cache, ids, score_now, n_tests)  # its regression (dropped before)
+        # its regression (dropped before)
+        res = try_candidate(r["c"], log, p, law, a, current, cache, ids, score_now, n_tests)
     res["oe"], res["value"] = f, f.value
     return res
 
 
 def other_motor(c, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests, fitter, tested,
                 oe_values: dict):
-    """The other motor's input nonlinearity ``c`` (run._siblings) fitted by output error on top of the current
+    """The other motor's input nonlinearity ``c`` (search._siblings) fitted by output error on top of the current
     model: the pair first placed at the common value that fits best (oe.Fitter.common_width), then ``c``
     profiled with the first motor's at that value, and the first motor's profiled again beside it.  The
-    finding as _oe_rescue returns one (its "model" holds the first motor's new value, also written to
+    finding as oe_rescue returns one (its "model" holds the first motor's new value, also written to
     ``oe_values``) when the test passes, else None.  Unlike the rescue this runs with an input modification
     already in the model (oe.representable refuses those): its value is the output error's, not the equation
     error's."""
     if not oe.profiled(c.key):
         return None
-    theta0 = _oe_start(score_now, reg_now, p)
-    values = _effect_values(current, score_now, reg_now, oe_values)
-    grid = _grid(c, log, p)
+    theta0 = oe_start(score_now, reg_now, p)
+    values = effect_values(current, score_now, reg_now, oe_values)
+    grid = value_grid(c, log, p)
     first = f"{c.effect}:{'yaw' if c.axis == 'pitch' else 'pitch'}"
     if not grid or first not in dict(current.mods):
         return None
@@ -148,15 +149,15 @@ def other_motor(c, log, p, law, a, current, cache, ids, score_now, reg_now, n_te
         start = common[0]
         current = current.moved(first, start)
         values = {**values, first: start}
-    f, why = _oe_fit(c, start, fitter, current, values, theta0, log, p, n_tests, tested)
+    f, why = oe_fit(c, start, fitter, current, values, theta0, log, p, n_tests, tested)
     if f is None or why:
         return None
     again = fitter.profile(current.with_mod(c.key, f.value), {**values, c.key: f.value}, theta0, first,
-                           _grid(room.by_key(first), log, p), values[first])
+                           value_grid(room.by_key(first), log, p), values[first])
     if again is not None and again.cost_drop > 0:
         current = current.moved(first, again.value)
     oe_values[first] = dict(current.mods)[first]
-    res = _at_value(c, f.value, log, p, law, a, current, cache, ids, score_now, n_tests)
+    res = at_value(c, f.value, log, p, law, a, current, cache, ids, score_now, n_tests)
     res["oe"], res["value"] = f, f.value
     return res
 
@@ -164,7 +165,7 @@ def other_motor(c, log, p, law, a, current, cache, ids, score_now, reg_now, n_te
 def _rescue_order(results, off: set) -> list:
     """The OE_TOP_K candidates the rescue fits: the equation error's best by held-out gain; when the current
     model leaves one axis above its floor (``off``) and fits the other, first those that act on that axis
-    (directly, or through the reaction torque a pitch input modification changes on yaw: _axes_of) and whose
+    (directly, or through the reaction torque a pitch input modification changes on yaw: axes_of) and whose
     held-out blocks improve on the whole (t > 0).  Measured: on a log whose pitch fitted at 1.00x and yaw at
     1.89x, two pitch motor lags with gains 0.16-0.18 at t = -262 and -38 took two of the three places and the
     0.1 V yaw dead zone (gain 0.0036, t = 2.7) was never fitted; a pitch saturation that left the pitch at its
@@ -186,24 +187,24 @@ def _misfit_axes(fitter, model: Model, values: dict, theta0: dict) -> set:
 
 
 def _acts_on(c: Candidate, axes: set) -> bool:
-    """Does candidate c act on one of ``axes`` (_axes_of: an input delay on both, a pitch input modification on
+    """Does candidate c act on one of ``axes`` (axes_of: an input delay on both, a pitch input modification on
     yaw too)?"""
-    return bool(set(_axes_of(c)) & axes)
+    return bool(set(axes_of(c)) & axes)
 
 
-def _oe_start(sc, reg, p: dict) -> dict:
+def oe_start(sc, reg, p: dict) -> dict:
     """J/B the output-error fits start from: the equation error's, or the table's when those are not physical."""
-    return jb_start(_estimates(sc, reg), p)
+    return jb_start(jb_estimates(sc, reg), p)
 
 
-def _oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested, torque_floor: bool = True,
+def oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested, torque_floor: bool = True,
             scan: bool = True):
     """Candidate c fitted by output error on top of ``current`` (an input modification by a profile over its
     value, from the equation error's ``value0``); the fit (or None) and what keeps it from passing, in words
     (oe.shortfall, with or without the torque-share floor, and the value's plausibility; empty: it passes).
     Recorded in ``tested``.  ``scan``: as oe.Fitter.profile's."""
     if oe.profiled(c.key):
-        f = fitter.profile(current, values, theta0, c.key, _grid(c, log, p), value0, scan)
+        f = fitter.profile(current, values, theta0, c.key, value_grid(c, log, p), value0, scan)
     else:
         f = fitter.candidate(current, values, theta0, c.key)
     if f is None:
@@ -218,10 +219,10 @@ def _oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested,
     return f, why
 
 
-def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested, gate: bool = False):
+def oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested, gate: bool = False):
     """A finding the equation error passed, judged by the output-error fit when that fit can carry it (with its
     held-out test; for step modifications, Candidate.step, its profile sets the value): (the finding as
-    _oe_rescue returns one, None) when the test passes; (None, why not) when the fit carries it and the test
+    oe_rescue returns one, None) when the test passes; (None, why not) when the fit carries it and the test
     does not pass; (None, None) when the fit cannot judge it (the equation error's finding then stands).
     ``gate``: the test only decides; a finding it passes keeps the equation error's value, model and J/B (fitted
     together), with the output-error fit under "oe_gate" for its evidence.  The gate asks the output-error test
@@ -233,8 +234,8 @@ def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested, gate:
     if not oe.fittable(c.key) or not oe.representable(before):
         return None, None
     # gate: the equation error's practical size (a 5 % held-out drop) passed it, so no torque-share floor here
-    f, why = _oe_fit(c, best["value"], fitter, before, _effect_values(before, sc_b, reg_b),
-                     _oe_start(sc_b, reg_b, p), log, p, n_tests, tested, torque_floor=not gate)
+    f, why = oe_fit(c, best["value"], fitter, before, effect_values(before, sc_b, reg_b),
+                     oe_start(sc_b, reg_b, p), log, p, n_tests, tested, torque_floor=not gate)
     if f is None:
         return None, None
     if why:
@@ -242,7 +243,7 @@ def _oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested, gate:
                       + "; ".join(why))
     if gate:
         return {**best, "oe_gate": f}, None
-    res = (_at_value(c, f.value, log, p, law, a, before, cache, ids, sc_b, n_tests) if oe.profiled(c.key)
+    res = (at_value(c, f.value, log, p, law, a, before, cache, ids, sc_b, n_tests) if oe.profiled(c.key)
            else dict(best))
     res.update(oe=f, value=f.value, before=best["before"], told_apart=best.get("told_apart"))
     return res, None

@@ -139,7 +139,7 @@ def modified_inputs(log: Log, mods: dict) -> tuple[np.ndarray, np.ndarray, dict]
     for key, v in mods.items():
         effect, axis = key.split(":")
         if effect == "input_delay":
-            u = {ax: _delay(x, v / dt) for ax, x in u.items()}
+            u = {ax: delayed(x, v / dt) for ax, x in u.items()}
         elif effects.declared_modification(key):  # its voltage transform, from the model room (model/effects.py)
             c = effects.by_key(key)
             u[axis] = c.modify(u[axis], v, dt) if c.needs_dt else c.modify(u[axis], v)
@@ -148,7 +148,7 @@ def modified_inputs(log: Log, mods: dict) -> tuple[np.ndarray, np.ndarray, dict]
     return u["pitch"], u["yaw"], changes
 
 
-def _delay(u: np.ndarray, samples: float) -> np.ndarray:
+def delayed(u: np.ndarray, samples: float) -> np.ndarray:
     """u(t - d) for a held signal: whole samples shifted, the fraction as the interval's average."""
     m = int(math.floor(samples))
     r = samples - m

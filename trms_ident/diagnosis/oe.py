@@ -61,7 +61,7 @@ from .select import MIN_SIGNAL_SHARE
 
 #: candidates the output-error fit carries compiled into its kernel (others: carries())
 OE_KEYS = tuple(EFFECT_SLOTS)
-#: the pitch offsets: the equation error fits them exactly as modifications of its regression (run.EXACT_OFFSETS),
+#: the pitch offsets: the equation error fits them exactly as modifications of its regression (trials.EXACT_OFFSETS),
 #: the output-error fit carries them with their parameter free like the torque effects
 OFFSETS = ("com_offset:pitch", "sensor_offset:pitch")
 #: a passing candidate must lower the noise-weighted squared angle error by this fraction of the current one
@@ -475,14 +475,14 @@ class Fitter:
                 scan: bool = True) -> OEFit | None:
         """Input modification ``key`` (profiled(), a positive value) fitted by output error over its value:
         the grid's values near ``value0`` (the equation error's), the whole range more finely when the best of
-        those is far from the noise floor (PROFILE_SCAN_OVER_FLOOR) and ``scan``, then finer around the best; J/B,
-        the start
-        states and the current findings' parameters refitted at each.  None when the current model cannot be
-        fitted or no trial value can.  ``scan`` False: only a value that brings the log to its noise floor
-        matters (a look-alike of a known value that already does, run.effect_search); there the equation
-        error's value is consistent, so its neighbourhood holds the answer and the screen is not needed.  The current model's fit need not have converged (a model that misses a
-        delay drove B1 to its bound of 0 and stopped there): the held-out test's scale grows with whatever misfit
-        the candidate leaves, so a base far from its own optimum does not make a partial explanation pass."""
+        those is far from the noise floor (PROFILE_SCAN_OVER_FLOOR) and ``scan``, then finer around the best;
+        J/B, the start states and the current findings' parameters refitted at each.  None when the current model
+        cannot be fitted or no trial value can.  The current model's fit need not have converged (a model that
+        misses a delay drove B1 to its bound of 0 and stopped there): the held-out test's scale grows with
+        whatever misfit the candidate leaves, so a base far from its own optimum does not make a partial
+        explanation pass.  ``scan`` False: only a value that brings the log to its noise floor matters (a
+        look-alike of a known value that already does, search.effect_search); there the equation error's value
+        is consistent, so its neighbourhood holds the answer and the screen is not needed."""
         return self._asked(self._profile, model, values, theta0, key, tuple(grid), float(value0), bool(scan))
 
     def _profile(self, model: Model, values: dict, theta0: dict, key: str, grid: tuple, value0: float,
@@ -687,7 +687,7 @@ def passes(fit: OEFit, n_tests: int, alpha: float) -> bool:
 
 def shortfall(fit: OEFit, n_tests: int, alpha: float, torque_floor: bool = True) -> list[str]:
     """What keeps the fit from passing (passes), in words; empty when it passes.  ``torque_floor=False``: without
-    the torque-share floor (a candidate the equation error's own practical size passed, see run._oe_confirm)."""
+    the torque-share floor (a candidate the equation error's own practical size passed, see judge.oe_confirm)."""
     floor = (MIN_MODIFICATION_SHARE if fit.profiled else MIN_TORQUE_SHARE) if torque_floor else 0.0
     out = []
     if not fit.p < alpha / max(n_tests, 1):

@@ -38,7 +38,7 @@ def _rhs(pitch, x, v, tau_m, other, s2, scw, ext, th, fx):
     return (acc - th[1] * v) / (th[0] - fx[6] * s2)  # over yaw_inertia(J2, dJ, sin alpha), s2 = sin^2 alpha
 
 
-@njit(cache=True, nogil=True)  # the GIL released: diagnosis/run.py's _fits predicts both axes at once
+@njit(cache=True, nogil=True)  # the GIL released: diagnosis/fits.py's prediction_fits predicts both axes at once
 def _predict(pitch, x_start, v_start, x_off, v_off, tau, other, s2, scw, ext, dt, horizon, th, fx, out):
     """Angle predictions [rad] into ``out``, restarted every ``horizon`` samples from x_start + x_off[window]
     (logged angle) and v_start + v_off[window] [rad/s] at the restart sample; inputs (tau, other = beta' or

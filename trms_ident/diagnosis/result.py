@@ -1,4 +1,4 @@
-"""What diagnose returns: the diagnosis, its findings and the verdicts' words (run.py builds them, weigh.py
+"""What diagnose returns: the diagnosis, its findings and the verdicts' words (search.py builds them, weigh.py
 applies the rule to them, report/diagnosis.py writes them out)."""
 from __future__ import annotations
 

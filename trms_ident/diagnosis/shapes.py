@@ -13,7 +13,7 @@ import numpy as np
 
 from ..model.effects import Candidate, angle_lag, with_unit
 from ..model.plant import thrust_law
-from .model import _delay
+from .model import delayed
 
 
 @dataclass(frozen=True)
@@ -123,8 +123,8 @@ def term_shape(c: Candidate, value: float, p: dict, law: str, velocity: np.ndarr
         half = max(int(round(max(3 * value, 0.2) / dt_s)), 2)
         sl = slice(max(k - half, 0), min(k + half, u_v.size))
         t = np.arange(u_v.size)[sl] * dt_s
-        delayed = _delay(u_v, value / dt_s)[sl]  # as the prediction model delays it
-        return Shape("t [s]", t, "u1 [V]", delayed, u_v[sl], f"input delay: d = {1e3 * value:.3g} ms (around "
+        u_d = delayed(u_v, value / dt_s)[sl]  # as the prediction model delays it
+        return Shape("t [s]", t, "u1 [V]", u_d, u_v[sl], f"input delay: d = {1e3 * value:.3g} ms (around "
                      "the log's largest voltage step)")
     if e == "motor_lag":
         t11, t10 = (p["T11"], p["T10"]) if ax == "pitch" else (p["T21"], p["T20"])

@@ -1,7 +1,7 @@
 """The hypotheses tested by the equation error: one candidate of the library added to the current model, its
 regression refitted and its held-out blocks scored (select.py), and what that test needs around it (the
 search grids of the input modifications, the exact pitch offsets, the practical size, the look-alike
-measure).  diagnosis/run.py's rounds call _try for each candidate; judge.py asks the output-error fit."""
+measure).  diagnosis/search.py's rounds call try_candidate for each candidate; judge.py asks the output-error fit."""
 from __future__ import annotations
 
 import math
@@ -21,7 +21,7 @@ from .select import block_ids, compare, score
 #: constant, which went back to 1.0001 s once the further lag was in)
 MOTOR_LAG_NEUTRAL = 0.01
 
-def _axes_of(c: Candidate) -> tuple[str, ...]:
+def axes_of(c: Candidate) -> tuple[str, ...]:
     if c.effect in ("input_delay",):
         return ("pitch", "yaw")
     if c.kind == "grid" and c.axis == "pitch":  # u1 also drives the yaw axis through M_R
@@ -29,7 +29,7 @@ def _axes_of(c: Candidate) -> tuple[str, ...]:
     return (c.axis,) if c.axis != "both" else ("pitch", "yaw")
 
 
-def _grid(c: Candidate, log: Log, p: dict) -> tuple[float, ...]:
+def value_grid(c: Candidate, log: Log, p: dict) -> tuple[float, ...]:
     dt = log.sample_time_s
     if c.effect == "input_delay":
         g = [dt * s for s in (0.5, 1, 1.5, 2, 3, 4, 5, 6, 8, 10, 12, 15, 19, 24, 30, 38, 48)]
@@ -58,7 +58,7 @@ def _refine(grid, gains, best_i, log_space: bool = True) -> float:
     return float(grid[best_i])
 
 
-def _params_of(axes) -> list[str]:
+def params_of(axes) -> list[str]:
     return [k for axis in axes for k in (("J1", "B1") if axis == "pitch" else ("J2", "B2"))]
 
 
@@ -88,18 +88,18 @@ def grid_span(log: Log, block: int, start: dict | None) -> GridSpan | None:
     return GridSpan(log.head(n), {("start_states",): start, ("bytes",): 0}, block_ids(n, block))
 
 
-def _try(c, log, p, law, a, current, cache, ids, score_now, n_tests, span: GridSpan | None = None):
+def try_candidate(c, log, p, law, a, current, cache, ids, score_now, n_tests, span: GridSpan | None = None):
     """Candidate c added to the current model and tested by the equation error: {"c", "model", "reg", "score",
     "test", "value"}, or None (a grid with no point).  An input modification's value is the best of its grid
     (on ``span``'s samples when given), refined by a parabola, and tested on the whole log."""
-    axes_c = _axes_of(c)
+    axes_c = axes_of(c)
     if c.kind == "linear":
         model = current.with_linear(c.key)
         reg = regression(log, p, law, a, model, cache)
         sc = score(reg, ids, ("pitch", "yaw"))
         value = float(sc.theta[c.axis][reg.names[c.axis].index(c.key)])
     else:
-        grid = _grid(c, log, p)
+        grid = value_grid(c, log, p)
         if not grid:
             return None
         gains = []
@@ -108,19 +108,19 @@ def _try(c, log, p, law, a, current, cache, ids, score_now, n_tests, span: GridS
             model = current.with_mod(c.key, v)
             reg = sc = None  # the last grid point's columns go before the next are built (memory on long logs)
             reg = regression(on.log, p, law, a, model, on.cache)
-            sc = score(reg, on.ids, axes_c)  # the gain reads the candidate's axes only (_at_value scores both)
+            sc = score(reg, on.ids, axes_c)  # the gain reads the candidate's axes only (at_value scores both)
             gains.append(compare(on.score_now, sc, reg, axes_c, n_tests).gain)
         i = int(np.argmax(gains))
         reg = sc = None
         value = _refine(grid, gains, i)
         if span is not None and c.key == SENSOR_LAG:  # tested on the head first: a lag's regression of the whole
             # log is the de-lagged log's own columns beside the log's (measured: +440 MB on an hour at 1 kHz)
-            res = _at_value(c, value, span.log, p, law, a, current, span.cache, span.ids, span.score_now, n_tests)
+            res = at_value(c, value, span.log, p, law, a, current, span.cache, span.ids, span.score_now, n_tests)
             if not res["test"].passed:
                 res["reg"] = None  # the head's columns: never mixed with the whole log's
                 return res
             res = None  # the head's columns go before the whole log's are built
-        return _at_value(c, value, log, p, law, a, current, cache, ids, score_now, n_tests)
+        return at_value(c, value, log, p, law, a, current, cache, ids, score_now, n_tests)
     if c.effect in EXACT_OFFSETS and value != 0.0:
         reg = sc = None
         model, reg, sc, value = _exact_offset(c, value, log, p, law, a, current, cache, ids, score_now, n_tests)
@@ -128,12 +128,12 @@ def _try(c, log, p, law, a, current, cache, ids, score_now, n_tests, span: GridS
     return {"c": c, "model": model, "reg": reg, "score": sc, "test": test, "value": value}
 
 
-def _at_value(c, value, log, p, law, a, current, cache, ids, score_now, n_tests):
+def at_value(c, value, log, p, law, a, current, cache, ids, score_now, n_tests):
     """A grid candidate (an input modification) at ``value``: its model, regression and held-out test."""
     model = current.with_mod(c.key, value)
     reg = regression(log, p, law, a, model, cache)
     sc = score(reg, ids, ("pitch", "yaw"))
-    return {"c": c, "model": model, "reg": reg, "score": sc, "test": compare(score_now, sc, reg, _axes_of(c), n_tests),
+    return {"c": c, "model": model, "reg": reg, "score": sc, "test": compare(score_now, sc, reg, axes_of(c), n_tests),
             "value": value}
 
 
@@ -147,7 +147,7 @@ def _exact_offset(c, delta0, log, p, law, a, current, cache, ids, score_now, n_t
     gains = []
     for d in grid:
         model = current.with_mod(c.key, d)
-        reg = sc = None  # as in _try: one grid point's columns at a time
+        reg = sc = None  # as in try_candidate: one grid point's columns at a time
         reg = regression(log, p, law, a, model, cache)
         sc = score(reg, ids, ("pitch", "yaw"))
         gains.append(compare(score_now, sc, reg, ("pitch",), n_tests).gain)
@@ -167,7 +167,7 @@ def _exact_offset(c, delta0, log, p, law, a, current, cache, ids, score_now, n_t
 SIZE_FLOORED = ("com_offset:pitch", "sensor_offset:pitch")
 
 
-def _practical(c: Candidate, v: float, log: Log, p: dict, law: str) -> bool:
+def practical(c: Candidate, v: float, log: Log, p: dict, law: str) -> bool:
     """Is the candidate's value of practical size?  SIZE_FLOORED candidates by their torque share; a motor time
     constant must differ from the table's by MOTOR_LAG_NEUTRAL (measured: the equation error passed a yaw
     motor time constant of 1.0001 s, the table's 1.0 s, with an 8.5 % held-out drop beside a second-order yaw
@@ -177,7 +177,7 @@ def _practical(c: Candidate, v: float, log: Log, p: dict, law: str) -> bool:
     return c.key not in SIZE_FLOORED or oe.torque_share(c.key, v, log, p, law) >= oe.MIN_TORQUE_SHARE
 
 
-def _residual(reg, sc, axis: str) -> np.ndarray:
+def axis_residual(reg, sc, axis: str) -> np.ndarray:
     """The axis' equation error [N m] of a fitted regression: g - X theta."""
     return reg.g[axis] - reg.x[axis] @ sc.theta[axis]
 
@@ -190,12 +190,12 @@ ALIAS_CORRELATION = 0.95
 ALIAS_GAIN_RATIO = 0.8
 
 
-def _alias(a: dict, b: dict) -> bool:
+def aliased(a: dict, b: dict) -> bool:
     """Do two fitted candidates change the residual in the same way?"""
     corr = []
     for axis in ("pitch", "yaw"):
-        ra = _residual(a["reg"], a["score"], axis)
-        rb = _residual(b["reg"], b["score"], axis)
+        ra = axis_residual(a["reg"], a["score"], axis)
+        rb = axis_residual(b["reg"], b["score"], axis)
         if np.std(ra) > 0 and np.std(rb) > 0:
             corr.append(float(np.corrcoef(ra, rb)[0, 1]))
     return bool(corr) and min(corr) >= ALIAS_CORRELATION
@@ -205,19 +205,19 @@ def _alias(a: dict, b: dict) -> bool:
 SEPARATION_MARGIN = 0.05
 
 
-def _separable(best: dict, other: dict) -> bool:
+def separable(best: dict, other: dict) -> bool:
     """Is ``best`` better than ``other`` block by block, beyond chance (one-sided 5 %) and by a margin?"""
-    axes = sorted(set(_axes_of(best["c"])) | set(_axes_of(other["c"])))
+    axes = sorted(set(axes_of(best["c"])) | set(axes_of(other["c"])))
     test = compare(other["score"], best["score"], best["reg"], axes, 1, alpha=0.05)
     return test.p < 0.05 and best["test"].gain - other["test"].gain >= SEPARATION_MARGIN * best["test"].gain
 
 
-def _estimates(sc, reg) -> dict:
+def jb_estimates(sc, reg) -> dict:
     return {"J1": float(sc.theta["pitch"][0]), "B1": float(sc.theta["pitch"][1]),
             "J2": float(sc.theta["yaw"][0]), "B2": float(sc.theta["yaw"][1])}
 
 
-def _effect_values(model: Model, sc, reg, decided: dict | None = None) -> dict:
+def effect_values(model: Model, sc, reg, decided: dict | None = None) -> dict:
     """The model's findings' values: input modifications at theirs, torque terms as the regression fits them;
     ``decided`` (key -> value): the values the output-error fits decided, which replace those of the model's
     findings."""

@@ -7,7 +7,7 @@ The hypotheses come from two searches over the same log:
 - the known values (trms_ident/known_values.py): each value of eq. (1)'s table set free alone and refitted by
   output error.  identify's adequacy check runs that search (estimate's sentence names its result); diagnose
   reads the same result from its seed check, so the two commands name the same value on every log;
-- the effect library (run.py): effects added one at a time, judged by held-out tests, output-error fits and
+- the effect library (search.py): effects added one at a time, judged by held-out tests, output-error fits and
   the noise floor.
 
 The rule, in order (each explanation counted by the parameters it adds to eq. (1); J/B and start states are
@@ -49,7 +49,7 @@ from .. import known_values
 from ..log import Log
 from ..numerics.adequacy import RMS_OVER_NOISE
 from ..numerics.stats import block_length
-from . import run
+from . import search
 from .compound import together, tried_sentence, value_first
 from .fits import prediction_fits
 from .model import AXIS_ANGLE, regression
@@ -104,7 +104,7 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
                 d.verdict_sentence += known_values.joint_sentence(j, base)
             first, tried_first = value_first(
                 d, log, p, law, overrides, kv, refit,
-                lambda under: run.effect_search(log, under, law, d.settings["a_rad_s"], lambda stage, done: None))
+                lambda under: search.effect_search(log, under, law, d.settings["a_rad_s"], lambda stage, done: None))
             if first is not None:
                 return first
             if tried_first:

@@ -5,7 +5,7 @@ The output-error estimate (numerics/refine.py) fits J/B, the motors' start state
 rates to the logged angles, given the logged voltages.  Given the voltages and angles a run would produce (the
 closed-loop simulator's, noise-free) and the angles' noise standard deviation, its Fisher information is the
 refinement's own normal matrix at the true values: the noise-weighted Gauss-Newton matrix with the windows'
-starts eliminated (refine._schur).  Its inverse is the covariance an unbiased estimate reaches when the errors
+starts eliminated (refine.schur).  Its inverse is the covariance an unbiased estimate reaches when the errors
 are white at that standard deviation (Cramer-Rao); the closed loop enters through the voltages, which the
 estimate takes as given.  Pure numerics: no I/O.
 """
@@ -16,7 +16,7 @@ import math
 import numpy as np
 from scipy.stats import norm
 
-from .refine import NAMES, _scaled_inverse, _schur
+from .refine import NAMES, scaled_inverse, schur
 from .stats import Z95
 from .refine import refine as oe_refine
 
@@ -46,8 +46,8 @@ def covariance(u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_r
                   start_states0=start_states0, **kw)
     fit = r.fit
     ng = fit.a.shape[1] - 4  # the globals: J/B, the motors' start states (refine's NG) and the freed effect
-    s_mat, _, _ = _schur(fit.a, fit.b, ng)
-    cov = _scaled_inverse(s_mat)
+    s_mat, _, _ = schur(fit.a, fit.b, ng)
+    cov = scaled_inverse(s_mat)
     keep = [0, 1, 2, 3] + ([ng - 1] if effect is not None else [])
     return cov[np.ix_(keep, keep)]
 

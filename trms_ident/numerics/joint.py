@@ -27,7 +27,7 @@ from scipy.special import stdtrit
 
 from . import safe
 from .refine import (JB_STEP_OVER_SE, MAX_ITERATIONS, MIN_COST_DECREASE, NAMES, NG, START_NAMES, STEP_OVER_SE,
-                     TOLERANCE, WINDOW_S, _backtrack, _rms, _scaled_inverse, _schur, _setup)
+                     TOLERANCE, WINDOW_S, angle_rms, backtrack, scaled_inverse, schur, setup)
 
 
 @dataclass(frozen=True)
@@ -64,7 +64,7 @@ def refine_joint(runs: list[Run], params: dict, law: str, theta0: dict, window_s
                  max_iterations: int = MAX_ITERATIONS, effects: dict | None = None) -> JointFit:
     """Gauss-Newton over all ``runs`` at once from ``theta0`` (J/B); see the module docstring.  ``effects``: the
     bench's torque effects at their values (refine's), shared by every run."""
-    setups = [_setup(r.u1, r.u2, r.alpha, r.beta, r.dt, params, law, theta0, r.noise_rad, window_s, t_s=r.t_s,
+    setups = [setup(r.u1, r.u2, r.alpha, r.beta, r.dt, params, law, theta0, r.noise_rad, window_s, t_s=r.t_s,
                      switch_delay_s=r.switch_delay_s, start_states0=r.start_states0, effects=effects)
               for r in runs]
     jb = np.array([theta0[k] for k in NAMES], dtype=float)
@@ -79,7 +79,7 @@ def refine_joint(runs: list[Run], params: dict, law: str, theta0: dict, window_s
         system = [_eliminate(a, b) for _, a, b, _ in state]
         s_mat = sum(e.s_gg for e in system)
         s_rhs = sum(e.r_gg for e in system)
-        step = _scaled_inverse(s_mat) @ s_rhs
+        step = scaled_inverse(s_mat) @ s_rhs
         steps = [e.local_steps(step) for e in system]
         se = np.sqrt(np.maximum(np.diag(_sandwich(s_mat, system, state, setups)), 0.0))
         # the decrease the full step predicts: the shared unknowns' plus each log's own (start states, windows)
@@ -107,7 +107,7 @@ def refine_joint(runs: list[Run], params: dict, law: str, theta0: dict, window_s
                         accepted = jb_new, trial, results, trial_outs
                         break
                     trial_cost = trial_cost if math.isfinite(trial_cost) else math.nan
-            lam = _backtrack(lam, cost, slope, trial_cost)
+            lam = backtrack(lam, cost, slope, trial_cost)
         if accepted is None:  # no downhill step: at the minimum to working precision
             converged = bool(np.all(np.abs(step) <= np.maximum(1e-6 * jb, 0.1 * se)))
             break
@@ -122,11 +122,11 @@ def refine_joint(runs: list[Run], params: dict, law: str, theta0: dict, window_s
     if converged:
         jb, cov = _efficient_step(jb, system, meats)
     else:
-        inv = _scaled_inverse(s_mat)
+        inv = scaled_inverse(s_mat)
         cov = inv @ sum(meats) @ inv  # the sandwich
     blocks = sum(sc.shape[0] for _, _, _, sc in state)
     half = float(stdtrit(max(blocks - 1, 1), 0.975)) * np.sqrt(np.maximum(np.diag(cov), 0.0))
-    per_run = [{"prediction": out, "rms_rad": _rms(su.y, out), "cost": float(c / w), "weight": w,
+    per_run = [{"prediction": out, "rms_rad": angle_rms(su.y, out), "cost": float(c / w), "weight": w,
                 "blocks": int(sc.shape[0]),
                 "start_states": {**dict(zip(START_NAMES, map(float, m))), "alpha_dot_0_rad_s": float(st[0, 1]),
                                  "beta_dot_0_rad_s": float(st[0, 3])}}
@@ -154,7 +154,7 @@ def noise_inflation(fit) -> float:
         return 1.0
     f = fit.fit
     e = _eliminate(f.a, f.b)
-    fisher = np.diag(_scaled_inverse(e.s_gg))
+    fisher = np.diag(scaled_inverse(e.s_gg))
     batch = np.diag(fit.cov_jb)
     ok = (fisher > 0) & np.isfinite(batch) & (batch > 0)
     return float(np.median(batch[ok] / fisher[ok])) if ok.any() else 1.0
@@ -179,7 +179,7 @@ class _Eliminated:
 
 
 def _eliminate(a: np.ndarray, b: np.ndarray) -> _Eliminated:
-    s_mat, s_rhs, per_window = _schur(a, b, NG)  # the windows' starts out, as refine does
+    s_mat, s_rhs, per_window = schur(a, b, NG)  # the windows' starts out, as refine does
     a_gm, a_mm = s_mat[:4, 4:], s_mat[4:, 4:]
     k_m = safe.lstsq(a_mm, np.column_stack([s_mat[4:, :4], s_rhs[4:]]), rcond=1e-13)
     gain = float(s_rhs[4:] @ k_m[:, 4]) + sum(float(b[w, NG:] @ k[:, NG]) for w, k in enumerate(per_window))
@@ -201,7 +201,7 @@ def _meat(e: _Eliminated, state: tuple, su) -> np.ndarray:
 def _sandwich(s_mat, system, state, setups) -> np.ndarray:
     """S^-1 (sum of each log's batch-means meat of its J/B scores, its own unknowns projected out) S^-1."""
     meat = sum(_meat(e, st, su) for e, st, su in zip(system, state, setups))
-    inv = _scaled_inverse(s_mat)
+    inv = scaled_inverse(s_mat)
     return inv @ meat @ inv
 
 
@@ -221,12 +221,12 @@ def _efficient_step(jb: np.ndarray, system: list, meats: list) -> tuple[np.ndarr
     the estimate only if it stays positive; else the output-error fit with its sandwich covariance is kept."""
     infos, rhs = [], []
     for e, meat in zip(system, meats):
-        s_m = e.s_gg @ _scaled_inverse(meat)  # the weights w cancel: (w S)(w^2 M)^-1 (w S) = S M^-1 S
+        s_m = e.s_gg @ scaled_inverse(meat)  # the weights w cancel: (w S)(w^2 M)^-1 (w S) = S M^-1 S
         infos.append(s_m @ e.s_gg)
         rhs.append(s_m @ e.r_gg)
-    cov = _scaled_inverse(sum(infos))
+    cov = scaled_inverse(sum(infos))
     step = cov @ sum(rhs)
     if np.all(np.isfinite(step)) and np.all(jb + step > 0):
         return jb + step, cov
-    inv = _scaled_inverse(sum(e.s_gg for e in system))
+    inv = scaled_inverse(sum(e.s_gg for e in system))
     return jb, inv @ sum(meats) @ inv

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .refine import NAMES, _scaled_inverse, _schur, refine
+from .refine import NAMES, scaled_inverse, schur, refine
 
 #: grids tried, each shifted by a further 1 / OFFSETS of the quantum (the two angles' shifts in another order)
 OFFSETS = 8
@@ -50,8 +50,8 @@ def rounding_covariance(u1_v: np.ndarray, u2_v: np.ndarray, angles_rad: np.ndarr
                    rounded(angles_rad[:, 1], quantum_rad["beta"], ob), dt_s, params, law, theta, noise_rad,
                    max_iterations=1, **refine_kw)
         # the first step taken and evaluated (r.fit: the normal equations where it landed), the second solved
-        s_mat, s_rhs, _ = _schur(r.fit.a, r.fit.b, r.fit.a.shape[1] - 4)
-        second = (_scaled_inverse(s_mat) @ s_rhs)[:4]
+        s_mat, s_rhs, _ = schur(r.fit.a, r.fit.b, r.fit.a.shape[1] - 4)
+        second = (scaled_inverse(s_mat) @ s_rhs)[:4]
         steps.append(np.array([r.estimate[k] - theta[k] for k in NAMES]) + second)
         if r.cov_jb is not None:
             batch.append(r.cov_jb)

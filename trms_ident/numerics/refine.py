@@ -536,7 +536,7 @@ def substeps(dt: float) -> int:
     return max(1, int(math.ceil(dt / MAX_SUBSTEP_S - 1e-9)))
 
 
-def _schur(a, b, ng=NG):
+def schur(a, b, ng=NG):
     """Eliminate each window's start: the global unknowns' normal matrix and right-hand side, and per window
     (L'L)^-1 [L'G, L'r], from which the starts' step and the projected scores follow.  The first ``ng``
     unknowns are global, the next NL per window."""
@@ -559,11 +559,11 @@ def _covariance(s_mat, per_window, scores, win, block):
     sc = scores[:, :ng] - np.einsum("bij,bi->bj", proj, scores[:, ng:])
     sc = sc - sc.mean(axis=0)
     meat = nb / max(nb - 1, 1) * sc.T @ sc
-    inv = _scaled_inverse(s_mat)
+    inv = scaled_inverse(s_mat)
     return inv @ meat @ inv
 
 
-def _scaled_inverse(s_mat):
+def scaled_inverse(s_mat):
     d = np.sqrt(np.maximum(np.diag(s_mat), 1e-300))
     return safe.pinv(s_mat / np.outer(d, d), rcond=1e-13) / np.outer(d, d)
 
@@ -682,7 +682,7 @@ class _Setup:
     given: list  # the freed values' starts
 
 
-def _setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s=WINDOW_S, gravity_offset_rad=0.0,
+def setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s=WINDOW_S, gravity_offset_rad=0.0,
            t_s=None, free=(), switch_delay_s=None, effects=None, torques=None, start_states0=None) -> _Setup:
     """refine's arguments (see there) as a ready problem: shared by refine and the joint fit over several logs."""
     n = alpha.size
@@ -744,7 +744,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     angles' first 50 ms).  ``hold``: J/B and the freed values stay at theta0 and their starts, only the start
     states (the motors' and each window's) are fitted: a model fitted elsewhere simulated on these samples (a
     held-out check); the intervals are then those of the values held, not estimates."""
-    su = _setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s, gravity_offset_rad, t_s, free,
+    su = setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s, gravity_offset_rad, t_s, free,
                 switch_delay_s, effects, torques, start_states0)
     prob, starts, theta, scale, win, block, n, nw, y = (su.prob, su.starts, su.theta, su.scale, su.win, su.block,
                                                         su.n, su.windows, su.y)
@@ -754,11 +754,11 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     cost, a, b, scores = prob.evaluate(theta, starts, out)
     converged, it = False, 0
     for it in range(1, max_iterations + 1):
-        s_mat, s_rhs, per_window = _schur(a, b, ng)
-        step = _scaled_inverse(s_mat) @ s_rhs
+        s_mat, s_rhs, per_window = schur(a, b, ng)
+        step = scaled_inverse(s_mat) @ s_rhs
         if hold:  # only the motors' start states move among the globals: their block of the Schur complement
             step = np.zeros_like(step)
-            step[4:NG] = _scaled_inverse(s_mat[4:NG, 4:NG]) @ s_rhs[4:NG]
+            step[4:NG] = scaled_inverse(s_mat[4:NG, 4:NG]) @ s_rhs[4:NG]
         step_starts = np.array([k[:, ng] - k[:, :ng] @ step for k in per_window])
         se = np.sqrt(np.maximum(np.diag(_covariance(s_mat, per_window, scores, win, block)), 0.0))
         small = (np.abs(step) <= STEP_OVER_SE * se) | (np.abs(step) <= TOLERANCE * scale)
@@ -785,7 +785,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
                     accepted = th_new, st_new, res
                     break
                 trial_cost = res[0] if math.isfinite(res[0]) else math.nan
-            lam = _backtrack(lam, cost, slope, trial_cost)
+            lam = backtrack(lam, cost, slope, trial_cost)
         if accepted is None:  # no downhill step: at the minimum to working precision
             converged = bool(np.all(np.abs(step[:4]) <= np.maximum(1e-6 * theta[:4], 0.1 * se[:4])))
             break
@@ -794,23 +794,23 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
             cost, a, b, scores = prob.evaluate(theta, starts, out)
         else:  # the trial pass was the full pass at the accepted point: keep it
             (cost, a, b, scores), out = res, trial
-    s_mat, s_rhs, per_window = _schur(a, b, ng)
+    s_mat, s_rhs, per_window = schur(a, b, ng)
     cov = _covariance(s_mat, per_window, scores, win, block)
-    pending = float(_scaled_inverse(s_mat) @ s_rhs @ s_rhs) + sum(float(b[w, ng:] @ k[:, ng])
+    pending = float(scaled_inverse(s_mat) @ s_rhs @ s_rhs) + sum(float(b[w, ng:] @ k[:, ng])
                                                                   for w, k in enumerate(per_window))
     nb = scores.shape[0]
     se = np.sqrt(np.maximum(np.diag(cov), 0.0))
     tq = float(stdtrit(max(nb - 1, 1), 0.975))
     half = tq * se[:4]
-    rms = _rms(y, out)
+    rms = angle_rms(y, out)
     integration = np.zeros(4)
     sub_s = step_s / substeps(step_s)  # the RK4 sub-step of a median sample interval [s]
     if np.any(half < RICHARDSON_BELOW * (sub_s / MAX_SUBSTEP_S) ** 4 * theta[:4]):
         # intervals this narrow (noise-free logs) meet the integrator's own error: estimate it from the
         # parameter shift that halving the sub-step causes (RK4: the error falls 16-fold) and add twice that
         fine = prob.evaluate(theta, starts, np.empty((n, 2)), sub_s / 2.0)
-        _, rhs_fine, _ = _schur(fine[1], fine[2], ng)
-        integration = np.abs(_scaled_inverse(s_mat) @ (rhs_fine - s_rhs))[:4] * 16.0 / 15.0
+        _, rhs_fine, _ = schur(fine[1], fine[2], ng)
+        integration = np.abs(scaled_inverse(s_mat) @ (rhs_fine - s_rhs))[:4] * 16.0 / 15.0
         half = half + 2.0 * integration
     half = np.maximum(half, 10.0 * TOLERANCE * theta[:4])  # no claim finer than the convergence test
     start_states = {**dict(zip(START_NAMES, map(float, theta[4:NG]))),
@@ -827,7 +827,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
                    _Fit(prob, theta, starts, a, b), pending, cov[:4, :4].copy())
 
 
-def _backtrack(lam: float, cost: float, slope: float, trial_cost: float) -> float:
+def backtrack(lam: float, cost: float, slope: float, trial_cost: float) -> float:
     """The next step length after the one at ``lam`` failed to lower the cost (Nocedal & Wright, Numerical
     Optimization, sec. 3.5): the minimum of the parabola through the cost at 0, its slope there along the step
     (``slope`` < 0) and the failed trial's cost, kept within 0.1-0.5 of ``lam``; 0.1 lam when the trial had no
@@ -896,13 +896,13 @@ def known_value_scores(r: Refined, candidates: tuple[str, ...] = SUSPECTS, value
     cand = [k for k in candidates if _P.index(k) not in prob.free_idx]
     # order: globals (J/B, start states), freed, candidates, window starts
     cost, a, b, _ = prob.evaluate(fit.theta, fit.starts, np.empty((n, 2)), more=[_P.index(k) for k in cand])
-    s_mat, s_rhs, _ = _schur(a, b, ng + len(cand))
-    base = s_rhs[:ng] @ _scaled_inverse(s_mat[:ng, :ng]) @ s_rhs[:ng]
+    s_mat, s_rhs, _ = schur(a, b, ng + len(cand))
+    base = s_rhs[:ng] @ scaled_inverse(s_mat[:ng, :ng]) @ s_rhs[:ng]
     excess = max(cost - 2.0 * n, 1e-300)
     out = {}
     for j, k in enumerate(cand):
         idx = np.r_[0:ng, ng + j]
-        gain = s_rhs[idx] @ _scaled_inverse(s_mat[np.ix_(idx, idx)]) @ s_rhs[idx] - base
+        gain = s_rhs[idx] @ scaled_inverse(s_mat[np.ix_(idx, idx)]) @ s_rhs[idx] - base
         out[k] = float(min(max(gain / excess, 0.0), 1.0))
     scores = dict(sorted(out.items(), key=lambda kv: -kv[1]))
     values = values or {}
@@ -929,12 +929,12 @@ def relative_half_widths(s_mat: np.ndarray, ng: int, scale: np.ndarray, together
         others = others[others != ng + j]
         s_jj = s_mat[ng + j, ng + j]
         s_jo = s_mat[ng + j, others]
-        comp = s_jj - s_jo @ (_scaled_inverse(s_mat[np.ix_(others, others)]) @ s_jo)
+        comp = s_jj - s_jo @ (scaled_inverse(s_mat[np.ix_(others, others)]) @ s_jo)
         if s_jj > 0 and comp > UNDETERMINED_SHARE * s_jj and scale[j] > 0:
             out[j] = 1.96 / math.sqrt(comp) / scale[j]
     return out
 
 
-def _rms(y, pred) -> dict:
+def angle_rms(y, pred) -> dict:
     e = y - pred
     return {"alpha": float(np.sqrt(np.mean(e[:, 0] ** 2))), "beta": float(np.sqrt(np.mean(e[:, 1] ** 2)))}

@@ -11,7 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..params import ESTIMATED, UNITS  # noqa: E402
-from .figures import _stride, png_data_uri  # noqa: E402
+from .figures import stride, png_data_uri  # noqa: E402
 from .html import CSS  # noqa: E402
 
 
@@ -114,7 +114,7 @@ def discrimination_sentence(d, duration_s: float) -> str:
 def run_figure(run, square, limits, u_limit_v: float) -> str:
     """Pitch and yaw (reference and predicted angle, with the range allowed) and both voltages (with the
     controller's limit), the design's run beside the square reference's."""
-    s = _stride(run.t_s.size)
+    s = stride(run.t_s.size)
     t = run.t_s[s]
     fig, ax = plt.subplots(3, 1, figsize=(10, 7.5), sharex=True)
     for a, ref, y, sq, lim, name in ((ax[0], run.alpha_ref_rad, run.alpha_rad, square.alpha_rad, limits.pitch_rad,

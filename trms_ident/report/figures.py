@@ -21,7 +21,7 @@ if TYPE_CHECKING:
 MAX_POINTS = 4000  # per line; longer signals are strided for drawing only
 
 
-def _stride(n: int) -> slice:
+def stride(n: int) -> slice:
     return slice(None, None, max(1, n // MAX_POINTS))
 
 
@@ -33,7 +33,7 @@ def png_data_uri(fig) -> str:
 
 
 def signals_figure(log: Log) -> str:
-    s = _stride(len(log))
+    s = stride(len(log))
     t = log.t_s[s]
     fig, ax = plt.subplots(2, 2, figsize=(10, 5), sharex=True)
     for a, y, label in ((ax[0, 0], log.u1_v, "u1 [V]"), (ax[0, 1], log.u2_v, "u2 [V]"),
@@ -69,7 +69,7 @@ def compare_plot(log: Log, simulated: np.ndarray | None, check: dict):
     """Measured against model-simulated angles, with the fit in %, as MATLAB's ``compare`` draws them (a
     matplotlib Figure; measured only where there is no simulation)."""
     m = len(log) if simulated is None else simulated.shape[0]
-    s = _stride(m)
+    s = stride(m)
     t = log.t_s[:m][s]
     fig, ax = plt.subplots(2, 1, figsize=(10, 5.5), sharex=True)
     for j, (a, y, axis, label) in enumerate(((ax[0], log.alpha_rad, "pitch", "alpha [rad]"),
@@ -129,7 +129,7 @@ def residual_figure(log: Log, simulated: np.ndarray, dt_s: float, skip: tuple = 
 
 
 def traces_figure(result: Result, truth: dict | None) -> str:
-    s = _stride(result.t_s.size)
+    s = stride(result.t_s.size)
     t = result.t_s[s]
     fig, ax = plt.subplots(2, 2, figsize=(10, 5.5), sharex=True)
     for a, name in zip(ax.ravel(), ("J1", "B1", "J2", "B2")):
