@@ -29,3 +29,33 @@ def test_the_first_line_names_every_finding_in_one_sentence():
                                                             "still misses something")
     assert headline("consistent", []) == HEADLINES["consistent"]
     assert listed(["a", "b", "c"]) == "a, b and c" and listed(["a"]) == "a"
+
+
+def test_a_findings_lines_carry_one_fit_figure_its_interval_and_look_alikes_not_its_test_statistics():
+    # #47 item 6: the evidence (t statistics, block counts, profiles) stays in diagnosis.json and the report
+    from types import SimpleNamespace
+
+    from trms_ident.diagnosis.result import Finding
+    from trms_ident.report.terminal import diagnosis_lines
+
+    evidence = "output-error fits over the modification's value: best at 0.2 (t = 9.1 over 18 blocks, p = 1e-9)"
+    zone = Finding("dead_zone", "yaw", {"name": "w", "value": 0.2, "unit": "V", "ci95": [0.195, 0.205]}, 97.5, 99.9,
+                   evidence, "the yaw motor ignores voltages below 0.2 V", 0.5, 9.1, 1e-9,
+                   alternatives=["input_saturation:yaw"])
+    cable = Finding("cable_stiffness", "yaw", {"name": "k", "value": 0.004, "unit": "N m/rad"}, 98.0, 99.97,
+                    evidence, "the cable pulls the beam back", 0.9, 27.5, 1e-16)
+    est = {"J1": 0.068, "B1": 0.006, "J2": 0.02, "B2": 0.1}
+    d = SimpleNamespace(verdict="explained", findings=[zone, cable], verdict_sentence="both angles at their floors",
+                        fit_before={"pitch": 99.7, "yaw": 97.5}, settings={"candidates": 20}, nominal=est,
+                        augmented=est, held_out=None, refused=[], corrections=[],
+                        with_findings={"estimates": est, "adequate": True, "text": "J1 0.068 [0.0679, 0.0681]",
+                                       "values": {"cable_stiffness:yaw": {"estimate": 0.00401,
+                                                                          "ci95": [0.00399, 0.00403]}}})
+    text = "\n".join(diagnosis_lines(d, "log.csv"))
+    assert "t = " not in text and "blocks" not in text and evidence not in text
+    assert "  1. dead_zone on yaw: w = 0.2 V, 95 % [0.195, 0.205] V" in text
+    assert "  2. cable_stiffness on yaw: k = 0.004 N m/rad\n" in text  # no interval of its own: none invented
+    assert "this log cannot tell it apart from input_saturation:yaw" in text
+    assert "the 2 s prediction fit of its axes: 97.50 % -> 99.90 %" in text
+    assert "diagnosis.json" in text  # where the evidence is
+    assert "cable_stiffness:yaw 0.00401 [0.00399, 0.00403]" in text  # fitted with J/B under the findings' model

@@ -36,6 +36,13 @@ def finding_words(f) -> str:
     return f"{effect} on {axis} ({p['name']} = {with_unit(p['value'], unit)})"
 
 
+def interval_words(ci95, unit: str, value: float | None = None) -> str:
+    """'[0.00398, 0.00402] N m/rad', with as many digits as the ends need to differ (summary.interval_text)."""
+    from .summary import interval_text
+
+    return interval_text(ci95[0], ci95[1], value) + ("" if unit == "1" else f" {unit}")
+
+
 def listed(words: list[str]) -> str:
     """'a', 'a and b', 'a, b and c'."""
     return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
@@ -49,7 +56,9 @@ def headline(verdict: str, findings) -> str:
 
 def diagnosis_lines(d, source: str) -> list[str]:
     """diagnose's terminal text for Diagnosis ``d`` of the log ``source``: the verdict and findings in plain words,
-    then why (the verdict's sentence with its figures), each finding with its evidence, the estimates before ->
+    then why (the verdict's sentence with its figures), each finding with its value, interval, explanation, one
+    fit figure (the 2 s prediction fit of its own step) and its look-alikes, where the evidence is (the report's
+    details and diagnosis.json: tests, t statistics and profiles stay off the terminal), the estimates before ->
     after, the held-out fits, what was refused and what lies outside the library."""
     from ..diagnosis.held_out import sentence as held_out_sentence
     from ..diagnosis.predict import fit_change, fit_text
@@ -63,22 +72,30 @@ def diagnosis_lines(d, source: str) -> list[str]:
     else:
         lines.append(f"  {len(d.findings)} finding(s) (prediction fit before: {fits})")
         for i, f in enumerate(d.findings, 1):
+            p, interval = f.parameter, ""
+            if p.get("ci95") is not None:
+                interval = f", 95 % {interval_words(p['ci95'], p['unit'], p['value'])}"
             if f.effect == "known_value":
-                lines.append(f"  {i}. known value {f.parameter['name']} ({f.axis}) = "
-                             f"{with_unit(f.parameter['value'], f.parameter['unit'])}, given "
-                             f"{with_unit(f.parameter['table'], f.parameter['unit'])}")
+                lines.append(f"  {i}. known value {p['name']} ({f.axis}) = {with_unit(p['value'], p['unit'])}, given "
+                             f"{with_unit(p['table'], p['unit'])}{interval}")
             else:
-                lines.append(f"  {i}. {f.effect} on {f.axis}: {f.parameter['name']} = "
-                             f"{with_unit(f.parameter['value'], f.parameter['unit'])}")
+                lines.append(f"  {i}. {f.effect} on {f.axis}: {p['name']} = {with_unit(p['value'], p['unit'])}"
+                             f"{interval}")
             lines.append(f"     {f.explanation[0].upper() + f.explanation[1:]}.")
-            lines.append(f"     fit {fit_change(f.fit_before, f.fit_after)}; {f.evidence}")
+            lines.append(f"     with it, the 2 s prediction fit of its axes: {fit_change(f.fit_before, f.fit_after)}")
+            if f.alternatives:
+                lines.append(f"     this log cannot tell it apart from {listed(list(f.alternatives))}")
+        lines.append("  the evidence for each finding (its tests, t statistics, profiles): in report.html (-o) and "
+                     "diagnosis.json (-o, --json)")
         lines.append("  estimates  " + "  ".join(f"{k} {marked(k, d.nominal[k])} -> {marked(k, d.augmented[k])}"
                                                  for k in ESTIMATED))
         w = d.with_findings
         if w is not None and w.get("estimates") is not None:
             verdict = {True: "fits", False: "does NOT fit", None: "fit not decided"}[w["adequate"]]
+            freed = "".join(f"  {k} {v['estimate']:.6g} {interval_words(v['ci95'], '1', v['estimate'])}"
+                            for k, v in (w.get("values") or {}).items())
             lines.append(f"  under the findings' model ({verdict}; `trms-ident export` writes it for --params), "
-                         f"95 %: {w['text']}")
+                         f"95 %: {w['text']}{freed}")
         elif w is not None:
             lines.append(f"  under the findings' model: no estimate ({w['error']})")
     if d.held_out is not None:
