@@ -5,9 +5,10 @@ exercise diagnose are run on the copy; the guard is held when at least one test 
     python benchmarks/guards.py            # all guards, writes the "Guards" section of RESULTS.md
     python benchmarks/guards.py --only FAMILY_ALPHA --no-write
 
-A copy is a `git worktree` of HEAD (so commit first): uncommitted changes are not in it.  The tests run with
-`-x` (the first red test ends the run) on 2 processes, the tests of diagnose first; a guard whose tests all pass
-took the whole run (about 6 minutes on this 2-core machine)."""
+A copy is a `git worktree` of HEAD (so commit first): uncommitted changes are not in it.  The tests of diagnose
+and the docs' examples run (FIRST; --all: then the rest of the default suite) with `-x` (the first red test ends
+the run) on 2 processes; a guard whose tests all pass took the whole run (about 6 minutes on this 2-core
+machine)."""
 from __future__ import annotations
 
 import argparse
@@ -44,10 +45,11 @@ GUARDS = [
     ("trms_ident/known_values.py", "JOINT_MIN_SHARE", "0.0", "known values together on any share"),
 ]
 
-#: the tests that exercise diagnose's rule, run first; then the rest of the default suite
+#: the tests that exercise diagnose's rule (and the docs' runnable examples, whose printed lines are checked);
+#: with --all the rest of the default suite after them
 FIRST = ["tests/test_guards.py", "tests/test_known_values.py", "tests/test_compound.py", "tests/test_both_motors.py",
          "tests/test_diagnose.py", "tests/test_held_out.py", "tests/test_second_order_motor.py",
-         "tests/test_sensor_lag.py", "tests/test_model_room.py", "tests/test_real_recordings.py"]
+         "tests/test_sensor_lag.py", "tests/test_model_room.py", "tests/test_real_recordings.py", "tests/test_docs.py"]
 
 
 def broken(tree: Path, path: str, name: str, value: str) -> str:
@@ -62,12 +64,12 @@ def broken(tree: Path, path: str, name: str, value: str) -> str:
     return found[0]
 
 
-def run_tests(tree: Path, timeout_s: float) -> tuple[str, float]:
+def run_tests(tree: Path, timeout_s: float, everything: bool) -> tuple[str, float]:
     """The first failing test's id ('' when all passed) and the seconds it took."""
     t0 = time.perf_counter()
     rest = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "tests").glob("test_*.py")
-                  if str(p.relative_to(ROOT)) not in FIRST)
-    cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-n", "2", "-p", "no:cacheprovider", "--dist", "loadfile",
+                  if str(p.relative_to(ROOT)) not in FIRST) if everything else []
+    cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-n", "2", "-p", "no:cacheprovider",
            *FIRST, *rest]
     try:
         proc = subprocess.run(cmd, cwd=tree, capture_output=True, text=True, timeout=timeout_s,
@@ -85,6 +87,7 @@ def main() -> None:
     ap.add_argument("--only", nargs="*", help="the guards' constant names to break (default: all)")
     ap.add_argument("--no-write", action="store_true", help="print only; leave RESULTS.md as it is")
     ap.add_argument("--timeout", type=float, default=1800.0, help="seconds per broken copy's test run")
+    ap.add_argument("--all", action="store_true", help="run the whole default suite on each copy, not only FIRST")
     args = ap.parse_args()
     head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
                           check=True).stdout.strip()
@@ -99,7 +102,7 @@ def main() -> None:
                 (tree.parent / "shared").symlink_to(shared)  # the real recordings' tests read ../shared
             try:
                 was = broken(tree, path, name, value)
-                first, seconds = run_tests(tree, args.timeout)
+                first, seconds = run_tests(tree, args.timeout, args.all)
             finally:
                 subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT, check=False)
         ok = bool(first) and first != "(timed out)"
@@ -108,8 +111,9 @@ def main() -> None:
                     f"{'yes' if ok else '**NO**'} | {first or 'all passed'} | {seconds:.0f} s |")
         print(rows[-1], flush=True)
     lines = ["Each guard broken in a copy of the repository at " + head + " (its constant moved far past its edge) "
-             "and the default test suite run on the copy with `-x`, the tests of diagnose first: held when a test "
-             "goes red.", "",
+             + ("and the default test suite run on the copy with `-x`, the tests of diagnose first"
+                if args.all else "and the tests of diagnose and the docs' examples (FIRST) run on the copy with `-x`")
+             + ": held when a test goes red.", "",
              "| guard | broken | what it lets through | held | first red test | time |",
              "|---|---|---|---|---|---|", *rows, "",
              f"Held: {held}/{len(rows)}. Total {time.perf_counter() - t_all:.0f} s on 2 processes."]
