@@ -15,8 +15,6 @@ from .result import VERDICTS
 
 #: the findings' prediction errors within this factor of the noise level count as explained
 EXPLAINED_RMS_OVER_NOISE = 1.5
-
-
 #: and, when the output-error fit can carry the findings, the angles it simulates within this factor (estimate's
 #: adequacy threshold): the 2 s predictions restart from the measured angles, so a yaw that drifts between
 #: restarts can pass them (measured: a 0.4 V yaw dead zone fitted at 0.237 V, predictions within 1.5x, the
