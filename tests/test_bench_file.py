@@ -158,6 +158,23 @@ def test_a_known_value_with_its_interval_widens_the_intervals_it_moves(bench_log
     assert "Mg 0.29 [0.287, 0.293]" in doc1["refinement"]
 
 
+def test_a_held_value_with_its_interval_widens_the_interval_of_a_parameter_freed_beside_it(bench_log):
+    """The tail motor's lag held with an interval, the yaw cable freed: the lag's uncertainty moves the cable as it
+    moves J2/B2, so the cable's interval widens too (measured on this log: +/- 5e-7 held exact, +/- 6e-5 with
+    T2's +/- 0.01 s), and still covers the truth; the estimate itself is the same."""
+    ci = bench_log / "t2_ci.toml"
+    ci.write_text(BENCH.replace('{ T2 = 0.3, from = "the test\'s bench" }', "{ T2 = 0.3, ci95 = [0.29, 0.31] }"))
+    key = "cable_stiffness:yaw"
+    doc0, _ = _estimate(bench_log, "--params", str(bench_log / "bench.toml"), "--free", key)
+    doc1, _ = _estimate(bench_log, "--params", str(ci), "--free", key)
+    f0, f1 = (d["refined"]["known_values_estimated"][key] for d in (doc0, doc1))
+    assert f1["estimate"] == f0["estimate"]
+    w0, w1 = f0["ci95"][1] - f0["ci95"][0], f1["ci95"][1] - f1["ci95"][0]
+    assert w1 > 10 * w0, (f0["ci95"], f1["ci95"])
+    assert f1["ci95"][0] <= 0.004 <= f1["ci95"][1]
+    assert "parameters freed with them include the uncertainty" in doc1["refinement"]
+
+
 def test_freeing_an_effect_the_file_does_not_hold_is_refused(tmp_path, square_csv):
     res = runner.invoke(app, ["estimate", str(square_csv), "-o", str(tmp_path / "o"), "--free", "cable_stiffness:yaw"])
     assert res.exit_code == 2 and "--free cable_stiffness:yaw: the model has no cable_stiffness:yaw" in res.stderr

@@ -91,7 +91,7 @@ def identify_with_profiles(log, settings):
         nb = blocks.shape[1]
         tq = float(stdtrit(max(nb - 1, 1), 0.975))
         half = tq * se
-        slopes = {k: (fits[2].estimate[k] - fits[0].estimate[k]) / (trial[2] - trial[0]) for k in ESTIMATED}
+        slopes = _slopes(fits[0], fits[2], trial[2] - trial[0])
         found[key] = {"estimate": value, "ci95": [value - half, value + half], "se": se,
                       "table_or_file_value": v0, "profiled": True, "at_search_edge": at_edge,
                       "jb_slopes": slopes, "unit": BY_KEY[key].unit}
@@ -101,22 +101,20 @@ def identify_with_profiles(log, settings):
     moved = {k: (v["jb_slopes"], (v["ci95"][1] - v["ci95"][0]) / 2.0) for k, v in found.items()}
     slopes_of, unmeasured = _held_slopes(log, settings, res.refined, held)
     moved.update(slopes_of)
-    freed = {**res.refined.freed, **{k: {kk: vv for kk, vv in v.items() if kk != "jb_slopes"}
-                                     for k, v in found.items()}}
     ci95 = dict(res.refined.ci95)
     for k in ESTIMATED:  # the delta method: each value's half-width moves J/B along its slope, in quadrature
-        est = res.refined.estimate[k]
-        lo, hi = ci95[k]
-        extra = math.sqrt(sum((slopes[k] * half) ** 2 for slopes, half in moved.values()))
-        half = math.hypot((hi - lo) / 2.0, extra)
-        ci95[k] = (est - half, est + half)
+        ci95[k] = _widened(res.refined.estimate[k], ci95[k], k, moved)
+    freed = dict(res.refined.freed)
+    for k, f in freed.items():  # the parameters the refinement freed with J/B (a torque effect, a known value)
+        freed[k] = {**f, "ci95": list(_widened(f["estimate"], f["ci95"], k, moved))}
+    freed.update({k: {kk: vv for kk, vv in v.items() if kk != "jb_slopes"} for k, v in found.items()})
     refined = replace(res.refined, freed=freed, ci95=ci95)
     res = _with_refined(res, refined, settings)
     if held and res.headline == "refined":
         widened = [f"{k} {_held(settings, k):.4g} [{lo:.4g}, {hi:.4g}]" for k, (lo, hi) in held.items()
                    if k not in unmeasured]
-        note = ("; J/B's intervals include the uncertainty of the values the bench file holds with their 95 % "
-                f"intervals ({', '.join(widened)})") if widened else ""
+        note = ("; the intervals of J/B and of the parameters freed with them include the uncertainty of the "
+                f"values the bench file holds with their 95 % intervals ({', '.join(widened)})") if widened else ""
         if unmeasured:
             note += (f"; held as exact although the file gives an interval: {', '.join(unmeasured)} (the fits "
                      "either side of its value failed)")
@@ -124,8 +122,26 @@ def identify_with_profiles(log, settings):
     return res
 
 
+def _slopes(lo_fit, hi_fit, width: float) -> dict:
+    """The estimates' slopes between two output-error fits ``width`` apart in one held value: J/B's and those of
+    the parameters the refinement freed with them (per unit of the value)."""
+    out = {k: (hi_fit.estimate[k] - lo_fit.estimate[k]) / width for k in ESTIMATED}
+    out.update({k: (hi_fit.freed[k]["estimate"] - lo_fit.freed[k]["estimate"]) / width
+                for k in hi_fit.freed if k in lo_fit.freed})
+    return out
+
+
+def _widened(estimate: float, ci95, name: str, moved: dict) -> tuple[float, float]:
+    """``ci95`` of ``name`` widened by the delta method: each held or profiled value's 95 % half-width moves the
+    estimate along its slope (``moved``: key -> (slopes, half-width)), in quadrature with the interval's own."""
+    lo, hi = ci95
+    extra = math.sqrt(sum((slopes.get(name, 0.0) * half) ** 2 for slopes, half in moved.values()))
+    half = math.hypot((hi - lo) / 2.0, extra)
+    return estimate - half, estimate + half
+
+
 def _held_slopes(log, settings, r0, held: dict) -> dict:
-    """key -> (J/B's slopes along the value [unit of J/B per unit], the value's 95 % half-width) for each value
+    """key -> (the estimates' slopes along the value (_slopes), the value's 95 % half-width) for each value
     the bench file holds with an interval (Settings.held_ci95): central differences of the output-error fit a
     quarter of the interval either side of the value, from the estimate ``r0``; and the keys whose fits failed
     (held as exact, and said so)."""
@@ -143,7 +159,7 @@ def _held_slopes(log, settings, r0, held: dict) -> dict:
         except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError, TrmsError):
             failed.append(key)
             continue
-        out[key] = ({k: (hi_fit.estimate[k] - lo_fit.estimate[k]) / (2.0 * step) for k in ESTIMATED}, half)
+        out[key] = (_slopes(lo_fit, hi_fit, 2.0 * step), half)
     return out, failed
 
 
