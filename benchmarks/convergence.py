@@ -65,7 +65,7 @@ def run(i: int) -> dict:
     from results import percent_errors
 
     from sim import SimSettings, simulate
-    from trms_ident.identify import MOTORS_AT_REST, Settings, noise_floors, refine_first, identify
+    from trms_ident.identify import MOTORS_AT_REST, Settings, identify, noise_floors, refine_first
     from trms_ident.log import validated
     from trms_ident.params import merge
 
@@ -80,7 +80,7 @@ def run(i: int) -> dict:
     # the reference: the fit started at the true J/B, its motors from the first voltages' steady state or from
     # rest (the better of the two: either alone can stop in a wrong basin of the start states)
     reference = min((refine_first(log, n, merge(c["known"]), settings, c["true"], noise_floors(log, n),
-                                   start_states0=s0)
+                                  start_states0=s0)
                      for s0 in (None, MOTORS_AT_REST)), key=lambda f: f.cost)
     fit = res.refined
     cost = fit.cost if fit is not None else math.inf

@@ -136,7 +136,7 @@ def test_the_known_value_wins_over_effects_that_need_more_parameters(monkeypatch
 
     # a single effect that explains the log too: both one parameter at the floor, so look-alikes, never dropped
     monkeypatch.setattr(search, "effect_search", search_says([stub("cable_stiffness", "yaw")], "explained",
-                                                          {"alpha": 1.1, "beta": 1.15}))
+                                                             {"alpha": 1.1, "beta": 1.15}))
     d2 = diagnose(log)
     assert [f.effect for f in d2.findings] == ["known_value", "cable_stiffness"]  # the value leaves less
     assert "cable_stiffness:yaw" in d2.findings[0].alternatives
@@ -158,7 +158,7 @@ def test_two_known_values_off_are_found_together_and_win_over_invented_effects(m
     def invented(*args, **kwargs):  # an effect search that names a cable and leaves the angles above the floor
         out = original(*args, **kwargs)
         out.findings = [search.Finding("cable_stiffness", "yaw", {"name": "k", "value": 0.07, "unit": "N m/rad"}, 50.0,
-                                    90.0, "stub", "stub", 0.5, 5.0, 1e-6)]
+                                       90.0, "stub", "stub", 0.5, 5.0, 1e-6)]
         out.verdict = "partly_explained"
         return out
 

@@ -307,7 +307,7 @@ def _usable_start(offline: dict) -> bool:
 
 
 def refine_first(log: Log, n: int, params: dict, settings: Settings, start: dict, noise: dict,
-                  free: tuple = (), **options) -> Refined:
+                 free: tuple = (), **options) -> Refined:
     """The refinement on the log's first n samples, with its stamps and voltage switch times; ``options``:
     refine's (window_s, start_states0)."""
     return refine(log.u1_v[:n], log.u2_v[:n], log.alpha_rad[:n], log.beta_rad[:n], log.sample_time_s, params,
@@ -473,10 +473,10 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
                 r, origin = cand, f"{base}, then the motors started from rest"
             if not _settled(r, noise):
                 short = refine_first(log, len(log), params, settings, start, noise, free,
-                                      window_s=SHOOTING_WINDOW_S)
+                                     window_s=SHOOTING_WINDOW_S)
                 if _usable_start(short.estimate):
                     cand = refine_first(log, len(log), params, settings, short.estimate, noise, free,
-                                         start_states0=short.start_states)
+                                        start_states0=short.start_states)
                     if cand.cost < r.cost:
                         r, origin = cand, f"{base}, then through {SHOOTING_WINDOW_S:g} s windows first"
     except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as e:

@@ -24,7 +24,7 @@ import numpy as np
 from scipy.special import chdtrc, stdtrit
 
 from .errors import IdentificationError
-from .identify import MOTORS_AT_REST, Result, noise_floors, identify, model_kw, model_name, timing, under_model
+from .identify import MOTORS_AT_REST, Result, identify, model_kw, model_name, noise_floors, timing, under_model
 from .log import Log
 from .numerics.adequacy import model_check
 from .numerics.joint import JointFit, Run, noise_inflation, refine_joint

@@ -27,7 +27,7 @@ from scipy.optimize import minimize_scalar
 from scipy.special import stdtrit
 
 from .errors import IdentificationError, SettingsError, TrmsError
-from .identify import noise_floors, refine_first, refined_interval, identify, under_model
+from .identify import identify, noise_floors, refine_first, refined_interval, under_model
 from .model.bench import KERNEL_KEYS, MIN_KERNEL_LAG_S, MODIFICATION_KEYS
 from .model.effects import BY_KEY, SENSOR_LAG
 from .params import ESTIMATED, merge
@@ -181,7 +181,7 @@ def _profile_fit(log, settings, key: str, r0):
         params0 = merge(at.overrides, source="parameter overrides")
         lg, pp = under_model(log, params0, at.effects, kernel=True)
         return refine_first(lg, n, pp, at, r0.estimate, noise, tuple(settings.free),
-                             max_iterations=ITERATIONS, start_states0=r0.start_states)
+                            max_iterations=ITERATIONS, start_states0=r0.start_states)
 
     return fit, noise
 

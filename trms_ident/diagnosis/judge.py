@@ -39,7 +39,7 @@ TIMING_PAIR = {"input_delay:both": "sensor_lag:both", "sensor_lag:both": "input_
 
 
 def alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests,
-                                  fitter, tested, partners=()):
+                                 fitter, tested, partners=()):
     """The equation error's best candidate has rivals: passing candidates whose held-out gain comes within
     ALIAS_GAIN_RATIO of its gain (``alts``, its look-alikes, among them).  The equation error only orders them
     (measured: a yaw motor time constant 2-3 % off its table value named before a 0.01 N m/rad yaw cable, with
@@ -99,7 +99,7 @@ OE_TOP_K = 3
 
 
 def oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests, fitter, tested,
-               oe_values: dict, scan: bool = True):
+              oe_values: dict, scan: bool = True):
     """The equation-error test passed no candidate: fit its best OE_TOP_K output-error candidates by output
     error (oe.py) and return the one that passes there with the largest drop in angle error (its regression
     and value, as try_candidate returns them, with "oe": the fit), or None.  ``scan``: as oe.Fitter.profile's."""
@@ -198,7 +198,7 @@ def oe_start(sc, reg, p: dict) -> dict:
 
 
 def oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested, torque_floor: bool = True,
-            scan: bool = True):
+           scan: bool = True):
     """Candidate c fitted by output error on top of ``current`` (an input modification by a profile over its
     value, from the equation error's ``value0``); the fit (or None) and what keeps it from passing, in words
     (oe.shortfall, with or without the torque-share floor, and the value's plausibility; empty: it passes).
@@ -235,7 +235,7 @@ def oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested, gate: 
         return None, None
     # gate: the equation error's practical size (a 5 % held-out drop) passed it, so no torque-share floor here
     f, why = oe_fit(c, best["value"], fitter, before, effect_values(before, sc_b, reg_b),
-                     oe_start(sc_b, reg_b, p), log, p, n_tests, tested, torque_floor=not gate)
+                    oe_start(sc_b, reg_b, p), log, p, n_tests, tested, torque_floor=not gate)
     if f is None:
         return None, None
     if why:

@@ -192,7 +192,7 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
         while best is None:
             if not ok:  # the equation error finds nothing (more): the output-error fit judges its best candidates
                 rescue = None if rescued else oe_rescue(results, log, p, law, a, current, cache, ids, score_now,
-                                                         reg_now, n_tests, fitter, oe_tested, oe_values, scan)
+                                                        reg_now, n_tests, fitter, oe_tested, oe_values, scan)
                 rescued = True
                 if rescue is None:
                     break
@@ -209,13 +209,13 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
                 partners = [r for r in results if r["c"].key == TIMING_PAIR.get(best["c"].key) and
                             r["c"].plausible(r["value"]) and r["c"].key not in excluded]
                 best, alts, told = alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache, ids,
-                                                                 score_now, reg_now, n_tests, fitter, oe_tested,
-                                                                 partners)
+                                                                score_now, reg_now, n_tests, fitter, oe_tested,
+                                                                partners)
                 if "oe" in best:
                     oe_values[best["c"].key] = best["value"]
             if "oe" not in best:  # the equation error only orders: the output-error test decides when it can
                 judged, failed = oe_confirm({**best, "before": (current, reg_now, score_now)}, log, p, law, a, cache,
-                                             ids, n_tests, fitter, oe_tested, gate=not best["c"].step)
+                                            ids, n_tests, fitter, oe_tested, gate=not best["c"].step)
                 if judged is not None:
                     best = judged
                     if "oe" in best:
@@ -298,7 +298,7 @@ def _accept(run: _Run, found: _Found, nominal: dict) -> _Kept:
         # (measured: a 0.008 N m pitch friction on a bench with B1 = 0.0095 gave B1 = -0.015 to -0.023)
         last = findings[-1][0]
         confirmed = None if "oe" in last else oe_confirm(last, log, p, law, a, cache, ids, n_tests, fitter,
-                                                           oe_tested)[0]
+                                                         oe_tested)[0]
         if confirmed is not None:  # the output-error fit carries it and its held-out test passes: judged there
             findings[-1] = (confirmed, findings[-1][1])
             oe_values[confirmed["c"].key] = confirmed["value"]

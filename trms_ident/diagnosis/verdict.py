@@ -42,7 +42,7 @@ def _floor_words(used: dict, angle: str) -> str:
 
 
 def verdict_of(log: Log, seed: dict, findings: list, fit_after: dict, seg: dict, oe_check: dict | None,
-             used: dict | None = None) -> tuple[str, str]:
+               used: dict | None = None) -> tuple[str, str]:
     """The verdict and its sentence; ``oe_check``: angle -> the findings' model's output-error simulation error
     over its floor (oe.Fitter.check), None when that fit cannot carry the findings; ``used``: angle -> which
     floor (adequacy.judging_floors)."""

@@ -65,7 +65,7 @@ def refine_joint(runs: list[Run], params: dict, law: str, theta0: dict, window_s
     """Gauss-Newton over all ``runs`` at once from ``theta0`` (J/B); see the module docstring.  ``effects``: the
     bench's torque effects at their values (refine's), shared by every run."""
     setups = [setup(r.u1, r.u2, r.alpha, r.beta, r.dt, params, law, theta0, r.noise_rad, window_s, t_s=r.t_s,
-                     switch_delay_s=r.switch_delay_s, start_states0=r.start_states0, effects=effects)
+                    switch_delay_s=r.switch_delay_s, start_states0=r.start_states0, effects=effects)
               for r in runs]
     jb = np.array([theta0[k] for k in NAMES], dtype=float)
     motors = [su.theta[4:NG].copy() for su in setups]

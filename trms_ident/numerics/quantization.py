@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .refine import NAMES, scaled_inverse, schur, refine
+from .refine import NAMES, refine, scaled_inverse, schur
 
 #: grids tried, each shifted by a further 1 / OFFSETS of the quantum (the two angles' shifts in another order)
 OFFSETS = 8

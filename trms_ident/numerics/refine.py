@@ -683,7 +683,7 @@ class _Setup:
 
 
 def setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s=WINDOW_S, gravity_offset_rad=0.0,
-           t_s=None, free=(), switch_delay_s=None, effects=None, torques=None, start_states0=None) -> _Setup:
+          t_s=None, free=(), switch_delay_s=None, effects=None, torques=None, start_states0=None) -> _Setup:
     """refine's arguments (see there) as a ready problem: shared by refine and the joint fit over several logs."""
     n = alpha.size
     t = np.arange(n) * dt if t_s is None else np.asarray(t_s, dtype=float)
@@ -745,7 +745,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     states (the motors' and each window's) are fitted: a model fitted elsewhere simulated on these samples (a
     held-out check); the intervals are then those of the values held, not estimates."""
     su = setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s, gravity_offset_rad, t_s, free,
-                switch_delay_s, effects, torques, start_states0)
+               switch_delay_s, effects, torques, start_states0)
     prob, starts, theta, scale, win, block, n, nw, y = (su.prob, su.starts, su.theta, su.scale, su.win, su.block,
                                                         su.n, su.windows, su.y)
     step_s, given, m = su.step_s, su.given, len(su.given)
@@ -797,7 +797,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     s_mat, s_rhs, per_window = schur(a, b, ng)
     cov = _covariance(s_mat, per_window, scores, win, block)
     pending = float(scaled_inverse(s_mat) @ s_rhs @ s_rhs) + sum(float(b[w, ng:] @ k[:, ng])
-                                                                  for w, k in enumerate(per_window))
+                                                                 for w, k in enumerate(per_window))
     nb = scores.shape[0]
     se = np.sqrt(np.maximum(np.diag(cov), 0.0))
     tq = float(stdtrit(max(nb - 1, 1), 0.975))
@@ -817,7 +817,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
                     "alpha_dot_0_rad_s": float(starts[0, 1]), "beta_dot_0_rad_s": float(starts[0, 3])}
     start_se = dict(zip(START_NAMES, map(float, se[4:NG])))
     freed = {k: {"estimate": float(theta[NG + j]), "ci95": [float(theta[NG + j] - tq * se[NG + j]),
-                                                           float(theta[NG + j] + tq * se[NG + j])],
+                                                            float(theta[NG + j] + tq * se[NG + j])],
                  "se": float(se[NG + j]), "table_or_file_value": given[j]}
              for j, k in enumerate(free)}
     return Refined(dict(zip(NAMES, map(float, theta[:4]))),
