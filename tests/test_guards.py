@@ -96,3 +96,44 @@ def test_findings_whose_simulation_stays_above_1_2x_the_noise_are_not_called_exp
     seed = {"adequate": False, "axes": {}}
     got, _ = verdict_of(log, seed, ["a finding"], {}, {}, {"alpha": over_noise, "beta": 1.0}, {"alpha": "noise"})
     assert got == verdict
+
+
+def _held_out_test(p_target: float, spread: float = 0.1, k: int = 16, n_tests: int = 20):
+    """select.compare on a candidate whose per-block log-ratios of held-out RSS (current over candidate) have a
+    t statistic giving one-sided p = ``p_target`` over ``k`` blocks, their spread ``spread``."""
+    from types import SimpleNamespace
+
+    from scipy.special import stdtrit
+
+    from trms_ident.diagnosis.select import Score, compare
+
+    z = np.linspace(-1.0, 1.0, k)
+    z = (z - z.mean()) / z.std(ddof=1)  # mean 0, sd 1 exactly
+    t = float(stdtrit(k - 1, 1.0 - p_target))
+    d = t * spread / math.sqrt(k) + spread * z
+    base = Score({"pitch": np.ones(k)}, {}, {})
+    new = Score({"pitch": np.exp(-d)}, {}, {})
+    return compare(base, new, SimpleNamespace(g={"pitch": np.ones(100)}), ("pitch",), n_tests)
+
+
+@pytest.mark.parametrize("p_value, passes", [(0.001, True), (0.01, False)])
+def test_the_equation_errors_family_wise_level_passes_p_0_001_and_refuses_p_0_01_among_20(p_value, passes):
+    """diagnose's held-out test over the library's 20 candidates: family-wise 5 % (Bonferroni, 0.0025 each) passes
+    a candidate at p = 0.001 and refuses one at p = 0.01, both above the 5 % practical size (5.9 %, 8.5 %).  A family level of
+    0.9 (0.045 each) would pass both; one of 0.01 (0.0005 each) would refuse both."""
+    from trms_ident.diagnosis.select import FAMILY_ALPHA, MIN_REL_GAIN
+
+    test = _held_out_test(p_value)
+    assert test.p == pytest.approx(p_value, rel=1e-6) and test.gain > 1.15 * MIN_REL_GAIN
+    assert test.passed is passes
+    assert FAMILY_ALPHA == 0.05
+
+
+@pytest.mark.parametrize("spread, passes", [(0.0262, False), (0.03, True)])
+def test_a_significant_candidate_must_also_lower_the_held_out_error_by_5_percent(spread, passes):
+    """The practical size: at p = 1e-6 a candidate whose held-out RSS falls by 4.7 % is refused, by 5.4 % passed
+    (select.MIN_REL_GAIN = 5 %)."""
+    test = _held_out_test(1e-6, spread=spread)
+    assert test.p == pytest.approx(1e-6, rel=1e-6)
+    assert (0.045 < test.gain < 0.05) if not passes else (0.05 < test.gain < 0.055)
+    assert test.passed is passes
