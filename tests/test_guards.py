@@ -137,3 +137,34 @@ def test_a_significant_candidate_must_also_lower_the_held_out_error_by_5_percent
     assert test.p == pytest.approx(1e-6, rel=1e-6)
     assert (0.045 < test.gain < 0.05) if not passes else (0.05 < test.gain < 0.055)
     assert test.passed is passes
+
+
+def _oe_fit(**changes):
+    """An output-error candidate fit that passes every part of the output-error test (oe.shortfall), with
+    ``changes`` applied."""
+    from dataclasses import replace
+
+    from trms_ident.diagnosis.oe import OEFit
+
+    fit = OEFit(key="cable_stiffness:yaw", value=0.004, se=1e-5, t=12.0, p=1e-9, cost_drop=0.3, explained=0.2,
+                excess_share=0.9, torque_share=0.05, estimates={}, samples=1000)
+    return replace(fit, **changes)
+
+
+@pytest.mark.parametrize("changes, refused", [
+    ({"p": 0.002}, False), ({"p": 0.003}, True),  # family-wise 5 % over 20 candidates: 0.0025 each
+    ({"cost_drop": 0.012}, False), ({"cost_drop": 0.008}, True),  # oe.MIN_COST_DROP = 1 % of the angle error
+    ({"torque_share": 0.006}, False), ({"torque_share": 0.004}, True),  # oe.MIN_TORQUE_SHARE = 0.5 %
+    ({"torque_share": 0.0012, "profiled": True}, False),  # oe.MIN_MODIFICATION_SHARE = 0.1 % for a modification
+    ({"torque_share": 0.0008, "profiled": True}, True),
+])
+def test_the_output_error_test_refuses_just_past_each_of_its_edges(changes, refused):
+    """oe.shortfall, the output-error test that decides a candidate: each of its guards passes a fit just inside
+    its edge and refuses one just outside it (a guard loosened or tightened past these makes this fail)."""
+    from trms_ident.diagnosis.oe import MIN_COST_DROP, MIN_MODIFICATION_SHARE, MIN_TORQUE_SHARE, shortfall
+    from trms_ident.diagnosis.select import FAMILY_ALPHA
+
+    assert not shortfall(_oe_fit(), 20, FAMILY_ALPHA)  # the fit as built passes
+    why = shortfall(_oe_fit(**changes), 20, FAMILY_ALPHA)
+    assert bool(why) is refused, why
+    assert (MIN_COST_DROP, MIN_TORQUE_SHARE, MIN_MODIFICATION_SHARE) == (0.01, 0.005, 0.001)
