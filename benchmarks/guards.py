@@ -102,6 +102,8 @@ def main() -> None:
         with tempfile.TemporaryDirectory(prefix="guard-") as tmp:
             tree = Path(tmp) / "tree"
             subprocess.run(["git", "worktree", "add", "-q", "--detach", str(tree), "HEAD"], cwd=ROOT, check=True)
+            at = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=tree, capture_output=True, text=True,
+                                check=True).stdout.strip()  # HEAD may move while the sweep runs
             shared = ROOT.parent / "shared"
             if shared.exists() and not (tree.parent / "shared").exists():
                 (tree.parent / "shared").symlink_to(shared)  # the real recordings' tests read ../shared
@@ -113,14 +115,15 @@ def main() -> None:
         ok = bool(first) and not first.startswith("(")  # a red test named (not a time-out or a crash)
         held += ok
         rows.append(f"| `{name}` ({Path(path).name}) | `{was.split('=', 1)[1].strip()}` -> `{value}` | {what} | "
-                    f"{'yes' if ok else '**NO**'} | {first or 'all passed'} | {seconds:.0f} s |")
+                    f"{'yes' if ok else '**NO**'} | {first or 'all passed'} | {at} | {seconds:.0f} s |")
         print(rows[-1], flush=True)
-    lines = ["Each guard broken in a copy of the repository at " + head + " (its constant moved far past its edge) "
+    lines = ["Each guard broken in a copy of the repository (from " + head + "; each row's commit is its copy's; its "
+             "constant moved far past its edge) "
              + ("and the default test suite run on the copy with `-x`, the tests of diagnose first"
                 if args.all else "and the tests of diagnose and the docs' examples (FIRST) run on the copy with `-x`")
              + ": held when a test goes red.", "",
-             "| guard | broken | what it lets through | held | first red test | time |",
-             "|---|---|---|---|---|---|", *rows, "",
+             "| guard | broken | what it lets through | held | first red test | commit | time |",
+             "|---|---|---|---|---|---|---|", *rows, "",
              f"Held: {held}/{len(rows)}. Total {time.perf_counter() - t_all:.0f} s on 2 processes."]
     publish("Guards", "## Guards (benchmarks/guards.py, mutation check)\n\n" + "\n".join(lines),
             write=not args.no_write and not args.only)
