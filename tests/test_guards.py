@@ -168,3 +168,27 @@ def test_the_output_error_test_refuses_just_past_each_of_its_edges(changes, refu
     why = shortfall(_oe_fit(**changes), 20, FAMILY_ALPHA)
     assert bool(why) is refused, why
     assert (MIN_COST_DROP, MIN_TORQUE_SHARE, MIN_MODIFICATION_SHARE) == (0.01, 0.005, 0.001)
+
+
+@pytest.mark.parametrize("other_gain, separable", [(0.192, False), (0.188, True)])
+def test_two_look_alikes_are_told_apart_only_when_the_better_explains_5_percent_more(other_gain, separable):
+    """trials.separable: the better of two candidates whose fits look alike is told apart (not flagged as a
+    look-alike) only when it is better block by block (one-sided 5 %) and its held-out gain exceeds the other's by
+    SEPARATION_MARGIN (5 %) of its own: 0.2 against 0.192 (4 %) stays a look-alike, against 0.188 (6 %) is told
+    apart, on the same clearly better blocks."""
+    from types import SimpleNamespace
+
+    from trms_ident.diagnosis.select import Score, Test
+    from trms_ident.diagnosis.trials import SEPARATION_MARGIN, separable as told_apart
+    from trms_ident.model.effects import by_key
+
+    k = 16
+    z = np.linspace(-1.0, 1.0, k)
+    d = 0.05 + 0.01 * (z - z.mean()) / z.std(ddof=1)  # the better one's blocks: t = 20 over the other's
+    reg = SimpleNamespace(g={"yaw": np.ones(100)})
+    c = by_key("cable_stiffness:yaw")
+    other = {"c": c, "score": Score({"yaw": np.ones(k)}, {}, {}), "reg": reg, "test": Test(other_gain, 5.0, 1e-5,
+                                                                                         0.1, True)}
+    best = {"c": c, "score": Score({"yaw": np.exp(-d)}, {}, {}), "reg": reg, "test": Test(0.2, 6.0, 1e-6, 0.1, True)}
+    assert told_apart(best, other) is separable
+    assert SEPARATION_MARGIN == 0.05
