@@ -98,6 +98,12 @@ def test_findings_whose_simulation_stays_above_1_2x_the_noise_are_not_called_exp
     assert got == verdict
 
 
+def _standardised(k: int) -> np.ndarray:
+    """k evenly spread numbers with mean 0 and sample standard deviation 1 exactly (per-block values)."""
+    z = np.linspace(-1.0, 1.0, k)
+    return (z - z.mean()) / z.std(ddof=1)
+
+
 def _held_out_test(p_target: float, spread: float = 0.1, k: int = 16, n_tests: int = 20):
     """select.compare on a candidate whose per-block log-ratios of held-out RSS (current over candidate) have a
     t statistic giving one-sided p = ``p_target`` over ``k`` blocks, their spread ``spread``."""
@@ -107,10 +113,8 @@ def _held_out_test(p_target: float, spread: float = 0.1, k: int = 16, n_tests: i
 
     from trms_ident.diagnosis.select import Score, compare
 
-    z = np.linspace(-1.0, 1.0, k)
-    z = (z - z.mean()) / z.std(ddof=1)  # mean 0, sd 1 exactly
     t = float(stdtrit(k - 1, 1.0 - p_target))
-    d = t * spread / math.sqrt(k) + spread * z
+    d = t * spread / math.sqrt(k) + spread * _standardised(k)
     base = Score({"pitch": np.ones(k)}, {}, {})
     new = Score({"pitch": np.exp(-d)}, {}, {})
     return compare(base, new, SimpleNamespace(g={"pitch": np.ones(100)}), ("pitch",), n_tests)
@@ -183,8 +187,7 @@ def test_two_look_alikes_are_told_apart_only_when_the_better_explains_5_percent_
     from trms_ident.model.effects import by_key
 
     k = 16
-    z = np.linspace(-1.0, 1.0, k)
-    d = 0.05 + 0.01 * (z - z.mean()) / z.std(ddof=1)  # the better one's blocks: t = 20 over the other's
+    d = 0.05 + 0.01 * _standardised(k)  # the better one's blocks: t = 20 over the other's
     reg = SimpleNamespace(g={"yaw": np.ones(100)})
     c = by_key("cable_stiffness:yaw")
     other = {"c": c, "score": Score({"yaw": np.ones(k)}, {}, {}), "reg": reg, "test": Test(other_gain, 5.0, 1e-5,

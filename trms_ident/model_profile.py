@@ -11,9 +11,9 @@ search repeated around it, narrower, until the value moves less than a quarter o
 
 The value's standard error is the batch-means one of diagnose's profiles (oe.profile_se: the blocks' cost
 slopes at the minimum over the profile's curvature, never below what white errors give); its 95 % interval is
-Student t over the blocks.  J/B's intervals are widened by what that uncertainty moves them (the delta method:
-their slopes along the profile times the value's half-width, added in quadrature): the interval of a J or B
-then holds whether or not the value was known.  A value the bench file holds with its 95 % interval (exported by
+Student t over the blocks.  The intervals of J/B and of the parameters the refinement frees with them are
+widened by what that uncertainty moves them (the delta method: their slopes along the profile times the value's
+half-width, added in quadrature): they then hold whether or not the value was known.  A value the bench file holds with its 95 % interval (exported by
 diagnose, or from another log) widens them alike, its slopes from two fits a quarter of the interval either side:
 the intervals then hold over the file's own uncertainty.  Pure numerics on a validated log: no files.
 """
@@ -59,7 +59,7 @@ def identify_with_profiles(log, settings):
         raise SettingsError(f"--free {SENSOR_LAG}: an acquisition lag changes the angles the fit is scored on; "
                             "estimate holds it at the bench file's value (diagnose fits it)")
     settings = replace(settings, free=tuple(k for k in settings.free if k not in keys))
-    found = {}
+    found, uncertain = {}, {}  # uncertain: key -> (the estimates' slopes along it, its 95 % half-width)
     for key in keys:
         v0 = float(settings.effects[key])
         value, span = v0, math.log(PROFILE_SPAN)
@@ -91,23 +91,22 @@ def identify_with_profiles(log, settings):
         nb = blocks.shape[1]
         tq = float(stdtrit(max(nb - 1, 1), 0.975))
         half = tq * se
-        slopes = _slopes(fits[0], fits[2], trial[2] - trial[0])
+        uncertain[key] = (_slopes(fits[0], fits[2], trial[2] - trial[0]), half)
         found[key] = {"estimate": value, "ci95": [value - half, value + half], "se": se,
                       "table_or_file_value": v0, "profiled": True, "at_search_edge": at_edge,
-                      "jb_slopes": slopes, "unit": BY_KEY[key].unit}
+                      "unit": BY_KEY[key].unit}
     res = identify(log, settings)
     if res.refined is None:
         return res
-    moved = {k: (v["jb_slopes"], (v["ci95"][1] - v["ci95"][0]) / 2.0) for k, v in found.items()}
     slopes_of, unmeasured = _held_slopes(log, settings, res.refined, held)
-    moved.update(slopes_of)
+    uncertain.update(slopes_of)
     ci95 = dict(res.refined.ci95)
     for k in ESTIMATED:  # the delta method: each value's half-width moves J/B along its slope, in quadrature
-        ci95[k] = _widened(res.refined.estimate[k], ci95[k], k, moved)
+        ci95[k] = _widened(res.refined.estimate[k], ci95[k], k, uncertain)
     freed = dict(res.refined.freed)
     for k, f in freed.items():  # the parameters the refinement freed with J/B (a torque effect, a known value)
-        freed[k] = {**f, "ci95": list(_widened(f["estimate"], f["ci95"], k, moved))}
-    freed.update({k: {kk: vv for kk, vv in v.items() if kk != "jb_slopes"} for k, v in found.items()})
+        freed[k] = {**f, "ci95": list(_widened(f["estimate"], f["ci95"], k, uncertain))}
+    freed.update(found)
     refined = replace(res.refined, freed=freed, ci95=ci95)
     res = _with_refined(res, refined, settings)
     if held and res.headline == "refined":
