@@ -7,8 +7,8 @@ exercise diagnose are run on the copy; the guard is held when at least one test 
 
 A copy is a `git worktree` of HEAD (so commit first): uncommitted changes are not in it.  The tests of diagnose
 and the docs' examples run (FIRST; --all: then the rest of the default suite) with `-x` (the first red test ends
-the run) on 2 processes; a guard whose tests all pass took the whole run (about 6 minutes on this 2-core
-machine)."""
+the run) on 2 processes, the edge tests (tests/test_guards.py) first and alone, in seconds; a guard whose tests
+all pass took the whole run (about 6 minutes on this 2-core machine)."""
 from __future__ import annotations
 
 import argparse
@@ -47,6 +47,8 @@ GUARDS = [
     ("trms_ident/known_values.py", "JOINT_MIN_SHARE", "0.0", "known values together on any share"),
 ]
 
+#: the guards' edge tests: each guard just inside and just outside its edge (run first, alone)
+EDGE = "tests/test_guards.py"
 #: the tests that exercise diagnose's rule (and the docs' runnable examples, whose printed lines are checked);
 #: with --all the rest of the default suite after them
 FIRST = ["tests/test_guards.py", "tests/test_known_values.py", "tests/test_compound.py", "tests/test_both_motors.py",
@@ -71,20 +73,21 @@ def run_tests(tree: Path, timeout_s: float, everything: bool) -> tuple[str, floa
     t0 = time.perf_counter()
     rest = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "tests").glob("test_*.py")
                   if str(p.relative_to(ROOT)) not in FIRST) if everything else []
-    cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-n", "2", "-p", "no:cacheprovider",
-           *FIRST, *rest]
-    proc = subprocess.Popen(cmd, cwd=tree, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "PYTHONPATH": str(tree)}, start_new_session=True)
-    try:
-        out, _ = proc.communicate(timeout=timeout_s)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)  # pytest and its workers
-        proc.communicate()
-        return "(timed out)", time.perf_counter() - t0
-    failed = re.findall(r"^FAILED (\S+)", out, re.M) or re.findall(r"^ERROR (\S+)", out, re.M)
-    if proc.returncode == 0:
-        return "", time.perf_counter() - t0
-    return (failed[0] if failed else f"(exit {proc.returncode})"), time.perf_counter() - t0
+    # the edge tests first, alone and in one process (seconds): most guards are held there, and the run ends
+    for files, workers in (([EDGE], []), ([f for f in FIRST if f != EDGE] + rest, ["-n", "2"])):
+        cmd = [sys.executable, "-m", "pytest", "-x", "-q", *workers, "-p", "no:cacheprovider", *files]
+        proc = subprocess.Popen(cmd, cwd=tree, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                env={**os.environ, "PYTHONPATH": str(tree)}, start_new_session=True)
+        try:
+            out, _ = proc.communicate(timeout=max(timeout_s - (time.perf_counter() - t0), 1.0))
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)  # pytest and its workers
+            proc.communicate()
+            return "(timed out)", time.perf_counter() - t0
+        failed = re.findall(r"^FAILED (\S+)", out, re.M) or re.findall(r"^ERROR (\S+)", out, re.M)
+        if proc.returncode != 0:
+            return (failed[0] if failed else f"(exit {proc.returncode})"), time.perf_counter() - t0
+    return "", time.perf_counter() - t0
 
 
 def main() -> None:

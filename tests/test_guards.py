@@ -195,3 +195,141 @@ def test_two_look_alikes_are_told_apart_only_when_the_better_explains_5_percent_
     best = {"c": c, "score": Score({"yaw": np.exp(-d)}, {}, {}), "reg": reg, "test": Test(0.2, 6.0, 1e-6, 0.1, True)}
     assert told_apart(best, other) is separable
     assert SEPARATION_MARGIN == 0.05
+
+
+@pytest.mark.parametrize("corr, alike", [(0.96, True), (0.94, False)])
+def test_two_candidates_whose_residuals_correlate_0_96_are_look_alikes_and_0_94_are_not(corr, alike):
+    """trials.aliased: two fitted candidates change the residual alike when their equation errors correlate at
+    least ALIAS_CORRELATION (0.95) on every axis: 0.96 on both axes is alike, 0.94 on one is not."""
+    from types import SimpleNamespace
+
+    from trms_ident.diagnosis.trials import ALIAS_CORRELATION, aliased
+
+    n = 400
+    t = np.arange(n)
+    e1 = np.sin(2 * np.pi * 3 * t / n)  # orthogonal, zero mean: their mix correlates exactly corr with e1
+    e2 = np.sin(2 * np.pi * 7 * t / n)
+
+    def fitted(g_pitch, g_yaw):  # a regression with no columns: its residual is g itself
+        reg = SimpleNamespace(g={"pitch": g_pitch, "yaw": g_yaw}, x={"pitch": np.zeros((n, 0)), "yaw": np.zeros((n, 0))})
+        return {"reg": reg, "score": SimpleNamespace(theta={"pitch": np.zeros(0), "yaw": np.zeros(0)})}
+
+    mixed = corr * e1 + math.sqrt(1.0 - corr * corr) * e2
+    a, b = fitted(e1, e1), fitted(mixed, 0.99 * e1 + math.sqrt(1 - 0.99 ** 2) * e2)
+    assert np.corrcoef(e1, mixed)[0, 1] == pytest.approx(corr, abs=1e-9)
+    assert aliased(a, b) is alike
+    assert ALIAS_CORRELATION == 0.95
+
+
+@pytest.mark.parametrize("after, said", [(89.95, []), (89.8, ["pitch"])])
+def test_a_held_out_fit_lowered_by_0_2_points_is_said_and_by_0_05_is_not(after, said):
+    """held_out.lowered: the findings lower an axis' held-out fit when it falls by more than LOWERED_BY_PERCENT
+    (0.1 percentage points): 90 % -> 89.8 % is said (and gates the findings on that axis), 90 % -> 89.95 % is not."""
+    from trms_ident.diagnosis.held_out import LOWERED_BY_PERCENT, lowered
+
+    h = {"before": {"pitch": 90.0, "yaw": 95.0}, "after": {"pitch": after, "yaw": 95.5}}
+    assert lowered(h) == said
+    assert LOWERED_BY_PERCENT == 0.1
+
+
+def _kv_fit(name: str, worst: float, cost: float = 10.0) -> dict:
+    """A known value's refit alone as the seed check records it: 10 % off its table value, the worst angle
+    ``worst`` times its floor."""
+    table = defaults()[name]
+    return {"name": name, "value": 0.9 * table, "table": table, "cost": cost,
+            "over_noise": {"alpha": worst, "beta": 1.0}}
+
+
+@pytest.mark.parametrize("worst, leads", [(1.9, True), (2.1, False)])
+def test_a_known_value_whose_refit_leaves_2_1x_the_floor_is_no_lead_beside_a_modification(worst, leads):
+    """compound.lead_of: beside an input modification, the best-ranked known value is freed too only when its
+    refit alone left the angles within LEAD_OVER_NOISE (2x) of their floors."""
+    from trms_ident.diagnosis.compound import LEAD_OVER_NOISE, lead_of
+
+    kv = {"fits": [_kv_fit("Mg", worst, cost=5.0), _kv_fit("kc", 1.5, cost=9.0)]}
+    got = lead_of(kv, "dead_zone:yaw")
+    assert (got is not None and got["name"] == "Mg") is leads
+    if not leads:
+        assert got is None  # the best-ranked is no lead: the second is not tried in its place
+    assert LEAD_OVER_NOISE == 2.0
+
+
+@pytest.mark.parametrize("worst, seed_worst, led", [(9.0, 100.0, True), (11.0, 100.0, False), (9.0, 17.0, False)])
+def test_a_known_value_leads_the_search_only_within_10x_its_floor_and_half_the_seed_models_misfit(worst, seed_worst,
+                                                                                                 led):
+    """compound.leads: a known value's refit alone leads the effect search (value_first) when it left the worst
+    angle within VALUE_FIRST_OVER_NOISE (10x) of its floor and within half the seed model's worst."""
+    from trms_ident.diagnosis.compound import VALUE_FIRST_OVER_NOISE, leads
+
+    got = leads({"fits": [_kv_fit("T21", worst)]}, seed_worst)
+    assert [f["name"] for f in got] == (["T21"] if led else [])
+    assert VALUE_FIRST_OVER_NOISE == 10.0
+
+
+@pytest.mark.parametrize("factor, moved", [(1.011, True), (0.989, True), (1.009, False), (0.991, False)])
+def test_a_known_value_that_moves_less_than_1_percent_from_its_table_value_has_not_moved(factor, moved):
+    """known_values.practical_change: a refit that moves a value by less than PRACTICAL_CHANGE (1 %) of the
+    value given does not name it (a value 0.06 % off its table once stood in for a dead zone)."""
+    for given in (defaults()["Mg"], defaults()["T21"]):
+        assert known_values.practical_change(factor * given, given) is moved
+    assert known_values.practical_change(1e-3, 0.0) and not known_values.practical_change(0.0, 0.0)
+    assert known_values.PRACTICAL_CHANGE == 0.01
+
+
+@pytest.mark.parametrize("new_cost, earns", [(79.0, True), (81.0, False)])
+def test_a_further_known_value_earns_its_place_only_by_a_quarter_of_the_excess(new_cost, earns):
+    """known_values.earns_place: the joint search frees a further value when it removes at least JOINT_MIN_SHARE
+    (25 %) of the cost above the noise level's (here 100 over a floor of 20: 21 removed earns it, 19 does not);
+    a set already at the floor frees nothing."""
+    assert known_values.earns_place(100.0, new_cost, 20.0) is earns
+    assert not known_values.earns_place(19.0, 0.0, 20.0)
+    assert known_values.JOINT_MIN_SHARE == 0.25
+
+
+@pytest.mark.parametrize("gap, told", [(11.0, True), (9.0, False)])
+def test_the_two_pitch_offsets_are_told_apart_by_a_cost_gap_of_11_and_not_of_9(gap, told, monkeypatch):
+    """discriminate.tell_offsets_apart: both offsets' output-error fits reach the noise level; the one with the
+    lower noise-weighted squared angle error wins when the gap is at least MIN_COST_GAP (10: a likelihood ratio
+    of e^5), else the log cannot tell them apart."""
+    from types import SimpleNamespace
+
+    from trms_ident.diagnosis import discriminate
+    from trms_ident.log import validated
+
+    cost = {"com_offset:pitch": 100.0, "sensor_offset:pitch": 100.0 + gap}
+
+    def refine(*args, free, effects, **kw):  # the fits, as numerics.refine would report them
+        return SimpleNamespace(freed={free[0]: {"estimate": 0.02}}, converged=True, cost=cost[free[0]],
+                               rms_rad={"alpha": 1e-4, "beta": 1e-4})
+
+    monkeypatch.setattr(discriminate, "refine", refine)
+    rng = np.random.default_rng(0)
+    t = np.arange(1000) * 0.01
+    log = validated(t, 0 * t, 0 * t, 0.1 * np.sin(t) + 1e-3 * rng.standard_normal(t.size),
+                    0.1 * np.cos(t) + 1e-3 * rng.standard_normal(t.size), source="x")
+    v = discriminate.tell_offsets_apart(log, log.u1_v, log.u2_v, defaults(), "quadratic", {},
+                                        {k: 0.02 for k in discriminate.PAIR})
+    assert v.gap == pytest.approx(gap)
+    assert v.winner == ("com_offset:pitch" if told else None)
+    assert discriminate.MIN_COST_GAP == 10.0
+
+
+@pytest.mark.parametrize("worst, stops", [(1.05, True), (1.15, False)])
+def test_the_search_stops_when_its_findings_bring_both_angles_within_1_1x_their_floors(worst, stops, monkeypatch):
+    """search._reaches_floor: the rounds stop once the findings' output-error check leaves both angles within
+    STOP_OE_OVER_NOISE (1.1x) of their floors with J/B physical; at 1.15x they go on (a further effect the 1.2x
+    verdict tolerance hides can still be found)."""
+    from types import SimpleNamespace
+
+    from trms_ident.diagnosis import search
+    from trms_ident.diagnosis.model import Model
+
+    monkeypatch.setattr(search, "effect_values", lambda *a, **k: {})
+    monkeypatch.setattr(search, "oe_start", lambda *a, **k: {})
+    jb = {k: defaults()[k] for k in ESTIMATED}
+    fitter = SimpleNamespace(check_fit=lambda model, values, theta0: ({"alpha": worst, "beta": 1.0}, jb))
+    assert search._reaches_floor(fitter, Model(), None, None, {}, defaults()) is stops
+    unphysical = SimpleNamespace(check_fit=lambda model, values, theta0: ({"alpha": 1.0, "beta": 1.0},
+                                                                          {**jb, "B2": -1e-3}))
+    assert search._reaches_floor(unphysical, Model(), None, None, {}, defaults()) is False
+    assert search.STOP_OE_OVER_NOISE == 1.1

@@ -232,10 +232,10 @@ def _refit(fit: Fit, name: str, params: dict, noise: dict, score: float, theta0:
     f = r.freed.get(name)
     if f is None or not math.isfinite(f["estimate"]):
         return None
-    moved = abs(f["estimate"] / params[name] - 1.0) >= PRACTICAL_CHANGE if params[name] else f["estimate"] != 0
     return KnownValueFit(name, float(params[name]), float(f["estimate"]), tuple(float(x) for x in f["ci95"]), p.unit,
                          AXIS[name], float(score), stage, bool(r.converged), {k: float(v) for k, v in ratio.items()},
-                         float(r.cost), stage == "windows" and bool(r.converged) and _within(ratio) and moved,
+                         float(r.cost), stage == "windows" and bool(r.converged) and _within(ratio)
+                         and practical_change(f["estimate"], params[name]),
                          {k: float(v) for k, v in r.estimate.items()}, {k: float(v) for k, v in r.start_states.items()},
                          {k: {"estimate": float(v["estimate"]), "ci95": [float(x) for x in v["ci95"]]}
                           for k, v in r.freed.items() if k != name})
@@ -253,6 +253,19 @@ DETERMINED_REL = 0.1
 #: differs from the table but a fit that wandered off (measured on a real CE150 recording with Table 1's values:
 #: T11 9e9 s, J1 2e14 kg m^2, unconverged); such a set is never reported
 PLAUSIBLE_VALUE_FACTOR = 10.0
+
+
+def practical_change(value: float, given: float) -> bool:
+    """Did a refitted known value move from the value given by at least PRACTICAL_CHANGE of it (any change,
+    when the value given is 0)?"""
+    return abs(value / given - 1.0) >= PRACTICAL_CHANGE if given else value != 0
+
+
+def earns_place(cost: float, new_cost: float, floor_cost: float) -> bool:
+    """Does a further value freed in the joint search earn its place: the set's cost ``cost`` is above the
+    cost ``floor_cost`` of a model that fits to the noise level, and freeing it lowers the cost to ``new_cost``
+    by at least JOINT_MIN_SHARE of that excess?"""
+    return cost > floor_cost and cost - new_cost >= JOINT_MIN_SHARE * (cost - floor_cost)
 
 
 @dataclass
@@ -320,8 +333,7 @@ def joint(fit: Fit, params: dict, noise: dict, singles: list, free: tuple = ()) 
         if not trials:
             break
         k, got = min(trials, key=lambda t: (not _explains(t[1], noise), t[1][len(cur) - 1].cost))
-        drop = r.cost - got[len(cur) - 1].cost
-        if not (r.cost > n2 and drop >= JOINT_MIN_SHARE * (r.cost - n2)):
+        if not earns_place(r.cost, got[len(cur) - 1].cost, n2):
             break
         names.append(k)
         cur = got

@@ -162,12 +162,8 @@ def _profiled_with_lead(h: Hypothesis, log: Log, law: str, overrides: dict, kv: 
     from ..params import BY_NAME, merge
     from ..settings import Settings
 
-    fits = [f for f in kv.get("fits", []) if math.isfinite(f.get("cost", math.nan)) and f["name"] != SAME.get(h.key)
-            and known_values.plausible_value(f["value"], f["table"])]
-    if not fits:
-        return none
-    first = min(fits, key=lambda f: f["cost"])
-    if not max(first["over_noise"].values()) <= LEAD_OVER_NOISE:
+    first = lead_of(kv, h.key)
+    if first is None:
         return none
     lead = first["name"]
     settings = Settings(thrust_law=law, overrides=dict(overrides), effects={h.key: h.value}, free=(h.key, lead))
@@ -182,7 +178,7 @@ def _profiled_with_lead(h: Hypothesis, log: Log, law: str, overrides: dict, kv: 
         return none
     given = merge(dict(overrides), source="parameter overrides")[lead]
     value = float(freed[lead]["estimate"])
-    if given and abs(value / given - 1.0) < known_values.PRACTICAL_CHANGE:
+    if not known_values.practical_change(value, given):
         # the lead did not move (known_values.PRACTICAL_CHANGE): the modification profiled again explains the log
         # alone, one parameter (measured: a2 named at 0.02001 for 0.02 beside a yaw saturation, twice)
         return replace(h, fitted=float(freed[h.key]["estimate"]), fits_alone=True, over_noise=_over_noise(check))
@@ -192,6 +188,19 @@ def _profiled_with_lead(h: Hypothesis, log: Log, law: str, overrides: dict, kv: 
            "start_states": {k: float(v) for k, v in res.refined.start_states.items()},
            "how": f"freed with {h.key}, whose value was profiled again beside it"}
     return replace(h, fitted=float(freed[h.key]["estimate"]), over_noise=fit["over_noise"], value_fit=fit)
+
+
+def lead_of(kv: dict, key: str) -> dict | None:
+    """The known value freed beside the modification ``key`` (_profiled_with_lead): of the seed check's plausible
+    refits alone (``kv``), the one with the lowest cost, when it left both angles within LEAD_OVER_NOISE of their
+    floors (else None: a value that far from explaining the log is no lead).  The known value that is ``key``
+    under another name (SAME) is not its lead."""
+    fits = [f for f in kv.get("fits", []) if math.isfinite(f.get("cost", math.nan)) and f["name"] != SAME.get(key)
+            and known_values.plausible_value(f["value"], f["table"])]
+    if not fits:
+        return None
+    first = min(fits, key=lambda f: f["cost"])
+    return first if max(first["over_noise"].values()) <= LEAD_OVER_NOISE else None
 
 
 def best(tried: list[Hypothesis]) -> tuple[Hypothesis | None, list[Hypothesis]]:
