@@ -39,7 +39,7 @@ TIMING_PAIR = {"input_delay:both": "sensor_lag:both", "sensor_lag:both": "input_
 
 
 def alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests,
-                                 fitter, tested, partners=()):
+                                 fitter, tested, partners=(), decided: dict | None = None):
     """The equation error's best candidate has rivals: passing candidates whose held-out gain comes within
     ALIAS_GAIN_RATIO of its gain (``alts``, its look-alikes, among them).  The equation error only orders them
     (measured: a yaw motor time constant 2-3 % off its table value named before a 0.01 N m/rad yaw cable, with
@@ -49,12 +49,13 @@ def alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache,
     equation error's best stays the finding if it is among them, else the one that leaves the least; the other
     close ones become alternatives (beside look-alikes the fit cannot carry), the rest are told apart.
     ``partners``: equation-error results fitted as rivals whatever their gain (TIMING_PAIR).  (best,
-    alternatives, what told them apart or None); unchanged when no rival passes or the fit cannot decide."""
+    alternatives, what told them apart or None); unchanged when no rival passes or the fit cannot decide.
+    ``decided``: the values the output-error fits decided (oe.representable)."""
     forced = [r for r in partners if r is not best and oe.fittable(r["c"].key)]  # always among those fitted
     rivals = forced + sorted((r for r in ok if r is not best and all(r is not q for q in forced) and
                               oe.fittable(r["c"].key) and r["test"].gain >= ALIAS_GAIN_RATIO * best["test"].gain),
                              key=lambda r: -r["test"].gain)
-    if not oe.fittable(best["c"].key) or not rivals or not oe.representable(current):
+    if not oe.fittable(best["c"].key) or not rivals or not oe.representable(current, decided):
         return best, alts, None
     pool = [best] + rivals[:OE_TOP_K]
     theta0 = oe_start(score_now, reg_now, p)
@@ -103,7 +104,7 @@ def oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, 
     """The equation-error test passed no candidate: fit its best OE_TOP_K output-error candidates by output
     error (oe.py) and return the one that passes there with the largest drop in angle error (its regression
     and value, as try_candidate returns them, with "oe": the fit), or None.  ``scan``: as oe.Fitter.profile's."""
-    if not oe.representable(current):
+    if not oe.representable(current, oe_values):
         return None
     theta0 = oe_start(score_now, reg_now, p)
     values = effect_values(current, score_now, reg_now)
@@ -219,7 +220,8 @@ def oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested, 
     return f, why
 
 
-def oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested, gate: bool = False):
+def oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested, gate: bool = False,
+               decided: dict | None = None):
     """A finding the equation error passed, judged by the output-error fit when that fit can carry it (with its
     held-out test; for step modifications, Candidate.step, its profile sets the value): (the finding as
     oe_rescue returns one, None) when the test passes; (None, why not) when the fit carries it and the test
@@ -228,10 +230,11 @@ def oe_confirm(best, log, p, law, a, cache, ids, n_tests, fitter, tested, gate: 
     together), with the output-error fit under "oe_gate" for its evidence.  The gate asks the output-error test
     for significance, not for the torque-share floor (oe.MIN_TORQUE_SHARE, made for the candidates that test
     decides alone): the equation-error test's own practical size passed the candidate (measured: a right 0.03
-    pitch drag on a 100 Hz multisine, 0.48 % of the thrust torque, was refused by the floor)."""
+    pitch drag on a 100 Hz multisine, 0.48 % of the thrust torque, was refused by the floor).  ``decided``: the
+    values the output-error fits decided (oe.representable)."""
     c = best["c"]
     before, reg_b, sc_b = best["before"]
-    if not oe.fittable(c.key) or not oe.representable(before):
+    if not oe.fittable(c.key) or not oe.representable(before, decided):
         return None, None
     # gate: the equation error's practical size (a 5 % held-out drop) passed it, so no torque-share floor here
     f, why = oe_fit(c, best["value"], fitter, before, effect_values(before, sc_b, reg_b),

@@ -31,8 +31,8 @@ held-out drop in noise-weighted squared angle error over the batch-means scale o
 block, e the candidate's error, d its change from the current model: pure noise when the candidate is right,
 inflated by the misfit it leaves when it is not), one-sided, with the same family correction; the practical
 sizes are those of the torques, the torque share measured on the thrust torque the modification changes
-(MIN_MODIFICATION_SHARE). Once one is a finding the model is no longer one the output-error fit carries with
-every parameter free (representable), and later rounds are the equation error's alone.
+(MIN_MODIFICATION_SHARE). Once one is a finding, the output-error fit carries the model with the modification
+at the value its profile chose (representable), and the later rounds are judged on top of it.
 
 Where the output-error fit decides (diagnosis/judge.py): when the equation error passes no candidate (its best
 OE_TOP_K fitted here), when it cannot tell its best candidate from look-alikes (each fitted here; the one that
@@ -136,11 +136,18 @@ def fittable(key: str) -> bool:
     return carries(key) or profiled(key)
 
 
-def representable(model: Model) -> bool:
-    """Can the output-error fit carry the model's findings with every parameter free?  (An input
-    modification's value would stay at the equation error's estimate, and a fixed, slightly wrong dead zone or
-    saturation leaves yaw drift that a tiny extra term then absorbs: measured, "cable 8e-5 N m/rad".)"""
-    return all(k in OFFSETS for k, _ in model.mods) and all(carries(k) for k in model.linear)
+def representable(model: Model, decided: dict | None = None) -> bool:
+    """Can the output-error fit carry the model's findings?  Torques and the pitch offsets it fits with every
+    parameter free; an input modification only at a value the output-error fit decided (``decided``: key ->
+    value, its profile's optimum given the model before it).  A modification at the equation error's estimate
+    would stay there, and a fixed, slightly wrong dead zone or saturation leaves yaw drift that a tiny extra
+    term then absorbs (measured: "cable 8e-5 N m/rad"); at its profile's optimum the model it leaves is the
+    best it gives, so a further candidate's drop is its own (measured: a yaw dead zone beside a yaw saturation,
+    a transport delay beside a second-order yaw motor and a pitch saturation beside a second-order pitch motor
+    were never judged by output error, and were missed)."""
+    decided = decided or {}
+    return (all(k in OFFSETS or (k in decided and decided[k] == v) for k, v in model.mods)
+            and all(carries(k) for k in model.linear))
 
 
 #: a candidate's torque must reach this share of its axis' thrust torque (RMS over the log): in 40 s windows
