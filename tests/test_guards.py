@@ -325,3 +325,26 @@ def test_the_search_stops_when_its_findings_bring_both_angles_within_1_1x_their_
     unphysical = SimpleNamespace(check_fit=lambda model, values, theta0: ({"alpha": 1.0, "beta": 1.0},
                                                                           {**jb, "B2": -1e-3}))
     assert search._reaches_floor(unphysical, Model(), None, None, {}, defaults()) is False
+
+
+@pytest.mark.parametrize("value, refused", [(0.995, True), (1.012, False)])
+def test_a_motor_time_constant_the_output_error_fits_within_1_percent_of_the_table_is_refused(value, refused):
+    """judge.oe_fit: a yaw motor time constant (the motor_lag candidate, T21 under another name) whose
+    output-error value lands within MOTOR_LAG_NEUTRAL (1 %) of the table's 1.0 s changes nothing and is refused,
+    whatever its drop in angle error; 1.2 % off passes."""
+    from types import SimpleNamespace
+
+    from trms_ident.diagnosis.judge import oe_fit
+    from trms_ident.model.effects import by_key
+
+    c = by_key("motor_lag:yaw")
+    fit = _oe_fit(key=c.key, value=value, profiled=True)
+    fitter = SimpleNamespace(profile=lambda *a, **k: fit)
+    log = SimpleNamespace(u1_v=np.zeros(10), u2_v=np.zeros(10), sample_time_s=0.01)
+    from trms_ident.diagnosis.model import Model
+
+    got, why = oe_fit(c, 1.05, fitter, Model(), {}, {}, log, defaults(), 20, [])
+    assert got is fit
+    assert bool(why) is refused, why
+    if refused:
+        assert why == ["its fitted time constant 0.995 s is within 1 % of the table's: it changes nothing"]
