@@ -348,3 +348,16 @@ def test_a_motor_time_constant_the_output_error_fits_within_1_percent_of_the_tab
     assert bool(why) is refused, why
     if refused:
         assert why == ["its fitted time constant 0.995 s is within 1 % of the table's: it changes nothing"]
+
+
+@pytest.mark.parametrize("factor, verdict", [(90.0, "explained"), (110.0, "partly_explained"), (1 / 110, "partly_explained")])
+def test_findings_whose_refitted_j_is_over_100x_off_the_table_are_leads_not_an_explanation(factor, verdict):
+    """verdict.credible: J/B refitted with the findings more than PLAUSIBLE_FACTOR (100x) from Table 1 (a J
+    either way) say the findings' model is far from the bench: "explained" becomes "partly_explained" and the
+    sentence says the values are leads to check; 90x stays explained."""
+    from trms_ident.diagnosis.verdict import credible
+
+    jb = {k: defaults()[k] for k in ESTIMATED}
+    got, sentence = credible("explained", "s.", {**jb, "J2": factor * jb["J2"]})
+    assert got == verdict
+    assert ("read the findings and their values as leads to check" in sentence) is (verdict != "explained")
