@@ -243,3 +243,25 @@ def test_design_plans_for_the_bench_as_diagnosed_and_estimate_then_gets_what_it_
         half = (hi - lo) / 2 / abs(doc["estimates"][k])
         predicted = plan["design"]["predicted"][k]["relative"]
         assert predicted / 1.5 <= half <= predicted * 1.5, (k, half, predicted)
+
+
+def test_a_freed_modifications_profile_finds_a_better_value_a_percent_away_on_a_rugged_cost():
+    """model_profile._search: a dead zone's cost is piecewise constant in its width, with basins elsewhere.  A
+    start at 0.2524 V beside the answer 0.2512 V (a narrow well, steps of 0.2 % in the logarithm) and a broad
+    basin 0.8 away: Brent over the whole span settles in the basin, which is worse than the start, and alone
+    would leave the start standing (measured on a compound bench: the pitch dead zone stayed at 0.2524 V with
+    b2 freed beside it, the yaw at 1.95x its floor; at 0.2512 V, 1.00x).  The grid near the best finds the well."""
+    import math
+    from types import SimpleNamespace
+
+    from trms_ident.model_profile import PROFILE_SPAN, _search
+
+    xt = math.log(0.2512)
+
+    def fit(v: float):
+        x = math.log(v)
+        return SimpleNamespace(cost=min(100.0 + math.floor(abs(x - xt) / 0.002), 103.0 + 10.0 * (x - xt + 0.8) ** 2))
+
+    x, x0 = _search(fit, math.log(0.2524), math.log(PROFILE_SPAN))
+    assert x0 == math.log(0.2524)
+    assert fit(math.exp(x)).cost == 100.0 and abs(math.exp(x) / 0.2512 - 1.0) < 0.002
