@@ -4,6 +4,7 @@
                                              # writes the "Compound benches" section of RESULTS.md
     python benchmarks/compound.py --n 6      # the first 6 compound benches and 2 of both motors; print only with
                                              # --no-write
+    python benchmarks/compound.py --only 0 26 1000   # these benches again (printed only)
 
 Drawn from a seed no test uses (SEED).  A compound bench differs from eq. (1) with Table 1's values in two ways
 at once, drawn from the known values (each of known_values.HYPOTHESES off its table value by 15-50 %, either sign)
@@ -170,10 +171,11 @@ def cases(n: int) -> list[dict]:
 def main() -> None:
     from results import publish, seed_args
 
-    args = seed_args(__doc__, n=30)
+    args = seed_args(__doc__, n=30, only=True)
     t0 = time.perf_counter()
+    chosen = [c for c in cases(args.n) if not args.only or c["i"] in args.only]
     with ProcessPoolExecutor(max_workers=2) as pool:
-        rows = list(pool.map(run, cases(args.n)))
+        rows = list(pool.map(run, chosen))
     lines = ["| bench | kind | log | concealed | verdict | findings | named | within 30 % | invented |",
              "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
@@ -204,7 +206,7 @@ def main() -> None:
             "Benches that differ from eq. (1) with Table 1's values in two ways at once (an effect and a known value, "
             "or two effects), and benches with a dead zone or saturation on both motors (the same, or unequal); "
             "`diagnose` is given the log alone.\n\n" + summary + "\n\n" + "\n".join(lines) + "\n")
-    publish("Compound benches", text, write=not args.no_write)
+    publish("Compound benches", text, write=not args.no_write and not args.only)
 
 
 if __name__ == "__main__":

@@ -41,13 +41,16 @@ def publish(section: str, text: str, write: bool = True) -> None:
         update_section(Path(__file__).with_name("RESULTS.md"), section, text)
 
 
-def seed_args(doc: str, n: int = 20):
-    """The options of a benchmark over seeds: --n (how many, default ``n``) and --no-write; ``doc``: the script's
-    docstring, whose first line describes it."""
+def seed_args(doc: str, n: int = 20, only: bool = False):
+    """The options of a benchmark over seeds: --n (how many, default ``n``) and --no-write; with ``only``, --only
+    (the cases to run again, by number: printed, RESULTS.md left as it is); ``doc``: the script's docstring,
+    whose first line describes it."""
     import argparse
 
     ap = argparse.ArgumentParser(description=doc.split("\n")[0])
     ap.add_argument("--n", type=int, default=n, help=f"number of seeds (default {n})")
     ap.add_argument("--no-write", action="store_true", help="print only; leave RESULTS.md as it is")
+    if only:
+        ap.add_argument("--only", type=int, nargs="+", help="run only these cases (print only)")
     return ap.parse_args()
 
