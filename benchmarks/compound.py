@@ -1,6 +1,6 @@
 """Compound benches (issue #47): two differences at once, and a dead zone or saturation on both motors, blind.
 
-    python benchmarks/compound.py            # 30 compound benches + 14 on both motors, 2 processes (~40 min);
+    python benchmarks/compound.py            # 30 compound benches + 14 on both motors, 2 processes (~80 min);
                                              # writes the "Compound benches" section of RESULTS.md
     python benchmarks/compound.py --n 6      # the first 6 compound benches and 2 of both motors; print only with
                                              # --no-write
