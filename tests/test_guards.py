@@ -211,7 +211,8 @@ def test_two_candidates_whose_residuals_correlate_0_96_are_look_alikes_and_0_94_
     e2 = np.sin(2 * np.pi * 7 * t / n)
 
     def fitted(g_pitch, g_yaw):  # a regression with no columns: its residual is g itself
-        reg = SimpleNamespace(g={"pitch": g_pitch, "yaw": g_yaw}, x={"pitch": np.zeros((n, 0)), "yaw": np.zeros((n, 0))})
+        reg = SimpleNamespace(g={"pitch": g_pitch, "yaw": g_yaw},
+                              x={"pitch": np.zeros((n, 0)), "yaw": np.zeros((n, 0))})
         return {"reg": reg, "score": SimpleNamespace(theta={"pitch": np.zeros(0), "yaw": np.zeros(0)})}
 
     mixed = corr * e1 + math.sqrt(1.0 - corr * corr) * e2
@@ -350,7 +351,8 @@ def test_a_motor_time_constant_the_output_error_fits_within_1_percent_of_the_tab
         assert why == ["its fitted time constant 0.995 s is within 1 % of the table's: it changes nothing"]
 
 
-@pytest.mark.parametrize("factor, verdict", [(90.0, "explained"), (110.0, "partly_explained"), (1 / 110, "partly_explained")])
+@pytest.mark.parametrize("factor, verdict", [(90.0, "explained"), (110.0, "partly_explained"),
+                                             (1 / 110, "partly_explained")])
 def test_findings_whose_refitted_j_is_over_100x_off_the_table_are_leads_not_an_explanation(factor, verdict):
     """verdict.credible: J/B refitted with the findings more than PLAUSIBLE_FACTOR (100x) from Table 1 (a J
     either way) say the findings' model is far from the bench: "explained" becomes "partly_explained" and the

@@ -286,7 +286,7 @@ def _siblings(findings: list, current: Model, excluded: set) -> list[Candidate]:
     for best, _ in findings:
         c = best["c"]
         if c.effect in SIBLING_EFFECTS:
-            key = f"{c.effect}:{'yaw' if c.axis == 'pitch' else 'pitch'}"
+            key = f"{c.effect}:{_other(c.axis)}"
             sibling = effects.by_key(key)  # the library as it is now (a test may empty it)
             if sibling is not None and key not in current.keys and key not in excluded and sibling not in out:
                 out.append(sibling)
