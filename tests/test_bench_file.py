@@ -265,3 +265,28 @@ def test_a_freed_modifications_profile_finds_a_better_value_a_percent_away_on_a_
     x, x0 = _search(fit, math.log(0.2524), math.log(PROFILE_SPAN))
     assert x0 == math.log(0.2524)
     assert fit(math.exp(x)).cost == 100.0 and abs(math.exp(x) / 0.2512 - 1.0) < 0.002
+
+
+def test_a_held_values_interval_moves_a_profiled_minimum_by_its_cross_derivative():
+    """model_profile._minimum_slopes: on C(v, h) = k (v - a - b h)^2 + c the profile's minimum moves b per unit
+    of h (dv*/dh = -C_vh / C_vv, exact on a parabola); a profile with no curvature, or a held value whose fits
+    fail, moves nothing; a held value of no width is not stepped."""
+    from trms_ident.errors import TrmsError
+    from trms_ident.model_profile import _minimum_slopes
+
+    k, a, b, h0 = 40.0, 0.18, -0.6, 0.05
+
+    def cost(h, at):
+        v, dh = at
+        if h == "bad":
+            raise TrmsError("no fit there")
+        return k * (v - a - b * (h0 + dh)) ** 2 + 3.0
+
+    v_star = a + b * h0
+    trial = [v_star * 0.98, v_star, v_star * 1.02]
+    costs = [cost("Kg", (v, 0.0)) for v in trial]
+    out = _minimum_slopes(cost, trial, costs, {"Kg": (0.01, 0.02), "bad": (0.01, 0.02), "none": None})
+    assert set(out) == {"Kg"}
+    slope, half = out["Kg"]
+    assert slope == pytest.approx(b, rel=1e-9) and half == 0.02
+    assert _minimum_slopes(cost, trial, [3.0, 3.0, 3.0], {"Kg": (0.01, 0.02)}) == {}

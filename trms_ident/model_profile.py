@@ -10,13 +10,15 @@ logarithm of the value within PROFILE_SPAN of the file's, then a grid within 8 %
 between its best point's neighbours (the cost is rugged); the estimate is made again at the best value and the
 search repeated around it, narrower, until the value moves less than a quarter of a percent (ROUNDS at most).
 
-The value's standard error is the batch-means one of diagnose's profiles (oe.profile_se: the blocks' cost
-slopes at the minimum over the profile's curvature, never below what white errors give); its 95 % interval is
-Student t over the blocks.  The intervals of J/B and of the parameters the refinement frees with them are
-widened by what that uncertainty moves them (the delta method: their slopes along the profile times the value's
-half-width, added in quadrature): they then hold whether or not the value was known.  A value the bench file holds with its 95 % interval (exported by
-diagnose, or from another log) widens them alike, its slopes from two fits a quarter of the interval either side:
-the intervals then hold over the file's own uncertainty.  Pure numerics on a validated log: no files.
+The value's standard error is the batch-means one of diagnose's profiles (oe.profile_se: the blocks' cost slopes at
+the minimum over the profile's curvature, never below what white errors give); its 95 % interval is Student t over
+the blocks.  The intervals of J/B and of the parameters the refinement frees with them are widened by what that
+uncertainty moves them (the delta method: their slopes along the profile times the value's half-width, added in
+quadrature): they then hold whether or not the value was known.  A value the bench file holds with its 95 % interval
+(exported by diagnose, or from another log) widens them alike, its slopes from two fits a quarter of the interval
+either side: the intervals then hold over the file's own uncertainty.  A profiled value's own interval is widened by
+the held ones too: how far each moves the profile's minimum (the cost's cross derivative over its curvature) times
+its half-width, in quadrature.  Pure numerics on a validated log: no files.
 """
 from __future__ import annotations
 
@@ -97,7 +99,16 @@ def identify_with_profiles(log, settings):
         tq = float(stdtrit(max(nb - 1, 1), 0.975))
         half = tq * se
         uncertain[key] = (_slopes(fits[0], fits[2], trial[2] - trial[0]), half)
-        found[key] = {"estimate": value, "ci95": [value - half, value + half], "se": se,
+        # a value the file holds with an interval moves the profile's minimum too: its interval widened alike
+        def cost(h: str, at: tuple, _key=key, _r0=base.refined) -> float:  # at: (the value, the held one's step)
+            moved = _holding(settings, h, _held(settings, h) + at[1])
+            return float(_profile_fit(log, moved, _key, _r0)[0](at[0]).cost)
+
+        moved_by = _minimum_slopes(cost, trial, [float(f.cost) for f in fits],
+                                   {h: _held_step(settings, h, ci) for h, ci in held.items()})
+        extra = math.sqrt(sum((slope * hw) ** 2 for slope, hw in moved_by.values()))
+        full = math.hypot(half, extra)
+        found[key] = {"estimate": value, "ci95": [value - full, value + full], "se": se,
                       "table_or_file_value": v0, "profiled": True, "at_search_edge": at_edge,
                       "unit": BY_KEY[key].unit}
     res = identify(log, settings)
@@ -150,13 +161,11 @@ def _held_slopes(log, settings, r0, held: dict) -> dict:
     quarter of the interval either side of the value, from the estimate ``r0``; and the keys whose fits failed
     (held as exact, and said so)."""
     out, failed = {}, []
-    for key, (lo, hi) in held.items():
-        v0, half = _held(settings, key), (float(hi) - float(lo)) / 2.0
-        if not half > 0:
+    for key, ci in held.items():
+        step_half = _held_step(settings, key, ci)
+        if step_half is None:
             continue
-        step = half / 2.0
-        if key in MODIFICATION_KEYS and v0 - step <= 0:  # a width, a lag, a delay: positive
-            step = 0.5 * v0
+        (step, half), v0 = step_half, _held(settings, key)
         fit, _ = _profile_fit(log, settings, key, r0)
         try:  # (a known value stepped out of its physical range is refused by merge: no slope there either)
             lo_fit, hi_fit = fit(v0 - step), fit(v0 + step)
@@ -165,6 +174,51 @@ def _held_slopes(log, settings, r0, held: dict) -> dict:
             continue
         out[key] = (_slopes(lo_fit, hi_fit, 2.0 * step), half)
     return out, failed
+
+
+def _minimum_slopes(cost, trial: list, costs: list, steps: dict) -> dict:
+    """How far the profile's minimum moves per unit of each held value: held key -> (slope, the value's 95 %
+    half-width).  ``cost(h, (v, dh))``: the output-error cost with the profiled value at v and the held value h
+    moved by dh; ``trial``, ``costs``: the profile's three values (evenly spaced) and its costs there; ``steps``:
+    held key -> (its step, its half-width) or None (not steppable).  At the minimum, dv*/dh = -C_vh / C_vv, the
+    cross derivative from four costs at (v* +/- dv, h +/- step) over the profile's curvature; a key whose fits
+    fail, or a profile with no curvature, moves nothing (its slope is not measured)."""
+    dv = (trial[2] - trial[0]) / 2.0
+    cvv = (costs[0] - 2.0 * costs[1] + costs[2]) / dv ** 2
+    out = {}
+    if not cvv > 0:
+        return out
+    for h, step_half in steps.items():
+        if step_half is None:
+            continue
+        step, half = step_half
+        try:
+            c = {(i, j): cost(h, (trial[i], j * step)) for i in (0, 2) for j in (-1, 1)}
+        except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError, TrmsError):
+            continue
+        if not all(math.isfinite(x) for x in c.values()):
+            continue
+        cvh = (c[2, 1] - c[2, -1] - c[0, 1] + c[0, -1]) / (2.0 * dv * 2.0 * step)
+        out[h] = (-cvh / cvv, half)
+    return out
+
+
+def _held_step(settings, key: str, ci95) -> tuple[float, float] | None:
+    """(the step either side of a held value for its slopes, its 95 % half-width): a quarter of the interval,
+    within a positive width, lag or delay; None for an interval of no width."""
+    v0, half = _held(settings, key), (float(ci95[1]) - float(ci95[0])) / 2.0
+    if not half > 0:
+        return None
+    step = half / 2.0
+    if key in MODIFICATION_KEYS and v0 - step <= 0:  # a width, a lag, a delay: positive
+        step = 0.5 * v0
+    return step, half
+
+
+def _holding(settings, key: str, v: float):
+    """The settings with ``key`` (an effect's key or a known value's name) held at v."""
+    return (replace(settings, effects={**settings.effects, key: v}) if key in settings.effects else
+            replace(settings, overrides={**settings.overrides, key: v}))
 
 
 def _held(settings, key: str) -> float:
@@ -180,8 +234,7 @@ def _profile_fit(log, settings, key: str, r0):
     def fit(v: float):
         if key in KERNEL_KEYS and v < MIN_KERNEL_LAG_S:  # below what the kernel integrates: no fit there
             raise FloatingPointError(f"{key} = {v:g} s is shorter than {MIN_KERNEL_LAG_S:g} s")
-        at = (replace(settings, effects={**settings.effects, key: v}) if key in settings.effects else
-              replace(settings, overrides={**settings.overrides, key: v}))
+        at = _holding(settings, key, v)
         params0 = merge(at.overrides, source="parameter overrides")
         lg, pp = under_model(log, params0, at.effects, kernel=True)
         return refine_first(lg, n, pp, at, r0.estimate, noise, tuple(settings.free),
