@@ -261,7 +261,8 @@ def main() -> None:
                f"a diagnose; {time.perf_counter() - t0:.0f} s on 2 processes.")
     text = (f"## Compound benches (benchmarks/compound.py, blind, seed {SEED})\n\n"
             "Benches that differ from eq. (1) with Table 1's values in two ways at once (an effect and a known value, "
-            "or two effects), and benches with a dead zone or saturation on both motors (the same, or unequal); "
+            "or two effects), and benches with a dead zone or saturation on both motors (the same, unequal, or each "
+            "at a level its motor reaches); "
             "`diagnose` is given the log alone.\n\n" + summary + "\n\n" + "\n".join(lines) + "\n")
     publish("Compound benches", text, write=not args.no_write and not args.only)
 
