@@ -16,7 +16,8 @@ The both-motor benches carry the same dead zone (0.1-0.3 V) or saturation (1.6-2
 saturation of 1.6-2.2 V is seldom reached by the pitch motor (it acted on none of the pitch samples on every such
 bench of the first runs), so the "reached" ones (3000 onwards, added after those runs) carry a saturation on each
 motor at a level that motor's voltages reach: the level below which the same run without it keeps 70-97 % of
-that motor's |u| samples under the controller's 2.5 V limit, drawn per motor, within 1-2.375 V.  diagnose is given nothing but the log (Table 1's values).
+that motor's |u| samples under the controller's 2.5 V limit, drawn per motor, within 1-2.375 V.  diagnose is
+given nothing but the log (Table 1's values).
 
 Judged per bench: each difference the log can show (a dead zone or saturation acting on at least NOT_EXERCISED of
 the samples) *named* (a finding, or a flagged look-alike of one; a dead zone or saturation
