@@ -141,7 +141,7 @@ def other_motor(c, log, p, law, a, current, cache, ids, score_now, reg_now, n_te
     theta0 = oe_start(score_now, reg_now, p)
     values = effect_values(current, score_now, reg_now, oe_values)
     grid = value_grid(c, log, p)
-    first = f"{c.effect}:{'yaw' if c.axis == 'pitch' else 'pitch'}"
+    first = room.other_motor_key(c)
     if not grid or first not in dict(current.mods):
         return None
     common = fitter.common_width(current, values, theta0, (first, c.key), min(grid), max(grid))

@@ -176,7 +176,7 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
             if c.key in current.keys or c.key in excluded or (c.effect in EXACT_OFFSETS and any(
                     k.split(":")[0] in EXACT_OFFSETS for k in current.keys)):  # one pitch offset explains both
                 continue
-            if c.effect in SIBLING_EFFECTS and f"{c.effect}:{_other(c.axis)}" in current.keys:
+            if c.effect in SIBLING_EFFECTS and effects.other_motor_key(c) in current.keys:
                 continue  # the other motor's of a kind found: the sibling step places the pair (_siblings)
             res = try_candidate(c, log, p, law, a, current, cache, ids, score_now, n_tests, span)
             if res is not None:
@@ -270,10 +270,6 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
 SIBLING_EFFECTS = ("dead_zone", "input_saturation")
 
 
-def _other(axis: str) -> str:
-    return "yaw" if axis == "pitch" else "pitch"
-
-
 def _siblings(findings: list, current: Model, excluded: set) -> list[Candidate]:
     """The library's candidates for the other motor of each input nonlinearity found (SIBLING_EFFECTS), not in
     the model nor excluded.  Each is fitted by output error (judge.other_motor: a profile over its value, the
@@ -286,7 +282,7 @@ def _siblings(findings: list, current: Model, excluded: set) -> list[Candidate]:
     for best, _ in findings:
         c = best["c"]
         if c.effect in SIBLING_EFFECTS:
-            key = f"{c.effect}:{_other(c.axis)}"
+            key = effects.other_motor_key(c)
             sibling = effects.by_key(key)  # the library as it is now (a test may empty it)
             if sibling is not None and key not in current.keys and key not in excluded and sibling not in out:
                 out.append(sibling)

@@ -215,6 +215,11 @@ def by_key(key: str) -> Candidate | None:
     return next((c for c in CANDIDATES if c.key == key), None)
 
 
+def other_motor_key(c: Candidate) -> str:
+    """The same effect on the other motor's axis: dead_zone:pitch -> "dead_zone:yaw"."""
+    return f"{c.effect}:{'yaw' if c.axis == 'pitch' else 'pitch'}"
+
+
 def declared_modification(key: str) -> bool:
     """Is ``key`` an input modification declared by its voltage transform (Candidate.modify)?"""
     c = by_key(key)
