@@ -276,17 +276,16 @@ def test_a_held_values_interval_moves_a_profiled_minimum_by_its_cross_derivative
 
     k, a, b, h0 = 40.0, 0.18, -0.6, 0.05
 
-    def cost(h, at):
-        v, dh = at
+    def cost_at(h, dh):
         if h == "bad":
             raise TrmsError("no fit there")
-        return k * (v - a - b * (h0 + dh)) ** 2 + 3.0
+        return lambda v: k * (v - a - b * (h0 + dh)) ** 2 + 3.0
 
     v_star = a + b * h0
     trial = [v_star * 0.98, v_star, v_star * 1.02]
-    costs = [cost("Kg", (v, 0.0)) for v in trial]
-    out = _minimum_slopes(cost, trial, costs, {"Kg": (0.01, 0.02), "bad": (0.01, 0.02), "none": None})
+    costs = [cost_at("Kg", 0.0)(v) for v in trial]
+    out = _minimum_slopes(cost_at, trial, costs, {"Kg": (0.01, 0.02), "bad": (0.01, 0.02), "none": None})
     assert set(out) == {"Kg"}
     slope, half = out["Kg"]
     assert slope == pytest.approx(b, rel=1e-9) and half == 0.02
-    assert _minimum_slopes(cost, trial, [3.0, 3.0, 3.0], {"Kg": (0.01, 0.02)}) == {}
+    assert _minimum_slopes(cost_at, trial, [3.0, 3.0, 3.0], {"Kg": (0.01, 0.02)}) == {}

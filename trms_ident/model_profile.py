@@ -100,11 +100,11 @@ def identify_with_profiles(log, settings):
         half = tq * se
         uncertain[key] = (_slopes(fits[0], fits[2], trial[2] - trial[0]), half)
         # a value the file holds with an interval moves the profile's minimum too: its interval widened alike
-        def cost(h: str, at: tuple, _key=key, _r0=base.refined) -> float:  # at: (the value, the held one's step)
-            moved = _holding(settings, h, _held(settings, h) + at[1])
-            return float(_profile_fit(log, moved, _key, _r0)[0](at[0]).cost)
+        def cost_at(h: str, dh: float, _key=key, _r0=base.refined):  # the profile's cost with h moved by dh
+            fit_h, _ = _profile_fit(log, _holding(settings, h, _held(settings, h) + dh), _key, _r0)
+            return lambda v: float(fit_h(v).cost)
 
-        moved_by = _minimum_slopes(cost, trial, [float(f.cost) for f in fits],
+        moved_by = _minimum_slopes(cost_at, trial, [float(f.cost) for f in fits],
                                    {h: _held_step(settings, h, ci) for h, ci in held.items()})
         extra = math.sqrt(sum((slope * hw) ** 2 for slope, hw in moved_by.values()))
         full = math.hypot(half, extra)
@@ -176,13 +176,13 @@ def _held_slopes(log, settings, r0, held: dict) -> dict:
     return out, failed
 
 
-def _minimum_slopes(cost, trial: list, costs: list, steps: dict) -> dict:
+def _minimum_slopes(cost_at, trial: list, costs: list, steps: dict) -> dict:
     """How far the profile's minimum moves per unit of each held value: held key -> (slope, the value's 95 %
-    half-width).  ``cost(h, (v, dh))``: the output-error cost with the profiled value at v and the held value h
-    moved by dh; ``trial``, ``costs``: the profile's three values (evenly spaced) and its costs there; ``steps``:
-    held key -> (its step, its half-width) or None (not steppable).  At the minimum, dv*/dh = -C_vh / C_vv, the
-    cross derivative from four costs at (v* +/- dv, h +/- step) over the profile's curvature; a key whose fits
-    fail, or a profile with no curvature, moves nothing (its slope is not measured)."""
+    half-width).  ``cost_at(h, dh)``: the output-error cost as a function of the profiled value, with the held
+    value h moved by dh; ``trial``, ``costs``: the profile's three values (evenly spaced) and its costs there;
+    ``steps``: held key -> (its step, its half-width) or None (not steppable).  At the minimum, dv*/dh = -C_vh /
+    C_vv, the cross derivative from four costs at (v* +/- dv, h +/- step) over the profile's curvature; a key
+    whose fits fail, or a profile with no curvature, moves nothing (its slope is not measured)."""
     dv = (trial[2] - trial[0]) / 2.0
     cvv = (costs[0] - 2.0 * costs[1] + costs[2]) / dv ** 2
     out = {}
@@ -193,7 +193,8 @@ def _minimum_slopes(cost, trial: list, costs: list, steps: dict) -> dict:
             continue
         step, half = step_half
         try:
-            c = {(i, j): cost(h, (trial[i], j * step)) for i in (0, 2) for j in (-1, 1)}
+            moved = {j: cost_at(h, j * step) for j in (-1, 1)}
+            c = {(i, j): moved[j](trial[i]) for i in (0, 2) for j in (-1, 1)}
         except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError, TrmsError):
             continue
         if not all(math.isfinite(x) for x in c.values()):
