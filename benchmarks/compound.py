@@ -57,8 +57,6 @@ TOLERANCE = 0.3
 SAME = {"motor_lag:pitch": "known_value:T11", "motor_lag:yaw": "known_value:T21"}
 #: a dead zone or saturation that acts on fewer of the samples than this cannot be observed (benchmarks/diagnose.py)
 NOT_EXERCISED = 0.005
-#: the simulator's controller keeps |u| within this (sim.simulate's u_limit_v) [V]
-U_LIMIT_V = 2.5
 
 
 def _log_settings(rng) -> dict:
@@ -128,6 +126,7 @@ def _judge(d, known: dict, effects: list, table: dict) -> dict:
 
 def run(case: dict) -> dict:
     import trms_ident as ti
+    from sim.simulate import SimSettings
     from trms_ident.errors import SettingsError
     from trms_ident.params import defaults
 
@@ -137,11 +136,12 @@ def run(case: dict) -> dict:
         try:
             if case["kind"] == "both motors, reached":
                 bare = ti.simulate(**settings, overrides=overrides)
+                limit = SimSettings().u_limit_v  # the simulator's controller keeps |u| within it [V]
                 for e in effects:  # a level the motor reaches below the controller's voltage limit, 1 V at least
                     u = np.abs(bare.u1_v if e["axis"] == "pitch" else bare.u2_v)
-                    below = u[u < 0.98 * U_LIMIT_V]
-                    level = float(np.quantile(below, 1.0 - e.pop("acts"))) if below.size else U_LIMIT_V
-                    e["value"] = round(min(max(level, 1.0), 0.95 * U_LIMIT_V), 3)
+                    below = u[u < 0.98 * limit]
+                    level = float(np.quantile(below, 1.0 - e.pop("acts"))) if below.size else limit
+                    e["value"] = round(min(max(level, 1.0), 0.95 * limit), 3)
             sim = ti.simulate(**settings, overrides=overrides, effects=effects)
             break
         except SettingsError:
