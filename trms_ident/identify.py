@@ -91,17 +91,20 @@ def on_uniform_grid(log: Log, params: dict) -> tuple[Log, tuple | None]:
                    beta_rad=ang[:, 1], u_switch_s=None), motor
 
 
-def under_model(log: Log, params: dict, effects: dict, kernel: bool = False) -> tuple[Log, dict]:
+def under_model(log: Log, params: dict, effects: dict, kernel: bool = False, free: tuple = ()
+                ) -> tuple[Log, dict]:
     """The log and known values as the bench's model sees them (model/bench.py): the voltages through its input
     modifications (dead zone, saturation, transport delay, second-order motor), a motor time constant in place of
     T11 or T21, the angles with an acquisition lag undone (diagnosis.model.observed_log).  Its torque effects are
     the refinement's (model_kw).  Unchanged without modifications.  ``kernel``: as the output-error refinement
     sees it, the modifications it integrates itself (model.bench.KERNEL_KEYS: a second-order motor's further
-    lag, exact within each sample interval; model_kw hands it over) left out of the voltages."""
-    from .model.bench import KERNEL_KEYS, MODIFICATION_KEYS
+    lag, exact within each sample interval; model_kw hands it over) left out of the voltages, and so are the
+    saturations ``free`` names (model.bench.NATIVE_FREE_KEYS: the refinement clips the voltages itself)."""
+    from .model.bench import KERNEL_KEYS, MODIFICATION_KEYS, NATIVE_FREE_KEYS
     from .model.effects import SENSOR_LAG
 
-    mods = {k: v for k, v in effects.items() if k in MODIFICATION_KEYS and not (kernel and k in KERNEL_KEYS)}
+    inside = KERNEL_KEYS + tuple(k for k in free if k in NATIVE_FREE_KEYS)
+    mods = {k: v for k, v in effects.items() if k in MODIFICATION_KEYS and not (kernel and k in inside)}
     if not mods:
         return log, params
     from .diagnosis.model import modified_inputs, observed_log
@@ -121,20 +124,22 @@ def model_name(settings: Settings) -> str:
 
 
 def refined_free(settings: Settings) -> tuple:
-    """The values the refinement estimates with J/B: known values and torque effects (--free); an input
-    modification's value freed is profiled outside it (model_profile.py)."""
-    from .model.bench import MODIFICATION_KEYS
+    """The values the refinement estimates with J/B: known values, torque effects and saturation levels (--free);
+    another input modification's value freed is profiled outside it (model_profile.py)."""
+    from .model.bench import MODIFICATION_KEYS, NATIVE_FREE_KEYS
 
-    return tuple(k for k in settings.free if k not in MODIFICATION_KEYS)
+    return tuple(k for k in settings.free if k not in MODIFICATION_KEYS or k in NATIVE_FREE_KEYS)
 
 
 def model_kw(settings: Settings, values: dict | None = None) -> dict:
     """refine's ``effects``: the bench's torque effects at their values (``values``: freed ones' estimates in
-    their place) and the modifications the kernel integrates (model.bench.KERNEL_KEYS, on voltages from
-    under_model(..., kernel=True)); empty under eq. (1) alone."""
-    from .model.bench import KERNEL_KEYS, TORQUE_KEYS
+    their place) and the modifications the kernel integrates (model.bench.KERNEL_KEYS, and the saturations freed:
+    NATIVE_FREE_KEYS, on voltages from under_model(..., kernel=True, free=settings.free)); empty under eq. (1)
+    alone."""
+    from .model.bench import KERNEL_KEYS, NATIVE_FREE_KEYS, TORQUE_KEYS
 
-    effects = {k: (values or {}).get(k, v) for k, v in settings.effects.items() if k in TORQUE_KEYS + KERNEL_KEYS}
+    inside = TORQUE_KEYS + KERNEL_KEYS + tuple(k for k in settings.free if k in NATIVE_FREE_KEYS)
+    effects = {k: (values or {}).get(k, v) for k, v in settings.effects.items() if k in inside}
     return {"effects": effects} if effects else {}
 
 
@@ -153,15 +158,16 @@ def identify(log: Log, settings: Settings | None = None, halves: bool = True) ->
     settings = settings or Settings()
     given = log
     settings.validate()
-    from .model.bench import KERNEL_KEYS, MODIFICATION_KEYS
+    from .model.bench import KERNEL_KEYS, MODIFICATION_KEYS, NATIVE_FREE_KEYS
 
-    profiled = [k for k in settings.free if k in MODIFICATION_KEYS]
+    profiled = [k for k in settings.free if k in MODIFICATION_KEYS and k not in NATIVE_FREE_KEYS]
     if profiled:  # the refinement has no sensitivity for them: model_profile.identify_with_profiles fits them
         raise SettingsError(f"--free {', '.join(profiled)}: an input modification's value is profiled "
                             "(model_profile.identify_with_profiles), not estimated by identify")
     params = merge(settings.overrides, source="parameter overrides")
     given_params = params
-    log, params = under_model(log, params, settings.effects, kernel=True)  # the refinement's voltages (model_kw)
+    # the refinement's voltages (model_kw)
+    log, params = under_model(log, params, settings.effects, kernel=True, free=settings.free)
     # DREM's regressions see every modification, the kernel's lags too (the same log when there are none)
     drem_log = (under_model(given, given_params, settings.effects)[0]
                 if any(k in KERNEL_KEYS for k in settings.effects) else log)

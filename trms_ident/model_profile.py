@@ -31,7 +31,7 @@ from scipy.special import stdtrit
 
 from .errors import IdentificationError, SettingsError, TrmsError
 from .identify import identify, noise_floors, refine_first, refined_interval, under_model
-from .model.bench import KERNEL_KEYS, MIN_KERNEL_LAG_S, MODIFICATION_KEYS
+from .model.bench import KERNEL_KEYS, MIN_KERNEL_LAG_S, MODIFICATION_KEYS, NATIVE_FREE_KEYS
 from .model.effects import BY_KEY, SENSOR_LAG
 from .params import ESTIMATED, merge
 
@@ -67,10 +67,12 @@ def identify_with_profiles(log, settings):
                             "estimate holds it at the bench file's value (diagnose fits it)")
     settings = replace(settings, free=tuple(k for k in settings.free if k not in keys))
     found, uncertain = {}, {}  # uncertain: key -> (the estimates' slopes along it, its 95 % half-width)
+    native, given = [], {}
     for key in keys:
-        v0 = float(settings.effects[key])
+        v0 = given[key] = float(settings.effects[key])
         value, span = v0, math.log(PROFILE_SPAN)
-        for _ in range(ROUNDS):  # the estimate at the current value, then its profile; again from the best
+        # a saturation is placed by one round of its profile, then estimated by Gauss-Newton with J/B (below)
+        for _ in range(1 if key in NATIVE_FREE_KEYS else ROUNDS):  # the estimate at the value, then its profile
             base = identify(log, settings)
             if base.refined is None:
                 raise IdentificationError(f"{log.source}: --free {key} needs the output-error refinement, which did "
@@ -84,6 +86,9 @@ def identify_with_profiles(log, settings):
                 break
             span = max(4.0 * moved, 0.05)
         at_edge = bool(abs(math.log(value / v0)) > math.log(PROFILE_SPAN) - 10 * LOG_TOLERANCE)
+        if key in NATIVE_FREE_KEYS:
+            native.append((key, at_edge))
+            continue
         # batch-means standard error from three fits around the minimum (diagnose's profile_se)
         base = identify(log, settings)
         fit, noise = _profile_fit(log, settings, key, base.refined)
@@ -111,6 +116,9 @@ def identify_with_profiles(log, settings):
         found[key] = {"estimate": value, "ci95": [value - full, value + full], "se": se,
                       "table_or_file_value": v0, "profiled": True, "at_search_edge": at_edge,
                       "unit": BY_KEY[key].unit}
+    # the saturations from where their profiles placed them, with J/B: their intervals are the refinement's, from
+    # the same covariance as J/B's (held values widen them below as they widen every freed parameter)
+    settings = replace(settings, free=settings.free + tuple(k for k, _ in native))
     res = identify(log, settings)
     if res.refined is None:
         return res
@@ -122,6 +130,10 @@ def identify_with_profiles(log, settings):
     freed = dict(res.refined.freed)
     for k, f in freed.items():  # the parameters the refinement freed with J/B (a torque effect, a known value)
         freed[k] = {**f, "ci95": list(_widened(f["estimate"], f["ci95"], k, uncertain))}
+    for k, at_edge in native:
+        freed[k] = {**freed[k], "table_or_file_value": given[k], "profiled": False, "at_search_edge": at_edge,
+                    "unit": BY_KEY[k].unit}
+    settings = replace(settings, effects={**settings.effects, **{k: freed[k]["estimate"] for k, _ in native}})
     freed.update(found)
     refined = replace(res.refined, freed=freed, ci95=ci95)
     res = _with_refined(res, refined, settings)
@@ -237,7 +249,7 @@ def _profile_fit(log, settings, key: str, r0):
             raise FloatingPointError(f"{key} = {v:g} s is shorter than {MIN_KERNEL_LAG_S:g} s")
         at = _holding(settings, key, v)
         params0 = merge(at.overrides, source="parameter overrides")
-        lg, pp = under_model(log, params0, at.effects, kernel=True)
+        lg, pp = under_model(log, params0, at.effects, kernel=True, free=at.free)
         return refine_first(lg, n, pp, at, r0.estimate, noise, tuple(settings.free),
                             max_iterations=ITERATIONS, start_states0=r0.start_states)
 

@@ -581,6 +581,15 @@ def _exact(i: int) -> bool:
     return i in DIRECT_SLOTS or i >= _NP
 
 
+#: an input saturation's level (effect key -> a slot of its own below 0: it is no model-vector value).  The
+#: kernel's voltages are clipped at it before the motors (u = clip(u_logged, -U, U)); when it is freed its
+#: sensitivity is a forward difference like the motors' values (d u / d U = sign(u) on the clipped samples, through
+#: the motor lags).  A saturation acting on most samples has a minimum 0.02 % wide in U (a yaw driven at +-U
+#: integrates any thrust error): a profile over U with a few Gauss-Newton steps per trial stopped 0.05 % off it
+#: and left the yaw at 5x its floor; Gauss-Newton over U with J/B and the start states converges onto it
+SATURATION_SLOTS = {"input_saturation:pitch": -1, "input_saturation:yaw": -2}
+
+
 @dataclass
 class _Problem:
     """One log and model, evaluated at any parameters: the kernel pass with the freed values' sensitivities
@@ -600,6 +609,31 @@ class _Problem:
     #: (n, 2, m) exogenous torques per unit parameter [N m / unit], held over each sample interval; their
     #: parameters sit after _NP in the model vector (model_vector's ``exogenous``)
     torques: np.ndarray | None = None
+    #: saturation levels held [V] (SATURATION_SLOTS' slot -> level); a freed one's level is in theta instead
+    clips: dict = field(default_factory=dict)
+    _clipped: dict = field(default_factory=dict)  # (pitch, yaw levels) -> the clipped voltages (a few kept)
+
+    def levels(self, th) -> tuple[float, float]:
+        """The main and tail motors' saturation levels [V] at th (inf: none)."""
+        lv = [math.inf, math.inf]
+        for i, v in self.clips.items():
+            lv[-1 - i] = abs(v)
+        for j, i in enumerate(self.free_idx):
+            if i < 0:
+                lv[-1 - i] = abs(float(th[NG + j]))
+        return lv[0], lv[1]
+
+    def inputs(self, th) -> tuple[np.ndarray, np.ndarray]:
+        """The voltages the motors see at th: the logged ones, clipped at the saturation levels."""
+        lv = self.levels(th)
+        if lv == (math.inf, math.inf):
+            return self.u1, self.u2
+        if lv not in self._clipped:
+            if len(self._clipped) >= 4:  # a Gauss-Newton iteration asks for two (the point, its difference)
+                self._clipped.pop(next(iter(self._clipped)))
+            self._clipped[lv] = tuple(u if math.isinf(v) else np.clip(u, -v, v)
+                                      for u, v in ((self.u1, lv[0]), (self.u2, lv[1])))
+        return self._clipped[lv]
 
     @property
     def differenced(self) -> list:
@@ -611,7 +645,8 @@ class _Problem:
         pv = self.base.copy()
         pv[:4] = th[:4]
         for j, i in enumerate(self.free_idx):
-            pv[i] = th[NG + j]
+            if i >= 0:  # (a saturation's level is no model value: inputs)
+                pv[i] = th[NG + j]
         return pv
 
     def exogenous(self, pv):
@@ -622,11 +657,13 @@ class _Problem:
 
     def _pass(self, pv, th, st, out, max_sub, extra, exact=()):
         ext = np.zeros((self.y.shape[0], 2, 0)) if extra is None else extra
-        key = (max_sub, pv[_MOTOR_P].tobytes())  # the motor states depend on the motors' values alone
+        u1, u2 = self.inputs(th)
+        # the motor states depend on the motors' values and voltages alone
+        key = (max_sub, pv[_MOTOR_P].tobytes(), self.levels(th))
         if key not in self.motor_cache:
-            self.motor_cache[key] = motor_starts(self.u1, self.u2, pv, self.h, self.dsw, max_sub, self.win,
+            self.motor_cache[key] = motor_starts(u1, u2, pv, self.h, self.dsw, max_sub, self.win,
                                                  st.shape[0], np.zeros(3))
-        return gauss_newton_pass(self.u1, self.u2, self.y, self.inv_sig, st, th[4:NG], pv, self.signed, self.h,
+        return gauss_newton_pass(u1, u2, self.y, self.inv_sig, st, th[4:NG], pv, self.signed, self.h,
                                  self.dsw, max_sub, self.win, self.block, out, ext, self.motor_cache[key],
                                  self.exogenous(pv), np.array(exact, dtype=np.int64), self.torques)
 
@@ -635,10 +672,17 @@ class _Problem:
         cols = np.empty((pred.shape[0], 2, len(idx)))
         tmp = np.empty_like(pred)
         for c, i in enumerate(idx):
-            pv = self.vector(th)
-            step = 1e-6 * max(abs(pv[i]), 1e-3)
-            pv[i] += step
-            self._pass(pv, th, st, tmp, max_sub, None)
+            if i < 0:  # a saturation's level: in theta
+                th_c = np.array(th, dtype=float)
+                j = NG + self.free_idx.index(i)
+                step = 1e-6 * max(abs(th_c[j]), 1e-3)
+                th_c[j] += step
+                self._pass(self.vector(th_c), th_c, st, tmp, max_sub, None)
+            else:
+                pv = self.vector(th)
+                step = 1e-6 * max(abs(pv[i]), 1e-3)
+                pv[i] += step
+                self._pass(pv, th, st, tmp, max_sub, None)
             cols[:, :, c] = (tmp - pred) / step
         return cols
 
@@ -700,6 +744,9 @@ def setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s=WIND
     effects = dict(effects or {})
     exogenous = tuple(torques or {})
     given = [float(params[k] if k in _P else effects.get(k, 0.0)) for k in free]  # the freed values' starts
+    clips = {SATURATION_SLOTS[k]: float(effects.pop(k)) for k in list(effects) if k in SATURATION_SLOTS}
+    if any(k in SATURATION_SLOTS and not g > 0 for k, g in zip(free, given)):
+        raise ValueError("a freed input saturation needs a positive starting level [V] in effects")
     motor0 = steady_motor_states(u1[0], u2[0], params)
     if start_states0:
         motor0 = np.array([start_states0.get(k, v) for k, v in zip(START_NAMES, motor0)], dtype=float)
@@ -715,8 +762,9 @@ def setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s=WIND
                     model_vector(params, gravity_offset_rad, effects, exogenous), law == "signed", h,
                     np.zeros((n, 2)) if switch_delay_s is None else np.ascontiguousarray(switch_delay_s, dtype=float),
                     win, block,
-                    [slot(k, exogenous) for k in free],
-                    torques=_held(torques, n) if exogenous else None)
+                    [SATURATION_SLOTS.get(k) or slot(k, exogenous) for k in free],
+                    torques=_held(torques, n) if exogenous else None,
+                    clips={i: v for i, v in clips.items() if i not in [SATURATION_SLOTS.get(k) for k in free]})
     return _Setup(prob, starts, theta, scale, win, block, n, nw, step_s, y, given)
 
 
