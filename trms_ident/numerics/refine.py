@@ -778,7 +778,9 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     ``t_s``: the sample stamps [s] when they are not uniform (default: uniform steps of ``dt`` [s]); the
     voltages are held over each actual interval.  ``switch_delay_s`` (n, 2): u1[k], u2[k] take effect this long
     after stamp k (the voltage topic's own times; default 0).  ``free``: known values (names of the parameter table) to
-    estimate with J/B, started from ``params``.  ``gravity_offset_rad``: a centre-of-mass offset, gravity
+    estimate with J/B, started from ``params``; a saturation's key (SATURATION_SLOTS) among them is estimated too,
+    its level started from ``effects`` (the logged voltages are clipped inside the fit; held, a saturation in
+    ``effects`` clips them at its value).  ``gravity_offset_rad``: a centre-of-mass offset, gravity
     Mg sin(alpha + delta) (diagnose's extended model; an encoder offset is handled by the caller, shifting
     the logged angle).  ``effects``: effect key (EFFECT_SLOTS) -> value in the model; an effect key in ``free``
     is estimated with J/B, started from its value there (or 0).  ``max_iterations``: Gauss-Newton's limit (a
