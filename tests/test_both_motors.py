@@ -57,3 +57,29 @@ def test_a_dead_zone_on_both_motors_is_named_on_both():
     assert got["dead_zone:pitch"] == pytest.approx(0.25, rel=0.1)
     assert got["dead_zone:yaw"] == pytest.approx(0.18, rel=0.1)
     assert d.verdict == "explained", d.verdict_sentence
+
+
+def test_both_saturation_levels_are_fitted_together_where_each_ones_profile_stays_off():
+    """A saturation on each motor at a level its voltages reach (above it: 20 % of those under the controller's
+    limit), the model
+    holding them 3 % off either way (where one motor's profile with the other's held left compound bench 3005):
+    fitted together by Gauss-Newton with J/B, both levels come back within three standard errors and 0.5 %, and
+    the cost falls."""
+    import numpy as np
+
+    bare = simulate(SimSettings(ref="chirp", sample_rate_hz=200.0, duration_s=60.0, quantization_rad=Q12, seed=5))
+    below = [u[u < 0.98 * SimSettings().u_limit_v] for u in (np.abs(bare.u1_v), np.abs(bare.u2_v))]  # not at the
+    level = {"pitch": float(np.quantile(below[0], 0.8)), "yaw": float(np.quantile(below[1], 0.8))}  # limit already
+    effects = [dict(effect="input_saturation", axis=a, value=v) for a, v in level.items()]
+    log = as_log(simulate(SimSettings(ref="chirp", sample_rate_hz=200.0, duration_s=60.0, quantization_rad=Q12,
+                                      seed=5, effects=effects)))
+    p = defaults()
+    theta0 = {k: p[k] for k in ("J1", "B1", "J2", "B2")}
+    model = Model((("input_saturation:pitch", 1.03 * level["pitch"]), ("input_saturation:yaw", 0.97 * level["yaw"])))
+    got = oe.Fitter(log, p, "quadratic").saturation_levels(model, {}, theta0)
+    assert got is not None and set(got) == {"input_saturation:pitch", "input_saturation:yaw"}
+    for axis, v in level.items():
+        fitted, se, drop = got[f"input_saturation:{axis}"]
+        assert abs(fitted - v) <= max(3 * se, 1e-9) and fitted == pytest.approx(v, rel=5e-3), (axis, fitted, v, se)
+        assert drop > 0.5
+    assert oe.Fitter(log, p, "quadratic").saturation_levels(Model(), {}, theta0) is None  # none in the model

@@ -50,7 +50,7 @@ from scipy.special import stdtr
 from ..log import Log
 from ..model import effects as room
 from ..model.plant import EFFECT_SLOTS, thrust_law
-from ..model.bench import KERNEL_KEYS
+from ..model.bench import KERNEL_KEYS, NATIVE_FREE_KEYS
 from ..numerics import safe
 from ..numerics.adequacy import judging_floors
 from ..numerics.design import angle_noise_rad
@@ -281,7 +281,7 @@ class Fitter:
 
     def _fit(self, model: Model, values: dict, theta0: dict, extra_key: str | None, mods: dict | None = None,
              max_iterations: int | None = None, span: tuple[int, int] | None = None, hold: bool = False,
-             start: dict | None = None):
+             start: dict | None = None, levels: tuple = ()):
         """The refinement of the log's first n samples with the model's torque effects (linear ones and the
         centre-of-mass offset, all free) and, when given, ``extra_key`` free from 0; the voltages go through the
         model's input modifications at their values, ``mods`` (key -> value) added or replacing them (fixed).
@@ -290,11 +290,12 @@ class Fitter:
         the start states begin (a fit's ``start_states``, e.g. the current model's when a candidate goes on from its
         J/B; default: the motors' steady state for the first voltages, refine's, which a log cut mid-run can be far
         from: measured, a steps log cut 30 s in, restarted there from the current model's J/B, stayed at ~1000x its
-        noise level in angle error)."""
+        noise level in angle error).  ``levels``: the model's saturations (NATIVE_FREE_KEYS) whose levels are fitted
+        too, from their values in the model (the fit clips the voltages itself: numerics.refine.SATURATION_SLOTS)."""
         n, log = self.n, self.log
         effects = {k: values[k] for k in model.linear}
         effects.update({k: values.get(k, v) if hold else v for k, v in model.mods if k in OFFSETS})
-        free = tuple(effects) + ((extra_key,) if extra_key else ())
+        free = tuple(effects) + ((extra_key,) if extra_key else ()) + tuple(levels)
         part = log.head(n) if span is None else log.span(*span)
         u1, u2, p = part.u1_v, part.u2_v, self.p
         mods = {**{k: v for k, v in model.mods if k not in OFFSETS}, **(mods or {})}
@@ -306,7 +307,7 @@ class Fitter:
             noise = {k: v * gain for k, v in noise.items()}
         # a second-order motor's further lag is a state of the fit's own simulation (exact within each sample
         # interval; the voltages held through it are not: model.bench.KERNEL_KEYS), held at its value
-        kernel = {k: mods[k] for k in KERNEL_KEYS if k in mods}
+        kernel = {k: mods[k] for k in KERNEL_KEYS + tuple(levels) if k in mods}
         if mods:
             u1, u2, changes = modified_inputs(part, {k: v for k, v in mods.items() if k not in kernel})
             p = {**p, **changes}
@@ -569,6 +570,26 @@ class Fitter:
                      modification_torque_share(key, float(best), self.log.head(self.n), self.p, self.law),
                      dict(est_best), self.n, profiled=True, fits=self._simulation_fits(base.rms_rad, rms_best),
                      start_states=start_best)
+
+    def saturation_levels(self, model: Model, values: dict, theta0: dict) -> dict | None:
+        """The model's saturations (its input modifications among NATIVE_FREE_KEYS) with their levels fitted
+        together by Gauss-Newton, with J/B, the start states and the findings' parameters, from their values in the
+        model: key -> (level [V], its standard error [V], the cost's relative drop); None when the model has none, the fit fails or it does
+        not lower the model's cost.  Each motor's level profiled with the other's held where a fit without it put
+        it stays a few per cent off (measured: a 1.25 V pitch and a 2.07 V yaw saturation named at 1.284 V and 2.132
+        V, the model partly explained; fitted together, 1.245 V and 2.070 V, both angles at their floors)."""
+        keys = tuple(k for k, _ in model.mods if k in NATIVE_FREE_KEYS)
+        base = self.base(model, values, theta0) if keys else None
+        if base is None:
+            return None
+        try:
+            r = self._fit(model, values, base.estimate, None, start=base.start_states, levels=keys)
+        except (*_FAILED, ValueError):
+            return None
+        if not (math.isfinite(r.cost) and r.cost < base.cost) or not all(k in r.freed for k in keys):
+            return None
+        drop = (base.cost - r.cost) / base.cost
+        return {k: (abs(float(r.freed[k]["estimate"])), float(r.freed[k]["se"]), drop) for k in keys}
 
     def common_width(self, model: Model, values: dict, theta0: dict, keys: tuple, lo: float, hi: float
                      ) -> tuple[float, float] | None:

@@ -5,7 +5,7 @@ fit of its axes; earlier ones re-judged given the later), and the Diagnosis repo
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -680,6 +680,19 @@ def _polish(findings, current, values, oe_values, fitter, log, p, theta0) -> Mod
         model = model.moved(c.key, f.value)
         oe_values[c.key] = values[c.key] = f.value
         best["polished"] = (old, f)
+    # then the saturations' levels together, by Gauss-Newton (oe.Fitter.saturation_levels): one motor's profiled
+    # with the other's held stays a few per cent off
+    levels = fitter.saturation_levels(model, values, theta0) or {}
+    for best, _ in findings:
+        key = best["c"].key
+        if key not in levels:
+            continue
+        old, (level, se, drop) = dict(model.mods)[key], levels[key]
+        model = model.moved(key, level)
+        oe_values[key] = values[key] = level
+        prev = best["polished"][1] if best.get("polished") else best.get("oe")
+        if prev is not None:  # the finding's record: this fit's value, standard error and drop
+            best["polished"] = (old, replace(prev, value=level, se=se, cost_drop=drop))
     return model
 
 
