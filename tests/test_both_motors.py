@@ -61,10 +61,9 @@ def test_a_dead_zone_on_both_motors_is_named_on_both():
 
 def test_both_saturation_levels_are_fitted_together_where_each_ones_profile_stays_off():
     """A saturation on each motor at a level its voltages reach (above it: 20 % of those under the controller's
-    limit), the model
-    holding them 3 % off either way (where one motor's profile with the other's held left compound bench 3005):
-    fitted together by Gauss-Newton with J/B, both levels come back within three standard errors and 0.5 %, and
-    the cost falls."""
+    limit), the model holding them 3 % off either way (where one motor's profile with the other's held left
+    compound bench 3005): fitted together by Gauss-Newton with J/B, both levels come back within three standard
+    errors and 0.5 %, and the cost falls."""
     import numpy as np
 
     bare = simulate(SimSettings(ref="chirp", sample_rate_hz=200.0, duration_s=60.0, quantization_rad=Q12, seed=5))
