@@ -574,10 +574,11 @@ class Fitter:
     def saturation_levels(self, model: Model, values: dict, theta0: dict) -> dict | None:
         """The model's saturations (its input modifications among NATIVE_FREE_KEYS) with their levels fitted
         together by Gauss-Newton, with J/B, the start states and the findings' parameters, from their values in the
-        model: key -> (level [V], its standard error [V], the cost's relative drop); None when the model has none, the fit fails or it does
-        not lower the model's cost.  Each motor's level profiled with the other's held where a fit without it put
-        it stays a few per cent off (measured: a 1.25 V pitch and a 2.07 V yaw saturation named at 1.284 V and 2.132
-        V, the model partly explained; fitted together, 1.245 V and 2.070 V, both angles at their floors)."""
+        model: key -> (level [V], its standard error [V], the cost's relative drop); None when the model has none,
+        the fit fails or it does not lower the model's cost.  Each motor's level profiled with the other's held
+        where a fit without it put it stays a few per cent off (measured: a 1.25 V pitch and a 2.07 V yaw saturation
+        named at 1.284 V and 2.132 V, the model partly explained; fitted together, 1.245 V and 2.070 V, both angles
+        at their floors)."""
         keys = tuple(k for k, _ in model.mods if k in NATIVE_FREE_KEYS)
         base = self.base(model, values, theta0) if keys else None
         if base is None:
