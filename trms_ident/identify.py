@@ -100,11 +100,10 @@ def under_model(log: Log, params: dict, effects: dict, kernel: bool = False, fre
     sees it, the modifications it integrates itself (model.bench.KERNEL_KEYS: a second-order motor's further
     lag, exact within each sample interval; model_kw hands it over) left out of the voltages, and so are the
     saturations ``free`` names (model.bench.NATIVE_FREE_KEYS: the refinement clips the voltages itself)."""
-    from .model.bench import KERNEL_KEYS, MODIFICATION_KEYS, NATIVE_FREE_KEYS
+    from .model.bench import MODIFICATION_KEYS, inside_fit
     from .model.effects import SENSOR_LAG
 
-    inside = KERNEL_KEYS + tuple(k for k in free if k in NATIVE_FREE_KEYS)
-    mods = {k: v for k, v in effects.items() if k in MODIFICATION_KEYS and not (kernel and k in inside)}
+    mods = {k: v for k, v in effects.items() if k in MODIFICATION_KEYS and not (kernel and k in inside_fit(free))}
     if not mods:
         return log, params
     from .diagnosis.model import modified_inputs, observed_log
@@ -136,9 +135,9 @@ def model_kw(settings: Settings, values: dict | None = None) -> dict:
     their place) and the modifications the kernel integrates (model.bench.KERNEL_KEYS, and the saturations freed:
     NATIVE_FREE_KEYS, on voltages from under_model(..., kernel=True, free=settings.free)); empty under eq. (1)
     alone."""
-    from .model.bench import KERNEL_KEYS, NATIVE_FREE_KEYS, TORQUE_KEYS
+    from .model.bench import TORQUE_KEYS, inside_fit
 
-    inside = TORQUE_KEYS + KERNEL_KEYS + tuple(k for k in settings.free if k in NATIVE_FREE_KEYS)
+    inside = TORQUE_KEYS + inside_fit(settings.free)
     effects = {k: (values or {}).get(k, v) for k, v in settings.effects.items() if k in inside}
     return {"effects": effects} if effects else {}
 

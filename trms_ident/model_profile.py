@@ -2,7 +2,8 @@
 
 A bench file's dead zone, saturation, transport delay, second-order motor or motor time constant changes what
 drives the plant, not its equations (model/bench.py), so the refinement has no sensitivity to follow for it (a
-dead zone's cost is even piecewise constant in its width).  ``--free dead_zone:yaw`` and the like are fitted as
+dead zone's cost is even piecewise constant in its width); a saturation is the exception, placed by one round of
+its profile and then fitted by the refinement with J/B (model.bench.NATIVE_FREE_KEYS).  ``--free dead_zone:yaw`` and the like are fitted as
 diagnose fits them (diagnosis/oe.py's profiles): the estimate is first made at the file's value; then the
 output-error fit is repeated on the voltages modified at trial values (J/B, the torque effects freed and the
 start states refitted from that estimate, a few Gauss-Newton iterations each), bounded Brent search over the

@@ -50,7 +50,7 @@ from scipy.special import stdtr
 from ..log import Log
 from ..model import effects as room
 from ..model.plant import EFFECT_SLOTS, thrust_law
-from ..model.bench import KERNEL_KEYS, NATIVE_FREE_KEYS
+from ..model.bench import NATIVE_FREE_KEYS, inside_fit
 from ..numerics import safe
 from ..numerics.adequacy import judging_floors
 from ..numerics.design import angle_noise_rad
@@ -307,7 +307,7 @@ class Fitter:
             noise = {k: v * gain for k, v in noise.items()}
         # a second-order motor's further lag is a state of the fit's own simulation (exact within each sample
         # interval; the voltages held through it are not: model.bench.KERNEL_KEYS), held at its value
-        kernel = {k: mods[k] for k in KERNEL_KEYS + tuple(levels) if k in mods}
+        kernel = {k: mods[k] for k in inside_fit(tuple(levels)) if k in mods}
         if mods:
             u1, u2, changes = modified_inputs(part, {k: v for k, v in mods.items() if k not in kernel})
             p = {**p, **changes}

@@ -35,6 +35,12 @@ KERNEL_KEYS = ("motor_second_lag:pitch", "motor_second_lag:yaw")
 #: inside the fit and the level is a Gauss-Newton unknown with J/B (numerics.refine.SATURATION_SLOTS); held, they
 #: are applied to the voltages like the others, and a freed one is first placed by its profile (model_profile.py)
 NATIVE_FREE_KEYS = ("input_saturation:pitch", "input_saturation:yaw")
+
+
+def inside_fit(free: tuple = ()) -> tuple:
+    """The modifications the output-error fit applies itself, not the voltages handed to it: KERNEL_KEYS and the
+    saturations ``free`` names (NATIVE_FREE_KEYS)."""
+    return KERNEL_KEYS + tuple(k for k in free if k in NATIVE_FREE_KEYS)
 #: the shortest further lag [s] the kernel integrates: its RK4 sub-steps are up to numerics.refine.MAX_SUBSTEP_S
 #: (2.5 ms) long, and a lag much shorter than a sub-step is neither stable nor resolved by a 100 Hz-1 kHz log
 MIN_KERNEL_LAG_S = 2.5e-3
