@@ -1,25 +1,26 @@
 """An input modification's value estimated with J/B: a profile of the output-error fit over the value.
 
-A bench file's dead zone, saturation, transport delay, second-order motor or motor time constant changes what
-drives the plant, not its equations (model/bench.py), so the refinement has no sensitivity to follow for it (a
-dead zone's cost is even piecewise constant in its width); a saturation is the exception, placed by one round of
-its profile and then fitted by the refinement with J/B (model.bench.NATIVE_FREE_KEYS).  ``--free dead_zone:yaw`` and the like are fitted as
-diagnose fits them (diagnosis/oe.py's profiles): the estimate is first made at the file's value; then the
-output-error fit is repeated on the voltages modified at trial values (J/B, the torque effects freed and the
-start states refitted from that estimate, a few Gauss-Newton iterations each), bounded Brent search over the
-logarithm of the value within PROFILE_SPAN of the file's, then a grid within 8 % of the best and Brent again
-between its best point's neighbours (the cost is rugged); the estimate is made again at the best value and the
-search repeated around it, narrower, until the value moves less than a quarter of a percent (ROUNDS at most).
+A bench file's dead zone, saturation, transport delay, second-order motor or motor time constant changes what drives
+the plant, not its equations (model/bench.py), so the refinement has no sensitivity to follow for it (a dead zone's
+cost is even piecewise constant in its width); a saturation is the exception, placed by one round of its profile and
+then fitted by the refinement with J/B (model.bench.NATIVE_FREE_KEYS).  ``--free dead_zone:yaw`` and the like are
+fitted as diagnose fits them (diagnosis/oe.py's profiles): the estimate is first made at the file's value; then the
+output-error fit is repeated on the voltages modified at trial values (J/B, the torque effects freed and the start
+states refitted from that estimate, a few Gauss-Newton iterations each), bounded Brent search over the logarithm of
+the value within PROFILE_SPAN of the file's, then a grid within 8 % of the best and Brent again between its best
+point's neighbours (the cost is rugged); the estimate is made again at the best value and the search repeated around
+it, narrower, until the value moves less than a quarter of a percent (ROUNDS at most).
 
 The value's standard error is the batch-means one of diagnose's profiles (oe.profile_se: the blocks' cost slopes at
 the minimum over the profile's curvature, never below what white errors give); its 95 % interval is Student t over
-the blocks.  The intervals of J/B and of the parameters the refinement frees with them are widened by what that
-uncertainty moves them (the delta method: their slopes along the profile times the value's half-width, added in
-quadrature): they then hold whether or not the value was known.  A value the bench file holds with its 95 % interval
-(exported by diagnose, or from another log) widens them alike, its slopes from two fits a quarter of the interval
-either side: the intervals then hold over the file's own uncertainty.  A profiled value's own interval is widened by
-the held ones too: how far each moves the profile's minimum (the cost's cross derivative over its curvature) times
-its half-width, in quadrature.  Pure numerics on a validated log: no files.
+the blocks.  A dead zone's is the run of steps of its staircase cost whose fits are no worse than the best's beyond
+chance (oe.step_interval): its edges are logged |u|.  The intervals of J/B and of the parameters the refinement frees
+with them are widened by what that uncertainty moves them (the delta method: their slopes along the profile times
+the value's half-width, added in quadrature): they then hold whether or not the value was known.  A value the bench
+file holds with its 95 % interval (exported by diagnose, or from another log) widens them alike, its slopes from two
+fits a quarter of the interval either side: the intervals then hold over the file's own uncertainty.  A profiled
+value's own interval is widened by the held ones too: how far each moves the profile's minimum (the cost's cross
+derivative over its curvature) times its half-width, in quadrature.  Pure numerics on a validated log: no files.
 """
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ from scipy.special import stdtrit
 
 from .errors import IdentificationError, SettingsError, TrmsError
 from .identify import identify, noise_floors, refine_first, refined_interval, under_model
-from .model.bench import KERNEL_KEYS, MIN_KERNEL_LAG_S, MODIFICATION_KEYS, NATIVE_FREE_KEYS
+from .model.bench import KERNEL_KEYS, MIN_KERNEL_LAG_S, MODIFICATION_KEYS, NATIVE_FREE_KEYS, inside_fit
 from .model.effects import BY_KEY, SENSOR_LAG
 from .params import ESTIMATED, merge
 
@@ -103,7 +104,11 @@ def identify_with_profiles(log, settings):
         se = profile_se(np.array(trial), blocks, value)
         nb = blocks.shape[1]
         tq = float(stdtrit(max(nb - 1, 1), 0.975))
-        half = tq * se
+        lo, hi = value - tq * se, value + tq * se
+        if key.startswith("dead_zone:"):  # a staircase in its width: the run of steps as good as the best's
+            lo, hi = _dead_zone_interval(log, settings, key, value, fit, floors)
+            se = (hi - lo) / (2.0 * tq)
+        half = max(value - lo, hi - value)
         uncertain[key] = (_slopes(fits[0], fits[2], trial[2] - trial[0]), half)
         # a value the file holds with an interval moves the profile's minimum too: its interval widened alike
         def cost_at(h: str, dh: float, _key=key, _r0=base.refined):  # the profile's cost with h moved by dh
@@ -113,8 +118,8 @@ def identify_with_profiles(log, settings):
         moved_by = _minimum_slopes(cost_at, trial, [float(f.cost) for f in fits],
                                    {h: _held_step(settings, h, ci) for h, ci in held.items()})
         extra = math.sqrt(sum((slope * hw) ** 2 for slope, hw in moved_by.values()))
-        full = math.hypot(half, extra)
-        found[key] = {"estimate": value, "ci95": [value - full, value + full], "se": se,
+        ci95 = [value - math.hypot(value - lo, extra), value + math.hypot(hi - value, extra)]
+        found[key] = {"estimate": value, "ci95": ci95, "se": se,
                       "table_or_file_value": v0, "profiled": True, "at_search_edge": at_edge,
                       "unit": BY_KEY[key].unit}
     # the saturations from where their profiles placed them, with J/B: their intervals are the refinement's, from
@@ -148,6 +153,26 @@ def identify_with_profiles(log, settings):
                      "either side of its value failed)")
         res = replace(res, refine_note=res.refine_note + note)
     return res
+
+
+def _dead_zone_interval(log, settings, key: str, value: float, fit, floors: dict) -> tuple[float, float]:
+    """A freed dead zone's 95 % interval [V]: oe.step_interval over the distinct |u| its motor's voltage takes
+    (the log's, through the bench's modifications before it), each step's cost from ``fit``."""
+    from .diagnosis.model import voltage_seen
+    from .diagnosis.oe import block_costs, step_interval
+
+    mods = {k: v for k, v in settings.effects.items()
+            if k in MODIFICATION_KEYS and k != SENSOR_LAG and k not in inside_fit(settings.free)}
+    levels = np.unique(np.abs(voltage_seen(log, mods, key)))
+
+    def blocks_at(v: float):
+        try:
+            r = fit(v)
+        except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError, TrmsError):
+            return None
+        return block_costs(log, r.prediction, floors) if math.isfinite(r.cost) else None
+
+    return step_interval(levels[levels > 0], value, blocks_at)
 
 
 def _slopes(lo_fit, hi_fit, width: float) -> dict:

@@ -148,6 +148,18 @@ def modified_inputs(log: Log, mods: dict) -> tuple[np.ndarray, np.ndarray, dict]
     return u["pitch"], u["yaw"], changes
 
 
+def voltage_seen(log: Log, mods: dict, key: str) -> np.ndarray:
+    """The voltage [V] the input modification ``key`` (of ``mods``, applied in their order as modified_inputs
+    applies them) receives on its motor: the log's, through the modifications before it."""
+    before = {}
+    for k, v in mods.items():
+        if k == key:
+            break
+        before[k] = v
+    u1, u2 = modified_inputs(log, before)[:2]
+    return u1 if key.endswith(":pitch") else u2
+
+
 def delayed(u: np.ndarray, samples: float) -> np.ndarray:
     """u(t - d) for a held signal: whole samples shifted, the fraction as the interval's average."""
     m = int(math.floor(samples))

@@ -45,7 +45,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.special import stdtr
+from scipy.special import stdtr, stdtrit
 
 from ..log import Log
 from ..model import effects as room
@@ -96,6 +96,9 @@ PROFILE_SCAN_KEEP = 3
 #: Gauss-Newton iterations per trial value: from the current model's fit 3-5 reach the minimum near the answer;
 #: a value far off (25 iterations measured) is not the answer, and its cost after these is high enough
 PROFILE_ITERATIONS = 8
+#: the chi-square distribution's 95 % point on one degree of freedom: a staircase profile's steps within it of the
+#: best are inside a dead zone's interval (step_interval)
+CHI2_1_95 = 3.841
 
 #: what a fit on a log with nothing to fit raises (the normal equations not finite, a zero step)
 _FAILED = (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError)
@@ -694,6 +697,61 @@ def profile_se(x: np.ndarray, block_costs: np.ndarray, at: float) -> float:
     nb = slopes.size
     spread = nb / max(nb - 1, 1) * float(np.sum((slopes - slopes.mean()) ** 2))
     return max(1.0 / math.sqrt(k), math.sqrt(spread) / (2.0 * k))
+
+
+def step_interval(levels: np.ndarray, value: float, blocks_at, max_fits: int = 12) -> tuple[float, float]:
+    """The 95 % interval of a dead zone's width ``value`` [V] whose cost is a staircase: a cut dead zone (|u| < w
+    applies no voltage) changes the modelled voltages only when w passes a logged |u|, so every width between two
+    neighbouring ``levels`` (the distinct |u| the dead zone sees, sorted) gives the same fit, and no curvature says
+    how well the width is known.  The interval is the run of steps around ``value``'s whose cost is not worse
+    than it beyond chance: a step is kept when its rise in noise-weighted squared angle error is within the
+    chi-square 95 % point on one degree of freedom (white errors) or its blocks' rises are not above zero by a
+    one-sided Student t test at 2.5 % (correlated errors: batch means).  ``blocks_at(v)``: the fit's costs per
+    block at the width v (block_costs), None where it fails (a refused step).  Steps are tried 1, 2, 4, ... away
+    on each side, then bisected (at most ``max_fits`` fits a side); beyond the largest level the width is not
+    bounded above (inf)."""
+    levels = np.asarray(levels, dtype=float)
+    k = int(np.searchsorted(levels, value, side="left"))  # value in (levels[k-1], levels[k]]: step k
+    n_steps = levels.size + 1  # step j = (levels[j-1], levels[j]], step levels.size = (max |u|, inf)
+    lower = lambda j: float(levels[j - 1]) if j > 0 else 0.0  # noqa: E731
+    upper = lambda j: float(levels[j]) if j < levels.size else math.inf  # noqa: E731
+    base = blocks_at(value)
+    if base is None:
+        return lower(k), upper(k)
+    nb = base.size
+    tq = float(stdtrit(max(nb - 1, 1), 0.975))
+    kept: dict = {}
+
+    def keep(j: int) -> bool:
+        if not 0 <= j < n_steps:
+            return False
+        if j not in kept:
+            lo, hi = lower(j), upper(j)
+            b = blocks_at(0.5 * (lo + hi) if math.isfinite(hi) else 1.01 * lo)
+            if b is None or b.size != nb:
+                kept[j] = False
+            else:
+                d = b - base
+                rise = float(d.sum())
+                sd = float(d.std(ddof=1)) if nb > 1 else 0.0
+                kept[j] = bool(rise <= CHI2_1_95 or (sd > 0 and rise / (sd * math.sqrt(nb)) <= tq))
+        return kept[j]
+
+    edges = []
+    for sign in (-1, 1):  # steps 1, 2, 4, ... away until one is refused, then bisected
+        good, bad, fits = 0, None, 0
+        while fits < max_fits:
+            off = max(2 * good, 1)
+            fits += 1
+            if not keep(k + sign * off):
+                bad = off
+                break
+            good = off
+        while bad is not None and bad - good > 1 and fits < max_fits:
+            mid, fits = (good + bad) // 2, fits + 1
+            good, bad = (mid, bad) if keep(k + sign * mid) else (good, mid)
+        edges.append(k + sign * good)
+    return lower(edges[0]), upper(edges[1])
 
 
 def motor_start(r) -> dict:
