@@ -48,15 +48,26 @@ def test_a_common_width_places_both_dead_zones_where_one_motors_profile_alone_ca
 
 def test_a_dead_zone_on_both_motors_is_named_on_both():
     """diagnose on a 0.25 V dead zone on the pitch motor and a 0.18 V one on the yaw motor (square, 100 Hz, from
-    rest): a finding on each motor, each width within 10 %, nothing else named, the verdict explained."""
+    rest): a finding on each motor, each width within 10 %, nothing else named, the verdict explained, each
+    width's interval holding the bench's."""
     from trms_ident.diagnosis.run import diagnose
 
-    d = diagnose(as_log(_both(0.25, 0.18)))
+    import numpy as np
+
+    r = _both(0.25, 0.18)
+    d = diagnose(as_log(r))
     got = {f"{f.effect}:{f.axis}": f.parameter["value"] for f in d.findings}
     assert set(got) == {"dead_zone:pitch", "dead_zone:yaw"}, (got, d.verdict_sentence)
     assert got["dead_zone:pitch"] == pytest.approx(0.25, rel=0.1)
     assert got["dead_zone:yaw"] == pytest.approx(0.18, rel=0.1)
     assert d.verdict == "explained", d.verdict_sentence
+    # each width's 95 % interval: the steps of its staircase cost as good as its own (oe.step_interval), so its
+    # edges are logged |u|, and it holds the bench's width
+    for f in d.findings:
+        lo, hi = f.parameter["ci95"]
+        u = np.abs(r.u1_v if f.axis == "pitch" else r.u2_v)
+        w = 0.25 if f.axis == "pitch" else 0.18
+        assert lo <= w <= hi and np.min(np.abs(u - lo)) < 1e-12 and np.min(np.abs(u - hi)) < 1e-12, (f.axis, lo, hi)
 
 
 def test_both_saturation_levels_are_fitted_together_where_each_ones_profile_stays_off():

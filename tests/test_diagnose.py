@@ -52,6 +52,10 @@ def test_concealed_effect_is_named_fitted_and_improves_the_fit(effect, axis, val
     truth = r.truth["estimated"]
     for k in ("J1", "J2"):  # the augmented model recovers J where the nominal one was pulled away
         assert abs(d.augmented[k] / truth[k] - 1) <= abs(d.nominal[k] / truth[k] - 1) + 1e-3
+    if effect == "dead_zone":  # its interval: the steps of its staircase cost no worse than its own, edges at |u2|
+        lo, hi = f.parameter["ci95"]
+        u = np.abs(r.u2_v)
+        assert lo <= value <= hi and np.min(np.abs(u - lo)) < 1e-12 and np.min(np.abs(u - hi)) < 1e-12, (lo, hi)
     if effect == "yaw_inertia_pitch":  # the output-error kernel carries the inertia too: its test decides
         assert oe.carries("yaw_inertia_pitch:yaw") and "output-error test that decides passed it" in f.evidence, \
             f.evidence

@@ -56,7 +56,8 @@ from ..numerics.adequacy import judging_floors
 from ..numerics.design import angle_noise_rad
 from ..numerics.refine import BLOCK_S, substeps
 from ..numerics.refine import refine as oe_refine
-from .model import Model, delag_noise_gain, modified_inputs, observed_log, smoothed_velocity, state_signals
+from .model import (Model, delag_noise_gain, modified_inputs, observed_log, smoothed_velocity, state_signals,
+                    voltage_seen)
 from .select import MIN_SIGNAL_SHARE
 
 #: candidates the output-error fit carries compiled into its kernel (others: carries())
@@ -594,6 +595,30 @@ class Fitter:
             return None
         drop = (base.cost - r.cost) / base.cost
         return {k: (abs(float(r.freed[k]["estimate"])), float(r.freed[k]["se"]), drop) for k in keys}
+
+    def dead_zone_interval(self, model: Model, values: dict, theta0: dict, key: str) -> tuple[float, float] | None:
+        """The 95 % interval [V] of the model's dead zone ``key`` at its value: step_interval over the distinct |u|
+        its motor's voltage takes (through the model's modifications before it), each step's cost from the
+        model's fit with the width there (PROFILE_ITERATIONS from the model's own fit); None when the model has
+        no such dead zone or cannot be fitted.  What the finding reports: the curvature of a staircase says
+        nothing, and the gap's uniform spread (_resolution) centred on the best need not hold the bench's width."""
+        mods = {k: v for k, v in model.mods if k not in OFFSETS}
+        base = self.base(model, values, theta0) if key in mods else None
+        if base is None:
+            return None
+        seen = {k: v for k, v in mods.items() if k != room.SENSOR_LAG and k not in inside_fit(())}  # as _fit
+        u = voltage_seen(self.log.head(self.n), seen, key)
+        levels = np.unique(np.abs(u))
+
+        def blocks_at(v: float):
+            try:
+                r = self._fit(model, values, base.estimate, None, {key: v}, PROFILE_ITERATIONS,
+                              start=base.start_states)
+            except _FAILED:
+                return None
+            return self._block_costs(r.prediction) if math.isfinite(r.cost) else None
+
+        return step_interval(levels[levels > 0], float(mods[key]), blocks_at)
 
     def common_width(self, model: Model, values: dict, theta0: dict, keys: tuple, lo: float, hi: float
                      ) -> tuple[float, float] | None:

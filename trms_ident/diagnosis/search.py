@@ -413,6 +413,10 @@ def _report(run: _Run, found: _Found, kept: _Kept, base_reg, base, nominal: dict
         worse = [x for x in fit_after if not fits2[x] >= fit_after[x]]
         if not worse:
             fit_after, over_after, augmented, from_check = fits2, over2, checked[1], True
+    # a dead zone's interval: the steps of its staircase cost as good as its own (oe.step_interval)
+    widths = {f[0]["c"].key: fitter.dead_zone_interval(current, values, oe_start(score_now, reg_now, p),
+                                                        f[0]["c"].key)
+              for f in findings if f[0]["c"].effect == "dead_zone" and oe.representable(current, found.oe_values)}
     del fitter  # its cached fits are not needed any more (memory on long logs)
     run.fitter = None
     # (model, regression, score) before each finding (they are added in order), then the final one
@@ -450,6 +454,8 @@ def _report(run: _Run, found: _Found, kept: _Kept, base_reg, base, nominal: dict
         fit = best["polished"][1] if best.get("polished") else best.get("oe")
         if oe.profiled(c.key) and fit is not None and fit.value == v and math.isfinite(fit.se) and fit.se > 0:
             param["ci95"] = [v - Z95 * fit.se, v + Z95 * fit.se]  # its profile's batch-means standard error
+            if widths.get(c.key) is not None:
+                param["ci95"] = [float(x) for x in widths[c.key]]
         out.append(Finding(c.effect, c.axis, param, fb, fa, evidence,
                            c.sentence.format(value=v, unit=c.unit), best["test"].gain, best["test"].t,
                            best["test"].p, alts, shift))
