@@ -149,3 +149,26 @@ def test_a_second_saturation_short_of_its_test_is_fitted_with_the_first_and_pass
             assert dict(moved.mods)[yaw] == pytest.approx(level["yaw"], rel=5e-3)
         else:
             assert (f, why, moved, moved_values) == (short, ["short of the family level"], current, values)
+
+
+def test_when_neither_motors_saturation_passes_alone_the_pair_is_judged_each_given_the_other():
+    """Compound bench 3007 (a 1.0 V pitch saturation on 13 % of the samples and a 2.31 V yaw one on 57 %, steps
+    cut 36 s into a run, 100 Hz, 12-bit): alone, the pitch's drops the cost 13 % at p = 0.014 (the yaw's misfit
+    stays in its test's scale) and the yaw's 27 % at p = 0.03, both short of the family's 0.0025, and diagnose
+    named nothing.  The rescue judges the pair, each given the other (judge._given_its_sibling): both named to
+    0.1 %, explained."""
+    import trms_ident as ti
+    from trms_ident.diagnosis.run import diagnose
+
+    levels = {"pitch": 1.0, "yaw": 2.308}
+    sim = ti.simulate(ref="steps", sample_rate_hz=100.0, duration_s=60.0, seed=678877994, quantization_rad=Q12,
+                      start_s=36.39409632870277,
+                      overrides={"J1": 0.08165796589805928, "B1": 0.006181031828605305, "J2": 0.023473424529845903,
+                                 "B2": 0.07952477403457797},
+                      effects=[dict(effect="input_saturation", axis=a, value=v) for a, v in levels.items()])
+    d = diagnose(as_log(sim))
+    got = {f"{f.effect}:{f.axis}": f.parameter["value"] for f in d.findings}
+    assert set(got) == {"input_saturation:pitch", "input_saturation:yaw"}, (got, d.verdict_sentence)
+    for axis, v in levels.items():
+        assert got[f"input_saturation:{axis}"] == pytest.approx(v, rel=1e-3)
+    assert d.verdict == "explained", d.verdict_sentence

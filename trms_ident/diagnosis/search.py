@@ -239,6 +239,12 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
         reg_now, score_now = best["reg"], best["score"]
         excluded.update(alts)
         findings.append((best, alts))
+        pair = best.pop("pair", None)
+        if pair is not None:  # the other motor's of the kind, each judged given the other (judge.oe_rescue)
+            oe_values[pair["c"].key] = pair["value"]
+            pair["before"], pair["told_apart"] = (current, reg_now, score_now), None
+            current, reg_now, score_now = pair["model"], pair["reg"], pair["score"]
+            findings.append((pair, []))
         if (oe.profiled(best["c"].key) and any(oe.profiled(f[0]["c"].key) for f in findings[:-1])
                 and oe.representable(current, oe_values)):
             # the earlier modifications' values were chosen without this one: profiled again beside it before the
