@@ -151,9 +151,9 @@ def _given_its_sibling(c, f, log, p, law, a, current, cache, ids, score_now, reg
     when the other motor's of the same kind is missing too: the other motor's fitted on top of ``c`` at f's
     value (other_motor: it must pass its own test there), then ``c`` fitted again with the other's at its value
     in the model.  (That fit of ``c``, other_motor's result for the other motor's) when both pass, else
-    (None, None).  Measured: a 1.0 V pitch and a 2.31 V
-    yaw saturation (compound bench 3007): the pitch's alone drops the cost 13 % at p = 0.014, short of the
-    family's 0.0025, as the yaw's misfit stays in its test's scale; no candidate passed and nothing was named."""
+    (None, None).  Measured: a 1.0 V pitch and a 2.31 V yaw saturation (compound bench 3007): the pitch's alone
+    drops the cost 13 % at p = 0.014, short of the family's 0.0025, as the yaw's misfit stays in its test's scale;
+    no candidate passed and nothing was named."""
     sibling = room.by_key(room.other_motor_key(c))
     if sibling is None or sibling.key in current.keys:
         return None, None
@@ -172,8 +172,9 @@ def _given_its_sibling(c, f, log, p, law, a, current, cache, ids, score_now, reg
 def other_motor(c, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests, fitter, tested,
                 oe_values: dict):
     """The other motor's input nonlinearity ``c`` (search._siblings) fitted by output error on top of the current
-    model: the pair first placed at the common value that fits best (oe.Fitter.common_width), then ``c``
-    profiled with the first motor's at that value, and the first motor's profiled again beside it.  The
+    model: ``c`` profiled with the pair placed at the common value that fits best (oe.Fitter.common_width), and
+    from the equation error's value with the first motor's where it stands, the pair with the lower cost kept
+    (two saturations that fall short: _saturations_together); then the first motor's profiled again beside it.  The
     finding as oe_rescue returns one (its "model" holds the first motor's new value, also written to
     ``oe_values``) when the test passes, else None.  Unlike the rescue this runs with an input modification
     already in the model (oe.representable refuses those): its value is the output error's, not the equation
