@@ -33,7 +33,7 @@ from scipy.special import stdtrit
 
 from .errors import IdentificationError, SettingsError, TrmsError
 from .identify import identify, noise_floors, refine_first, refined_interval, under_model
-from .model.bench import KERNEL_KEYS, MIN_KERNEL_LAG_S, MODIFICATION_KEYS, NATIVE_FREE_KEYS, inside_fit
+from .model.bench import KERNEL_KEYS, MIN_KERNEL_LAG_S, MODIFICATION_KEYS, NATIVE_FREE_KEYS
 from .model.effects import BY_KEY, SENSOR_LAG
 from .params import ESTIMATED, merge
 
@@ -158,12 +158,10 @@ def identify_with_profiles(log, settings):
 def _dead_zone_interval(log, settings, key: str, value: float, fit, floors: dict) -> tuple[float, float]:
     """A freed dead zone's 95 % interval [V]: oe.step_interval over the distinct |u| its motor's voltage takes
     (the log's, through the bench's modifications before it), each step's cost from ``fit``."""
-    from .diagnosis.model import voltage_seen
+    from .diagnosis.model import dead_zone_levels
     from .diagnosis.oe import block_costs, step_interval
 
-    mods = {k: v for k, v in settings.effects.items()
-            if k in MODIFICATION_KEYS and k != SENSOR_LAG and k not in inside_fit(settings.free)}
-    levels = np.unique(np.abs(voltage_seen(log, mods, key)))
+    levels = dead_zone_levels(log, settings.effects, key, settings.free)
 
     def blocks_at(v: float):
         try:
@@ -172,7 +170,7 @@ def _dead_zone_interval(log, settings, key: str, value: float, fit, floors: dict
             return None
         return block_costs(log, r.prediction, floors) if math.isfinite(r.cost) else None
 
-    return step_interval(levels[levels > 0], value, blocks_at)
+    return step_interval(levels, value, blocks_at)
 
 
 def _slopes(lo_fit, hi_fit, width: float) -> dict:

@@ -120,19 +120,12 @@ def oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, 
             good.append((r, f))
         elif f is not None and r["c"].effect in ("dead_zone", "input_saturation") and f.cost_drop > 0:
             short_of.append((r, f))
+    other = None
     if not good and short_of:  # a motor's nonlinearity that helps but falls short: perhaps both motors have one
         r, f = max(short_of, key=lambda rf: rf[1].cost_drop)
         f, other = _given_its_sibling(r["c"], f, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests,
                                       fitter, tested, values, theta0)
-        if f is None:
-            return None
-        res = at_value(r["c"], f.value, log, p, law, a, current, cache, ids, score_now, n_tests)
-        res["oe"], res["value"] = f, f.value
-        # the other motor's, judged given this one, joins with it as the next finding (search._search)
-        pair = at_value(other["c"], other["value"], log, p, law, a, res["model"], cache, ids, res["score"], n_tests)
-        pair["oe"], pair["value"] = other["oe"], other["value"]
-        res["pair"] = pair
-        return res
+        good = [(r, f)] if f is not None else []
     if not good:
         return None
     r, f = max(good, key=lambda rf: rf[1].cost_drop)
@@ -142,6 +135,10 @@ def oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, 
         # its regression (dropped before)
         res = try_candidate(r["c"], log, p, law, a, current, cache, ids, score_now, n_tests)
     res["oe"], res["value"] = f, f.value
+    if other is not None:  # the other motor's, judged given this one, joins as the next finding (search._search)
+        pair = at_value(other["c"], other["value"], log, p, law, a, res["model"], cache, ids, res["score"], n_tests)
+        pair["oe"], pair["value"] = other["oe"], other["value"]
+        res["pair"] = pair
     return res
 
 

@@ -148,16 +148,22 @@ def modified_inputs(log: Log, mods: dict) -> tuple[np.ndarray, np.ndarray, dict]
     return u["pitch"], u["yaw"], changes
 
 
-def voltage_seen(log: Log, mods: dict, key: str) -> np.ndarray:
-    """The voltage [V] the input modification ``key`` (of ``mods``, applied in their order as modified_inputs
-    applies them) receives on its motor: the log's, through the modifications before it."""
+def dead_zone_levels(log: Log, mods: dict, key: str, free: tuple = ()) -> np.ndarray:
+    """The distinct |u| > 0 [V], sorted, that the dead zone ``key`` sees on its motor: the log's voltage through
+    the modifications of ``mods`` before it, in their order, as the output-error fit applies them (not an
+    acquisition lag, nor what the fit integrates itself: model.bench.inside_fit(free)).  A cut dead zone's cost is
+    constant between two neighbouring levels (oe.step_interval)."""
+    from ..model.bench import MODIFICATION_KEYS, inside_fit
+
     before = {}
     for k, v in mods.items():
         if k == key:
             break
-        before[k] = v
+        if k in MODIFICATION_KEYS and k != effects.SENSOR_LAG and k not in inside_fit(free):
+            before[k] = v
     u1, u2 = modified_inputs(log, before)[:2]
-    return u1 if key.endswith(":pitch") else u2
+    levels = np.unique(np.abs(u1 if key.endswith(":pitch") else u2))
+    return levels[levels > 0]
 
 
 def delayed(u: np.ndarray, samples: float) -> np.ndarray:

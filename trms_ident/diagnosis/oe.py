@@ -56,8 +56,8 @@ from ..numerics.adequacy import judging_floors
 from ..numerics.design import angle_noise_rad
 from ..numerics.refine import BLOCK_S, substeps
 from ..numerics.refine import refine as oe_refine
-from .model import (Model, delag_noise_gain, modified_inputs, observed_log, smoothed_velocity, state_signals,
-                    voltage_seen)
+from .model import (Model, dead_zone_levels, delag_noise_gain, modified_inputs, observed_log, smoothed_velocity,
+                    state_signals)
 from .select import MIN_SIGNAL_SHARE
 
 #: candidates the output-error fit carries compiled into its kernel (others: carries())
@@ -606,9 +606,7 @@ class Fitter:
         base = self.base(model, values, theta0) if key in mods else None
         if base is None:
             return None
-        seen = {k: v for k, v in mods.items() if k != room.SENSOR_LAG and k not in inside_fit(())}  # as _fit
-        u = voltage_seen(self.log.head(self.n), seen, key)
-        levels = np.unique(np.abs(u))
+        levels = dead_zone_levels(self.log.head(self.n), mods, key)
 
         def blocks_at(v: float):
             try:
@@ -618,7 +616,7 @@ class Fitter:
                 return None
             return self._block_costs(r.prediction) if math.isfinite(r.cost) else None
 
-        return step_interval(levels[levels > 0], float(mods[key]), blocks_at)
+        return step_interval(levels, float(mods[key]), blocks_at)
 
     def common_width(self, model: Model, values: dict, theta0: dict, keys: tuple, lo: float, hi: float
                      ) -> tuple[float, float] | None:

@@ -35,12 +35,6 @@ KERNEL_KEYS = ("motor_second_lag:pitch", "motor_second_lag:yaw")
 #: inside the fit and the level is a Gauss-Newton unknown with J/B (numerics.refine.SATURATION_SLOTS); held, they
 #: are applied to the voltages like the others, and a freed one is first placed by its profile (model_profile.py)
 NATIVE_FREE_KEYS = ("input_saturation:pitch", "input_saturation:yaw")
-
-
-def inside_fit(free: tuple = ()) -> tuple:
-    """The modifications the output-error fit applies itself, not the voltages handed to it: KERNEL_KEYS and the
-    saturations ``free`` names (NATIVE_FREE_KEYS)."""
-    return KERNEL_KEYS + tuple(k for k in free if k in NATIVE_FREE_KEYS)
 #: the shortest further lag [s] the kernel integrates: its RK4 sub-steps are up to numerics.refine.MAX_SUBSTEP_S
 #: (2.5 ms) long, and a lag much shorter than a sub-step is neither stable nor resolved by a 100 Hz-1 kHz log
 MIN_KERNEL_LAG_S = 2.5e-3
@@ -49,6 +43,13 @@ MIN_KERNEL_LAG_S = 2.5e-3
 MODIFICATION_KEYS = ("dead_zone:pitch", "dead_zone:yaw", "input_saturation:pitch", "input_saturation:yaw",
                      "input_delay:both", "motor_lag:pitch", "motor_lag:yaw", "motor_second_lag:pitch",
                      "motor_second_lag:yaw", room.SENSOR_LAG)
+
+
+def inside_fit(free: tuple = ()) -> tuple:
+    """The modifications the output-error fit applies itself, not the voltages handed to it: KERNEL_KEYS and the
+    saturations ``free`` names (NATIVE_FREE_KEYS)."""
+    return KERNEL_KEYS + tuple(k for k in free if k in NATIVE_FREE_KEYS)
+
 
 #: what each key adds to eq. (1), in a few words (the report's model line)
 PHRASES = {
