@@ -80,6 +80,7 @@ SLOW = {
 LONG = {
     "test_known_values.py::test_estimate_and_diagnose_name_the_same_known_value": 54,
     "test_both_motors.py::test_the_other_motors_saturation_is_placed_again_beside_the_first_and_named": 45,
+    "test_second_order_motor.py::test_a_dead_zone_beside_a_second_order_motor_is_profiled_with_the_lag_refitted": 45,
     "test_bench_file.py::test_a_freed_dead_zones_interval_covers_the_width_its_steps_cannot_tell_apart": 15,
     "test_batch.py::test_a_folder_diagnosed_names_each_misfits_findings_and_which_recur": 22,
     "test_real_recordings.py::test_real_ce150_recordings_get_an_honest_verdict_and_fit_better_with_the_ce150s_"
