@@ -537,7 +537,7 @@ class Fitter:
             if refitted is None:
                 return None
             model, base = refitted  # the trial fits start from the refitted lags
-            # and the profile with the lags held, whose best value is tried with them refitted below: refitting
+            # and the profile with the lags held there, whose best value is tried with them refitted below: refitting
             # the lag at each trial value can also absorb enough of the misfit to stop the profile in a nearer
             # basin (measured: a 0.2 V yaw dead zone beside a 0.3 s yaw lag found at 0.2013 V with the lag held,
             # stopped at 0.100 V with it refitted)

@@ -29,9 +29,9 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
     seed = seed if seed is not None else search.seed_result(log, overrides, law)
     with np.errstate(all="ignore"):  # a model far off the log overflows its predictions: they score as misfits
         for attempt in range(HELD_OUT_RERUNS + 1):
-            found = search.effect_search(log, overrides, law, a_rad_s, progress, tuple(g["key"] for g in gated),
-                                         seed)
-            d = weigh(found, log, p, law, overrides)
+            exclude = tuple(g["key"] for g in gated)
+            found = search.effect_search(log, overrides, law, a_rad_s, progress, exclude, seed)
+            d = weigh(found, log, p, law, overrides, exclude)
             progress("held-out simulation fits", 0.97)
             h = held_out.held_out_fits(d, log, p, law)
             refuse = held_out.lowering(d.findings, h)

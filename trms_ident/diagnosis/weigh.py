@@ -65,10 +65,12 @@ EXPLAINED_BY_VALUE = ("the model fits the log to its noise level once one known 
                       "instead of the one it was given: a known value, not new physics")
 
 
-def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
+def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None, exclude: tuple = ()):
     """The diagnosis after the rule (module docstring); ``d`` the effect search's (result.Diagnosis), ``p`` the
     values it was given (``overrides``: the ones that differ from Table 1, as diagnose was called).  Unchanged
-    when the seed check ran no known-value search (the model fits, or the fit was not decided)."""
+    when the seed check ran no known-value search (the model fits, or the fit was not decided).  ``exclude``: the
+    library keys the effect search left out (refused by the held-out gate, run.py), left out of its searches
+    under a known value too."""
     kv = d.seed_check.get("known_values")
     if not kv:
         return d
@@ -104,7 +106,8 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None):
                 d.verdict_sentence += known_values.joint_sentence(j, base)
             first, tried_first = value_first(
                 d, log, p, law, overrides, kv, refit,
-                lambda under: search.effect_search(log, under, law, d.settings["a_rad_s"], lambda stage, done: None))
+                lambda under: search.effect_search(log, under, law, d.settings["a_rad_s"], lambda stage, done: None,
+                                                   exclude))
             if first is not None:
                 return first
             if tried_first:
