@@ -56,6 +56,13 @@ from ..model.plant import (FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, LAG1_SLOT
 WINDOW_S = 40.0
 #: RK4 sub-step: the integrator's error on noise-free logs is ~1e-10 relative at 2.5 ms (measured)
 MAX_SUBSTEP_S = 2.5e-3
+#: RK4 sub-step while a Coulomb friction is in the model (in its effects or freed): its smoothed sign,
+#: tanh(omega / FRICTION_SMOOTH_RAD_S), makes the right side stiff near zero rate (time constant J eps / Fc, 7 ms on
+#: the yaw of a 0.0028 N m friction), and RK4 at 2.5 ms moved the friction's estimate: a yaw friction freed came
+#: out 4.8 % low, 5.6 half-widths of its interval off (a 200 Hz square wave cut mid-run); at 0.5 ms 0.54 % low
+#: (0.73 half-widths), at 0.1 ms 0.42 % (measured, benchmarks/freed_coverage.py)
+COULOMB_SUBSTEP_S = 5e-4
+COULOMB_KEYS = ("coulomb_friction:pitch", "coulomb_friction:yaw")
 MAX_ITERATIONS = 25  # typical logs take 3-4; a start far off (DREM on a log cut mid-run) needed 12
 #: Gauss-Newton stops when the next step would move every unknown by less than this fraction of its value, or
 #: by less than STEP_OVER_SE of its standard error; or when it would lower the noise-weighted cost (a chi^2) by
@@ -531,9 +538,9 @@ def _start_velocity(x: np.ndarray, t: np.ndarray, s: int) -> float:
     return float(coef[1]) if coef is not None else math.nan
 
 
-def substeps(dt: float) -> int:
-    """RK4 sub-steps per sample interval of dt [s], each at most MAX_SUBSTEP_S."""
-    return max(1, int(math.ceil(dt / MAX_SUBSTEP_S - 1e-9)))
+def substeps(dt: float, max_sub: float = MAX_SUBSTEP_S) -> int:
+    """RK4 sub-steps per sample interval of dt [s], each at most ``max_sub`` [s]."""
+    return max(1, int(math.ceil(dt / max_sub - 1e-9)))
 
 
 def schur(a, b, ng=NG):
@@ -611,6 +618,7 @@ class _Problem:
     torques: np.ndarray | None = None
     #: saturation levels held [V] (SATURATION_SLOTS' slot -> level); a freed one's level is in theta instead
     clips: dict = field(default_factory=dict)
+    max_sub: float = MAX_SUBSTEP_S  # the RK4 sub-step's upper bound [s] (COULOMB_SUBSTEP_S with a friction)
     _clipped: dict = field(default_factory=dict)  # (pitch, yaw levels) -> the clipped voltages (a few kept)
 
     def levels(self, th) -> tuple[float, float]:
@@ -667,8 +675,9 @@ class _Problem:
                                  self.dsw, max_sub, self.win, self.block, out, ext, self.motor_cache[key],
                                  self.exogenous(pv), np.array(exact, dtype=np.int64), self.torques)
 
-    def columns(self, th, st, pred, idx, max_sub=MAX_SUBSTEP_S):
+    def columns(self, th, st, pred, idx, max_sub=None):
         """(n, 2, len(idx)) forward-difference sensitivities of alpha, beta to the model values at ``idx``."""
+        max_sub = self.max_sub if max_sub is None else max_sub
         cols = np.empty((pred.shape[0], 2, len(idx)))
         tmp = np.empty_like(pred)
         for c, i in enumerate(idx):
@@ -686,11 +695,12 @@ class _Problem:
             cols[:, :, c] = (tmp - pred) / step
         return cols
 
-    def evaluate(self, th, st, out, max_sub=MAX_SUBSTEP_S, more=(), cost_only=False):
+    def evaluate(self, th, st, out, max_sub=None, more=(), cost_only=False):
         """Cost, normal equations and scores at th, st; predictions in ``out``.  The unknowns in the order J/B,
         start states, the freed values (free_idx's order), the model values at ``more`` (a score test's
         candidates), then each window's start.  ``cost_only``: the cost and predictions are all the caller
         needs (a line search's trial): no pass for the differenced columns, whose entries are then missing."""
+        max_sub = self.max_sub if max_sub is None else max_sub
         idx = list(self.free_idx) + list(more)
         exact = [i for i in idx if _exact(i)]
         diff = [i for i in idx if not _exact(i)]
@@ -764,7 +774,9 @@ def setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s=WIND
                     win, block,
                     [SATURATION_SLOTS.get(k) or slot(k, exogenous) for k in free],
                     torques=_held(torques, n) if exogenous else None,
-                    clips={i: v for i, v in clips.items() if i not in [SATURATION_SLOTS.get(k) for k in free]})
+                    clips={i: v for i, v in clips.items() if i not in [SATURATION_SLOTS.get(k) for k in free]},
+                    max_sub=(COULOMB_SUBSTEP_S if any(k in free or effects.get(k) for k in COULOMB_KEYS)
+                             else MAX_SUBSTEP_S))
     return _Setup(prob, starts, theta, scale, win, block, n, nw, step_s, y, given)
 
 
@@ -854,7 +866,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     half = tq * se[:4]
     rms = angle_rms(y, out)
     integration = np.zeros(4)
-    sub_s = step_s / substeps(step_s)  # the RK4 sub-step of a median sample interval [s]
+    sub_s = step_s / substeps(step_s, prob.max_sub)  # the RK4 sub-step of a median sample interval [s]
     if np.any(half < RICHARDSON_BELOW * (sub_s / MAX_SUBSTEP_S) ** 4 * theta[:4]):
         # intervals this narrow (noise-free logs) meet the integrator's own error: estimate it from the
         # parameter shift that halving the sub-step causes (RK4: the error falls 16-fold) and add twice that
@@ -872,7 +884,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
              for j, k in enumerate(free)}
     return Refined(dict(zip(NAMES, map(float, theta[:4]))),
                    {k: (float(theta[i] - half[i]), float(theta[i] + half[i])) for i, k in enumerate(NAMES)},
-                   converged, it, rms, float(cost), win * step_s, nw, substeps(step_s), nb,
+                   converged, it, rms, float(cost), win * step_s, nw, substeps(step_s, prob.max_sub), nb,
                    {k: float(integration[i]) for i, k in enumerate(NAMES)}, start_states, start_se, out, freed,
                    _Fit(prob, theta, starts, a, b), pending, cov[:4, :4].copy())
 
