@@ -121,7 +121,7 @@ def test_estimate_under_a_second_order_motor_is_exact_on_a_noise_free_log(tmp_pa
         assert abs(est["estimates"][k] / v - 1) < 1e-5, (k, est["estimates"][k], v)
 
 
-def test_a_dead_zone_beside_a_second_order_motor_is_profiled_with_the_lag_refitted(monkeypatch):
+def test_a_dead_zone_beside_a_second_order_motor_is_profiled_with_the_lag_refitted():
     """A 0.2 V yaw dead zone and a 0.30 s second-order yaw motor (diagnosed_model.py's seed 0): the lag, fitted
     first without the dead zone, comes out 0.4 % long, and at that lag the dead zone's profile finds a width
     1-25 % off that leaves much of the misfit.  With the lag refitted at each trial width (oe.refitted_lags) the
@@ -147,8 +147,6 @@ def test_a_dead_zone_beside_a_second_order_motor_is_profiled_with_the_lag_refitt
                                                       value0)
 
     found = profiled("dead_zone:yaw", 0.05)  # from the equation error's value
+    # (with oe.refitted_lags returning nothing: 0.1969 V, 2.2 % off, the drop 0.62; measured, 28 Nov 2026)
     assert found.value == pytest.approx(0.2014, rel=0.01) and found.cost_drop > 0.85, found
     assert profiled("input_saturation:pitch", 2.2).cost_drop < 1e-3
-    monkeypatch.setattr(oe, "refitted_lags", lambda model, key: ())
-    held = profiled("dead_zone:yaw", 0.05)
-    assert not held.value == pytest.approx(0.2014, rel=0.01) and held.cost_drop < 0.7, held
