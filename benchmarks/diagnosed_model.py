@@ -57,13 +57,18 @@ def _bench(rng):
         else:
             known[key] = table[key] * float(rng.uniform(lo, hi))
     noise = str(rng.choice(["12-bit", "gauss"]))
-    settings = dict(ref=str(rng.choice(REFS)), sample_rate_hz=float(rng.choice([100.0, 200.0, 500.0])),
-                    duration_s=float(rng.uniform(40.0, 60.0)), seed=int(rng.integers(1 << 30)),
-                    noise_std_rad=float(rng.uniform(3e-4, 1e-3)) if noise == "gauss" else 0.0,
-                    quantization_rad=Q12 if noise == "12-bit" else 0.0,
-                    start_s=float(rng.choice([0.0, rng.uniform(10.0, 40.0)])), overrides={**true, **known},
-                    effects=effects)
+    settings = dict(log_draw(rng, noise), overrides={**true, **known}, effects=effects)
     return true, known, effects, settings
+
+
+def log_draw(rng, noise: str) -> dict:
+    """The simulator's settings of one log, drawn: a reference of REFS, 100-500 Hz, 40-60 s, a noise seed, ``noise``
+    ("12-bit" encoders or "gauss" at 0.3-1 mrad), from rest or 10-40 s into a run (freed_coverage.py draws alike)."""
+    return dict(ref=str(rng.choice(REFS)), sample_rate_hz=float(rng.choice([100.0, 200.0, 500.0])),
+                duration_s=float(rng.uniform(40.0, 60.0)), seed=int(rng.integers(1 << 30)),
+                noise_std_rad=float(rng.uniform(3e-4, 1e-3)) if noise == "gauss" else 0.0,
+                quantization_rad=Q12 if noise == "12-bit" else 0.0,
+                start_s=float(rng.choice([0.0, rng.uniform(10.0, 40.0)])))
 
 
 def _written(sim, path: Path) -> Path:

@@ -14,7 +14,6 @@ intervals" section of benchmarks/RESULTS.md.
 """
 from __future__ import annotations
 
-import math
 import sys
 import tempfile
 import time
@@ -29,13 +28,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 SEED = 20261202  # no test uses it
 KEYS = {"coulomb_friction:pitch": (0.002, 0.005), "com_offset:pitch": (0.01, 0.03),
         "cable_stiffness:yaw": (0.002, 0.006), "coulomb_friction:yaw": (0.002, 0.005)}
-REFS = ("square", "sine", "multisine", "steps", "chirp")
 NAMES = ("J1", "B1", "J2", "B2")
-Q12 = 2 * math.pi / 4096
 
 
 def run(job: tuple) -> dict:
     import trms_ident as ti
+    from diagnosed_model import log_draw
     from trms_ident.errors import SettingsError
     from trms_ident.io.csv_log import write_csv_log
     from trms_ident.params import defaults
@@ -49,12 +47,7 @@ def run(job: tuple) -> dict:
         true = {k: table[k] * rng.uniform(0.7, 1.4) for k in NAMES}
         v = float(rng.uniform(lo, hi))
         noise = str(rng.choice(["12-bit", "gauss"]))
-        s = dict(ref=str(rng.choice(REFS)), sample_rate_hz=float(rng.choice([100.0, 200.0, 500.0])),
-                 duration_s=float(rng.uniform(40.0, 60.0)), seed=int(rng.integers(1 << 30)),
-                 noise_std_rad=float(rng.uniform(3e-4, 1e-3)) if noise == "gauss" else 0.0,
-                 quantization_rad=Q12 if noise == "12-bit" else 0.0,
-                 start_s=float(rng.choice([0.0, rng.uniform(10.0, 40.0)])), overrides=true,
-                 effects=[{"effect": effect, "axis": axis, "value": v}])
+        s = dict(log_draw(rng, noise), overrides=true, effects=[{"effect": effect, "axis": axis, "value": v}])
         try:
             sim = ti.simulate(**s)
             break
