@@ -278,6 +278,7 @@ class Fitter:
         self.noise, self.floor_used = judging_floors(check, measured)
         self.var = {"alpha": float(np.var(log.alpha_rad[:self.n])), "beta": float(np.var(log.beta_rad[:self.n]))}
         self._base: dict = {}
+        self._lag_bases: dict = {}  # (model, its lags) -> _lags_refitted's answer
         self._torques: dict = {}  # (key, input modifications) -> unit_torques of the fitted samples
         self._signals: dict = {}  # the fitted samples' smoothed rates (state_signals' cache)
         #: (method, model, values, theta0, key, ...) -> its OEFit or None: diagnose asks the same question more
@@ -431,7 +432,7 @@ class Fitter:
         A fit that runs out of iterations goes on from where it stopped, LAG_REFITS times at most: from a lag 26 %
         off, one stopped at 13x the cost a trial fit from its values then reached."""
         ck = (model, lags)
-        if ck not in self._base:
+        if ck not in self._lag_bases:
             m, r0 = model, base
             try:
                 for _ in range(LAG_REFITS):
@@ -443,10 +444,10 @@ class Fitter:
                     r0 = r
                     if r.converged:
                         break
-                self._base[ck] = (m, r0)
+                self._lag_bases[ck] = (m, r0)
             except _FAILED:
-                self._base[ck] = None
-        return self._base[ck]
+                self._lag_bases[ck] = None
+        return self._lag_bases[ck]
 
     def check(self, model: Model, values: dict, theta0: dict) -> dict | None:
         """As check_fit, the ratios alone."""

@@ -245,9 +245,9 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
             pair["before"], pair["told_apart"] = (current, reg_now, score_now), None
             current, reg_now, score_now = pair["model"], pair["reg"], pair["score"]
             findings.append((pair, []))
-        gated = oe.profiled(best["c"].key) and best["c"].key not in oe_values
-        if (oe.profiled(best["c"].key) and (gated or any(oe.profiled(f[0]["c"].key) for f in findings[:-1]))
-                and oe.representable(_without(current, (best["c"].key,)), oe_values)):
+        key = best["c"].key  # (not in oe_values: only gated by the output-error test, at the equation error's value)
+        if (oe.profiled(key) and (key not in oe_values or any(oe.profiled(f[0]["c"].key) for f in findings[:-1]))
+                and oe.representable(_without(current, (key,)), oe_values)):
             # the earlier modifications' values were chosen without this one: profiled again beside it before the
             # next round, so that round does not add a finding for what their values left (measured: a pitch
             # second-order lag fitted at 0.152 s before the pitch saturation was in, 0.185 s true; the next round
