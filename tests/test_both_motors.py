@@ -172,3 +172,41 @@ def test_when_neither_motors_saturation_passes_alone_the_pair_is_judged_each_giv
     for axis, v in levels.items():
         assert got[f"input_saturation:{axis}"] == pytest.approx(v, rel=1e-3)
     assert d.verdict == "explained", d.verdict_sentence
+
+
+def test_a_saturation_whose_fit_alone_lands_wide_is_fitted_with_the_other_motors_from_scratch():
+    """judge.saturation_pair (compound benches 3000, 3002, 3006: a saturation on each motor, acting on 20-80 % of the
+    samples; one motor's profiled alone landed near the top of its grid, a motor time constant then filled the gap
+    and the other motor's was never named).  On a square cut mid-run with a 2.13 V pitch and a 1.24 V yaw
+    saturation, the pitch's fit alone stops at 2.47 V and fails its test; from the equation error's value and the
+    other motor's screened grid, both levels fitted together come back within 0.1 %, each passing its test given
+    the other.  With the pitch's saturation alone in the log, no yaw saturation is made up."""
+    import numpy as np
+
+    from trms_ident.diagnosis import judge, search
+    from trms_ident.diagnosis.trials import try_candidate
+
+    kw = dict(ref="square", sample_rate_hz=100.0, duration_s=40.0, quantization_rad=Q12, seed=11, start_s=20.0)
+    bare = simulate(SimSettings(**kw))
+    below = [u[u < 0.98 * SimSettings().u_limit_v] for u in (np.abs(bare.u1_v), np.abs(bare.u2_v))]
+    level = {"pitch": float(np.quantile(below[0], 0.8)), "yaw": float(np.quantile(below[1], 0.5))}
+    pitch = BY_KEY["input_saturation:pitch"]
+    for effects, pair in (([dict(effect="input_saturation", axis=a, value=v) for a, v in level.items()], True),
+                          ([dict(effect="input_saturation", axis="pitch", value=level["pitch"])], False)):
+        log = as_log(simulate(SimSettings(**kw, effects=effects)))
+        run, reg, sc = search._prepare(log, None, "quadratic", None, lambda stage, done: None)
+        best = try_candidate(pitch, log, run.p, run.law, run.a, Model(), run.cache, run.ids, sc, run.n_tests)
+        alone, why = judge.oe_fit(pitch, best["value"], run.fitter, Model(), {}, judge.oe_start(sc, reg, run.p), log,
+                                  run.p, run.n_tests, [])
+        best = {**best, "ee_value": best["value"], "value": alone.value}
+        got = judge.saturation_pair(best, log, run.p, run.law, run.a, Model(), run.cache, run.ids, sc, reg,
+                                    run.n_tests, run.fitter, [], {}, set())
+        if pair:
+            assert why and alone.value > 1.1 * level["pitch"], (alone.value, why)  # alone: wide, and refused
+            assert got is not None and got["pair"]["c"].key == "input_saturation:yaw"
+            assert got["value"] == pytest.approx(level["pitch"], rel=1e-3), (got["value"], level)
+            assert got["pair"]["value"] == pytest.approx(level["yaw"], rel=1e-3), (got["pair"]["value"], level)
+            assert dict(got["pair"]["model"].mods) == {pitch.key: got["value"], "input_saturation:yaw":
+                                                       got["pair"]["value"]}
+        else:
+            assert got is None

@@ -13,6 +13,7 @@ import numpy as np
 from ..errors import LogFormatError
 from ..log import Log
 from ..model import effects
+from ..model.bench import NATIVE_FREE_KEYS
 from ..model.effects import UNOBSERVABLE, Candidate
 from ..numerics.adequacy import AXIS_OF
 from ..numerics.design import design_filters
@@ -26,7 +27,7 @@ from .fits import REST, best_start, prediction_fits, start_cost, start_samples
 from .predict import HORIZON_S, fit_change, fit_text
 from .result import Diagnosis, Finding
 from .judge import (TIMING_PAIR, alternatives_by_output_error, offsets_by_output_error, oe_confirm, oe_fit,
-                    oe_rescue, oe_start, other_motor)
+                    oe_rescue, oe_start, other_motor, saturation_pair)
 from .select import FAMILY_ALPHA, block_ids, score
 from .shapes import declared_shape, term_shape, thin
 from .trials import (ALIAS_GAIN_RATIO, EXACT_OFFSETS, MOTOR_LAG_NEUTRAL, aliased, axes_of, axis_residual,
@@ -224,12 +225,18 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
                     if "oe" in best:
                         oe_values[best["c"].key] = best["value"]
                 elif failed:
+                    # a saturation whose fit alone fails may be one of a pair: both motors' fitted together
+                    both = _both_saturations(run, best, current, reg_now, score_now, oe_values, excluded)
+                    if both is not None:
+                        best = both
+                        continue
                     refused.append({"effect": best["c"].effect, "axis": best["c"].axis,
                                     "parameter": best["value"], "reason": f"in round {round_i + 1}, {failed}"})
                     ok = [r for r in ok if r["c"].key != best["c"].key]
                     best = None
         if best is None:
             break
+        best = _both_saturations(run, best, current, reg_now, score_now, oe_values, excluded) or best
         best["told_apart"] = told
         for r in ok:
             if r is not best:
@@ -293,6 +300,19 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
             res["oe"] = again
             res.pop("polished", None)
     return _Found(current, reg_now, score_now, findings, oe_values, refused, tested, stopped)
+
+
+def _both_saturations(run: _Run, best, current: Model, reg_now, score_now, oe_values: dict, excluded: set):
+    """A saturation about to be a finding or refused (``best``) with the other motor's, both levels fitted together
+    (judge.saturation_pair), the pair's first finding (its "pair" the other's) with both levels written to
+    ``oe_values``; None when ``best`` is not a saturation, is one of a pair already, or the pair does not pass."""
+    if "pair" in best or best["c"].key not in NATIVE_FREE_KEYS:
+        return None
+    both = saturation_pair(best, run.log, run.p, run.law, run.a, current, run.cache, run.ids, score_now, reg_now,
+                           run.n_tests, run.fitter, run.oe_tested, oe_values, excluded)
+    if both is not None:
+        oe_values[both["c"].key] = both["value"]
+    return both
 
 
 #: input nonlinearities of a motor's drive: the same kind of drive runs both motors, so one found on a motor is
