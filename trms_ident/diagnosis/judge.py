@@ -252,14 +252,15 @@ def saturation_pair(best, log, p, law, a, current, cache, ids, score_now, reg_no
     """A saturation on one motor about to become a finding (``best``, judged by the output-error fit or the
     equation error alone), tried as a pair with the other motor's, both levels fitted together by Gauss-Newton
     (oe.Fitter.saturation_levels) from starts screened by their cost: the first motor's from the equation error's
-    value and from its fit's, the other's from the equation error's own value and every PAIR_SCREEN_STEP-th point of
-    its grid (the best of those for each start of the first's), the pair with the lower cost kept.  One motor's profiled with the other's missing lands in another basin (measured, compound bench 3002: a
-    1.21 V pitch saturation beside a 2.14 V yaw one, both acting on 21 % and 79 % of the samples, profiled alone at
-    2.35 V; a pitch motor time constant then filled the gap and the yaw's was never named; from these starts
-    together, 1.209 V and 2.144 V).  The pair (``best`` at the pair's level, with "pair": the other motor's at
-    its level, as oe_rescue returns a pair) when the other's output-error test passes with the first at the pair's
-    level, each is fitted again given the other, and the pair lowers the cost by MIN_COST_DROP against ``best`` alone;
-    else None."""
+    value and from its fit's, the other's from the equation error's own value and every PAIR_SCREEN_STEP-th point
+    of its grid (the best of those for each start of the first's), the pair with the lower cost kept.  One motor's
+    profiled with the other's missing lands in another basin (measured, compound bench 3002: a 1.21 V pitch
+    saturation beside a 2.14 V yaw one, acting on 21 % and 79 % of the samples, profiled alone at 2.35 V; a pitch
+    motor time constant then filled the gap and the yaw's was never named; from these starts together, 1.209 V
+    and 2.144 V).  The pair (``best`` at the pair's level, with "pair": the other motor's at its level, as
+    oe_rescue returns a pair) when the other's output-error test passes with the first at the pair's level, the
+    first's passes given the other's, and the pair lowers the cost by MIN_COST_DROP against ``best`` alone; else
+    None."""
     c = best["c"]
     sibling = room.by_key(room.other_motor_key(c)) if c.key in NATIVE_FREE_KEYS else None
     if (sibling is None or sibling.key not in NATIVE_FREE_KEYS or sibling.key in current.keys
@@ -271,8 +272,8 @@ def saturation_pair(best, log, p, law, a, current, cache, ids, score_now, reg_no
               if math.isfinite(v) and c.plausible(v)]
     own = try_candidate(sibling, log, p, law, a, current, cache, ids, score_now, n_tests)
     grid = value_grid(sibling, log, p)
-    others = [own["value"]] if own is not None and math.isfinite(own["value"]) and sibling.plausible(own["value"]) else []
-    others = list(dict.fromkeys(others + list(grid[PAIR_SCREEN_STEP // 2::PAIR_SCREEN_STEP])))
+    ee = [own["value"]] if own is not None and math.isfinite(own["value"]) and sibling.plausible(own["value"]) else []
+    others = list(dict.fromkeys(ee + list(grid[PAIR_SCREEN_STEP // 2::PAIR_SCREEN_STEP])))
 
     def model_at(v1, v2):
         return current.with_mod(c.key, v1).with_mod(sibling.key, v2), {**values, c.key: v1, sibling.key: v2}
