@@ -103,6 +103,8 @@ LONG = {
     "test_batch.py::test_folder_of_20_with_2_broken": 14,
     "test_refine.py::test_held_motor_states_match_scipy_zero_order_hold_and_a_fine_integration": 13,
     "test_both_motors.py::test_a_dead_zone_on_both_motors_is_named_on_both": 28,
+    "test_both_motors.py::test_a_saturation_whose_fit_alone_lands_wide_is_fitted_with_the_other_motors_"
+    "from_scratch": 20,
     "test_held_out.py::test_a_smoothed_log_is_judged_against_the_black_box_and_its_findings_raise_the_held_out_fit": 13,
     "test_diagnose.py::test_the_equation_error_orders_and_the_output_error_test_decides": 12,
     "test_diagnose.py::test_output_error_profile_fits_an_input_modification_and_leaves_a_clean_log_alone"
