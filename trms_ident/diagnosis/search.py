@@ -227,13 +227,11 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
                 elif failed:
                     # a saturation whose fit alone fails may be one of a pair: both motors' fitted together
                     both = _both_saturations(run, best, current, reg_now, score_now, oe_values, excluded)
-                    if both is not None:
-                        best = both
-                        continue
-                    refused.append({"effect": best["c"].effect, "axis": best["c"].axis,
-                                    "parameter": best["value"], "reason": f"in round {round_i + 1}, {failed}"})
-                    ok = [r for r in ok if r["c"].key != best["c"].key]
-                    best = None
+                    if both is None:
+                        refused.append({"effect": best["c"].effect, "axis": best["c"].axis,
+                                        "parameter": best["value"], "reason": f"in round {round_i + 1}, {failed}"})
+                        ok = [r for r in ok if r["c"].key != best["c"].key]
+                    best = both
         if best is None:
             break
         best = _both_saturations(run, best, current, reg_now, score_now, oe_values, excluded) or best
