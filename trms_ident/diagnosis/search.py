@@ -480,7 +480,7 @@ def _report(run: _Run, found: _Found, kept: _Kept, base_reg, base, nominal: dict
         if alts:
             evidence += "; cannot be told apart with this excitation from " + ", ".join(alts)
         param = {"name": c.parameter, "value": v, "unit": c.unit}
-        fit = best["polished"][1] if best.get("polished") else best.get("oe")
+        fit = _latest_fit(best)
         if oe.profiled(c.key) and fit is not None and fit.value == v and math.isfinite(fit.se) and fit.se > 0:
             param["ci95"] = [v - Z95 * fit.se, v + Z95 * fit.se]  # its profile's batch-means standard error
             if widths.get(c.key) is not None:
@@ -756,7 +756,7 @@ def _polish(findings, current, values, oe_values, fitter, log, p, theta0) -> Mod
         old, (level, se, drop) = dict(model.mods)[key], levels[key]
         model = model.moved(key, level)
         oe_values[key] = values[key] = level
-        prev = best["polished"][1] if best.get("polished") else best.get("oe")
+        prev = _latest_fit(best)
         if prev is not None:  # the finding's record: this fit's value, standard error and drop
             _record(best, old, replace(prev, value=level, se=se, cost_drop=drop))
     if model is not current:
@@ -786,9 +786,15 @@ def _torques_again(findings, before: Model, model: Model, values, oe_values, fit
             continue
         was = oe_values[key]
         oe_values[key] = values[key] = float(got["estimate"])
-        prev = best["polished"][1] if best.get("polished") else best.get("oe")
+        prev = _latest_fit(best)
         if prev is not None:
             _record(best, was, replace(prev, value=float(got["estimate"]), se=float(got["se"]), cost_drop=drop))
+
+
+def _latest_fit(best: dict):
+    """The output-error fit a finding's value stands on: its latest fit again (_record), else the one that decided
+    it, else None."""
+    return best["polished"][1] if best.get("polished") else best.get("oe")
 
 
 def _record(best: dict, was: float, fit) -> None:
