@@ -71,9 +71,9 @@ def main() -> None:
         lines.append(f"| {name} | {wall:.1f} | {peak:.0f} | {base:.2f} | {wall / base:.1f} | {found} "
                      f"| {'; '.join(target) or '-'} |")
     text = ("## Diagnose at scale (benchmarks/diagnose_scale.py, fresh processes, one run each, this 2-core "
-            "machine)\n\n" + "\n".join(lines) + "\n\nLogs: multisine, 12-bit encoder, 1 kHz; 10min, 1h and 4h clean (the "
-            "seed model fits: every candidate is tested and none passes, the full search), 1h-cable the same bench "
-            "with a yaw cable of 0.004 N m/rad.\n")
+            "machine)\n\n" + "\n".join(lines) + "\n\nLogs: multisine, 12-bit encoder, 1 kHz; 10min, 1h and 4h "
+            "clean (the seed model fits: every candidate is tested and none passes, the full search), 1h-cable the "
+            "same bench with a yaw cable of 0.004 N m/rad.\n")
     from results import update_section
     update_section(Path(args.out), "Diagnose at scale", text)
     print(text)

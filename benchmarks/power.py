@@ -146,7 +146,7 @@ def detected(res: dict) -> bool:
 
 def main() -> None:
     saved = Path(__file__).with_name("power_results.json")
-    timing = "Total {:.0f} s on 2 processes."
+    timed = "Total"
     if "--replot" in sys.argv:  # the table and figure again from the saved results (no new runs)
         results, elapsed = json.loads(saved.read_text()), math.nan
     elif "--rerun-errors" in sys.argv:  # the saved results' errors run again (a harness that refused them)
@@ -158,7 +158,7 @@ def main() -> None:
                 results[i] = r
         elapsed = time.perf_counter() - t0
         saved.write_text(json.dumps(results, indent=1, default=str))
-        timing = f"The {len(again)} logs that had ended in an error run again: {{:.0f}} s on 2 processes."
+        timed = f"The {len(again)} logs that had ended in an error run again:"
     else:
         cs = cases()
         t0 = time.perf_counter()
@@ -198,7 +198,7 @@ def main() -> None:
             f"{sum(1 for r in false if r['off_table'])}/{sum(1 for r in nulls if r['off_table'])}."
             + f"\nLogs the simulator or validation refused: {len(errors)}; logs given --angle-unit rad after the unit "
             f"check asked for it (yaw past 8 pi): {sum(1 for r in results if r['case'].get('unit_stated'))}. "
-            + timing.format(elapsed) + "\n"
+            f"{timed} {elapsed:.0f} s on 2 processes.\n"
             "Figure: benchmarks/power_curve.png.\n")
     _figure(curves, Path(__file__).with_name("power_curve.png"))
     if "--replot" not in sys.argv:  # the saved run's section stays as it was written
