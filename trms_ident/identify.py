@@ -518,7 +518,8 @@ def _with_rounding(log: Log, settings: Settings, params: dict, r: Refined, noise
     try:
         cov, _ = rounding_covariance(log.u1_v, log.u2_v, r.prediction, log.sample_time_s, {**params, **known},
                                      settings.thrust_law, r.estimate, noise, quantum, free=tuple(freed),
-                                     start_states0=r.start_states, **model_kw(settings, freed),
+                                     start_states0=r.start_states, window_starts=r.fit.starts,
+                                     **model_kw(settings, freed),
                                      **timing(log, len(log)))
     except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
         return r, "; the encoder's rounding spread could not be evaluated (intervals: batch means only)"

@@ -77,7 +77,8 @@ def with_rounding(cov: np.ndarray, u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad
     theta = {k: float(params[k]) for k in NAMES}
     spread, batch = rounding_covariance(u1_v, u2_v, np.column_stack([alpha_rad, beta_rad]), dt_s, params, law,
                                         theta, noise_rad, {"alpha": quantum_rad, "beta": quantum_rad},
-                                        start_states0=start_states0, **({"effects": dict(fixed)} if fixed else {}))
+                                        start_states0=start_states0, batch_means=True,
+                                        **({"effects": dict(fixed)} if fixed else {}))
     ratio = np.ones(cov.shape[0])
     for i in range(4):
         target = max(spread[i, i], batch[i, i] if np.isfinite(batch[i, i]) else 0.0)

@@ -375,15 +375,18 @@ _MOTOR_P = np.array([_P.index(k) for k in ("k1", "k2", "T11", "T10", "T21", "T20
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
-def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block, ext, fs, tq, w0, w1,
-                 out, extra, costs, a_mat, b_vec, scores):
+def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block, ext, fs, tq, quanta,
+                 grids, w0, w1, out, extra, costs, a_mat, b_vec, scores, b_grid, scores_grid):
     """Windows w0..w1-1 of one pass: predictions (out), each window's weighted cost (costs), normal equations
     (a_mat, b_vec) and its blocks' scores, written into the caller's arrays (disjoint slices: windows can run
     in threads).  Each window starts from its fitted angles and rates (starts) and the motor states of
     motor_starts (mstart).  ``ext`` (n, 2): exogenous torques [N m] held over each sample interval, or (0, 2)
     for none.  ``fs``: slots of freed model values with exact sensitivities (columns NU.. of the normal
     equations, then those of ``extra``); ``tq`` (n, 2, m): the exogenous torques per unit parameter, held like
-    ``ext`` (slot _NP + j reads tq[:, :, j])."""
+    ``ext`` (slot _NP + j reads tq[:, :, j]).  ``grids`` (r, 2): encoder grids, the places of their zeros [rad]
+    for alpha, beta, with ``quanta`` (2,) [rad] (0: that angle is not rounded): for each, the right-hand sides
+    (b_grid, (windows, r, unknowns)) and block scores (scores_grid, (r, blocks, unknowns)) of a residual that is
+    the prediction's own rounding on that grid, rounded - predicted (numerics/quantization.py); (0, 2): none."""
     n = u1.size
     has_ext = ext.shape[0] > 0
     nw = starts.shape[0]
@@ -402,6 +405,7 @@ def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub,
     fe = np.zeros((nf, 2))
     ja = np.empty(nt)
     jb = np.empty(nt)
+    ngr = grids.shape[0]
     for w in range(w0, w1):
         s = w * win
         e = n if w == nw - 1 else s + win
@@ -435,6 +439,18 @@ def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub,
                 scores[q, i] += g
                 for j in range(i, nt):
                     a_mat[w, i, j] += ja[i] * ja[j] + jb[i] * jb[j]
+            for r in range(ngr):  # the residual each encoder grid would leave: the prediction's rounding error
+                ea, eb = 0.0, 0.0
+                if quanta[0] > 0.0:
+                    v = out[k, 0] - grids[r, 0]
+                    ea = (quanta[0] * math.floor(v / quanta[0] + 0.5) - v) * inv_sig[0]
+                if quanta[1] > 0.0:
+                    v = out[k, 1] - grids[r, 1]
+                    eb = (quanta[1] * math.floor(v / quanta[1] + 0.5) - v) * inv_sig[1]
+                for i in range(nt):
+                    g = ja[i] * ea + jb[i] * eb
+                    b_grid[w, r, i] += g
+                    scores_grid[r, q, i] += g
             if k == e - 1:
                 break
             # hold the voltages over the actual interval, each switching at its own time
@@ -475,7 +491,7 @@ def motor_response(free, m0):
 
 
 def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub, win, block, out, extra,
-                      motor_free=None, ext=None, fs=None, tq=None):
+                      motor_free=None, ext=None, fs=None, tq=None, rounding=None):
     """One pass over the log: predictions (out), weighted cost, per-window normal equations in the
     NU unknowns (J1, B1, J2, B2, tau1(0), tau2(0), zeta(0), alpha0, alpha'0, beta0, beta'0), then one per
     slot in ``fs`` (freed model values, DIRECT_SLOTS or exogenous: exact forward sensitivities; ``tq`` (n, 2, m)
@@ -487,7 +503,9 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
     The motor states at each window's start come first (motor_starts); the windows are then independent and
     run on up to _threads() cores, each window computed the same way whatever the split, so the numbers do not
     depend on the machine.  ``motor_free``: motor_starts from zero start states for this p (computed when
-    None).  ``ext`` (n, 2): exogenous torques [N m] held over each sample interval (None: none)."""
+    None).  ``ext`` (n, 2): exogenous torques [N m] held over each sample interval (None: none).  ``rounding``:
+    (quanta (2,) [rad], grids (r, 2) [rad]) for windows_pass, whose b_grid and scores_grid are then returned
+    after the scores."""
     n = u1.size
     nw = starts.shape[0]
     nb = max(n // block, 1)
@@ -498,12 +516,15 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
     a_mat = np.zeros((nw, nt, nt))
     b_vec = np.zeros((nw, nt))
     scores = np.zeros((nb, nt))
+    quanta, grids = (np.zeros(2), np.zeros((0, 2))) if rounding is None else map(np.asarray, rounding)
+    b_grid = np.zeros((nw, grids.shape[0], nt))
+    scores_grid = np.zeros((grids.shape[0], nb, nt))
     if motor_free is None:
         motor_free = motor_starts(u1, u2, p, h, dsw, max_sub, win, nw, np.zeros(3))
     mstart = motor_response(motor_free, m0)
     args = (u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block,
-            np.zeros((0, 2)) if ext is None else ext, fs, tq)
-    tail = (out, extra, costs, a_mat, b_vec, scores)
+            np.zeros((0, 2)) if ext is None else ext, fs, tq, quanta, grids)
+    tail = (out, extra, costs, a_mat, b_vec, scores, b_grid, scores_grid)
     groups = min(_threads(), nw) if n >= THREAD_MIN_SAMPLES else 1
     if groups <= 1:
         windows_pass(*args, 0, nw, *tail)
@@ -514,6 +535,8 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
             windows_pass(*args, cut[0], cut[1], *tail)
             for j in jobs:
                 j.result()
+    if rounding is not None:
+        return float(costs.sum()), a_mat, b_vec, scores, b_grid, scores_grid
     return float(costs.sum()), a_mat, b_vec, scores
 
 
@@ -557,7 +580,7 @@ def schur(a, b, ng=NG):
     return s_mat, s_rhs, per_window
 
 
-def _covariance(s_mat, per_window, scores, win, block):
+def batch_covariance(s_mat, per_window, scores, win, block):
     """Batch-means covariance of the global unknowns: per-block scores with the windows' starts projected out."""
     ng = s_mat.shape[0]
     nb = scores.shape[0]
@@ -663,7 +686,7 @@ class _Problem:
             return None
         return np.ascontiguousarray(self.torques @ pv[_NP:])
 
-    def _pass(self, pv, th, st, out, max_sub, extra, exact=()):
+    def _pass(self, pv, th, st, out, max_sub, extra, exact=(), rounding=None):
         ext = np.zeros((self.y.shape[0], 2, 0)) if extra is None else extra
         u1, u2 = self.inputs(th)
         # the motor states depend on the motors' values and voltages alone
@@ -673,7 +696,7 @@ class _Problem:
                                                  st.shape[0], np.zeros(3))
         return gauss_newton_pass(u1, u2, self.y, self.inv_sig, st, th[4:NG], pv, self.signed, self.h,
                                  self.dsw, max_sub, self.win, self.block, out, ext, self.motor_cache[key],
-                                 self.exogenous(pv), np.array(exact, dtype=np.int64), self.torques)
+                                 self.exogenous(pv), np.array(exact, dtype=np.int64), self.torques, rounding)
 
     def columns(self, th, st, pred, idx, max_sub=None):
         """(n, 2, len(idx)) forward-difference sensitivities of alpha, beta to the model values at ``idx``."""
@@ -695,11 +718,12 @@ class _Problem:
             cols[:, :, c] = (tmp - pred) / step
         return cols
 
-    def evaluate(self, th, st, out, max_sub=None, more=(), cost_only=False):
+    def evaluate(self, th, st, out, max_sub=None, more=(), cost_only=False, rounding=None):
         """Cost, normal equations and scores at th, st; predictions in ``out``.  The unknowns in the order J/B,
         start states, the freed values (free_idx's order), the model values at ``more`` (a score test's
         candidates), then each window's start.  ``cost_only``: the cost and predictions are all the caller
-        needs (a line search's trial): no pass for the differenced columns, whose entries are then missing."""
+        needs (a line search's trial): no pass for the differenced columns, whose entries are then missing.
+        ``rounding``: gauss_newton_pass's; its right-hand sides and scores per grid follow, in the same order."""
         max_sub = self.max_sub if max_sub is None else max_sub
         idx = list(self.free_idx) + list(more)
         exact = [i for i in idx if _exact(i)]
@@ -709,15 +733,15 @@ class _Problem:
             res = self._pass(pv, th, st, out, max_sub, None)  # the predictions the differences start from
             if cost_only:
                 return res
-            res = self._pass(pv, th, st, out, max_sub, self.columns(th, st, out, diff, max_sub), exact)
+            res = self._pass(pv, th, st, out, max_sub, self.columns(th, st, out, diff, max_sub), exact, rounding)
         else:
-            res = self._pass(pv, th, st, out, max_sub, None, exact)
+            res = self._pass(pv, th, st, out, max_sub, None, exact, rounding)
         if not idx:
             return res
         kernel = exact + diff  # the kernel's columns after the NU fixed ones
         perm = np.r_[0:NG, [NU + kernel.index(i) for i in idx], NG:NU]
-        cost, a, b, scores = res
-        return cost, a[:, perm][:, :, perm], b[:, perm], scores[:, perm]
+        cost, a, b, scores, *grid = res
+        return (cost, a[:, perm][:, :, perm], b[:, perm], scores[:, perm]) + tuple(g[..., perm] for g in grid)
 
 
 @dataclass
@@ -822,7 +846,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
             step = np.zeros_like(step)
             step[4:NG] = scaled_inverse(s_mat[4:NG, 4:NG]) @ s_rhs[4:NG]
         step_starts = np.array([k[:, ng] - k[:, :ng] @ step for k in per_window])
-        se = np.sqrt(np.maximum(np.diag(_covariance(s_mat, per_window, scores, win, block)), 0.0))
+        se = np.sqrt(np.maximum(np.diag(batch_covariance(s_mat, per_window, scores, win, block)), 0.0))
         small = (np.abs(step) <= STEP_OVER_SE * se) | (np.abs(step) <= TOLERANCE * scale)
         # the decrease in cost the full step predicts: the global unknowns' through the Schur complement plus what
         # the windows' starts still gain with the globals held (x'b = x_G's_rhs + sum_w b_L' A_LL^-1 b_L); the first
@@ -857,7 +881,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
         else:  # the trial pass was the full pass at the accepted point: keep it
             (cost, a, b, scores), out = res, trial
     s_mat, s_rhs, per_window = schur(a, b, ng)
-    cov = _covariance(s_mat, per_window, scores, win, block)
+    cov = batch_covariance(s_mat, per_window, scores, win, block)
     pending = float(scaled_inverse(s_mat) @ s_rhs @ s_rhs) + sum(float(b[w, ng:] @ k[:, ng])
                                                                  for w, k in enumerate(per_window))
     nb = scores.shape[0]
