@@ -456,36 +456,46 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict) -> tuple[
         ("the table's J/B" + (" (DREM's optimum led to a worse fit)" if usable else
                               " (DREM's offline optimum is no start: a value is not positive)"),
          {k: params[k] for k in ESTIMATED})]
-    r, origin = None, ""
+    r, origin, failed = None, "", None
     free = refined_free(settings)
-    try:
-        for name, start in starts:
-            cand = refine_first(log, len(log), params, settings, start, noise, free)
-            if r is None or cand.cost < r.cost:
-                r, origin = cand, name
-            if _settled(r, noise):
-                break
-        # where no start reached the noise level, the motor and lag start states may sit in a wrong basin (a log
-        # cut mid-run: the tail motor's fitted at twice what the voltage limit can drive). Two more ways in, from
-        # the best J/B so far: the motors from rest; and multiple shooting, short windows first (each restarts
-        # from its own fitted angles and rates, so a start-state error cannot pile up), then the standard windows
-        # from there, carrying J/B and the start states
+
+    def attempt(start: dict, **options) -> Refined | None:
+        """One start's fit; None when it fails (a start far off, e.g. a J that DREM could not determine, left
+        near 0, makes the simulation overflow): the next start is tried."""
+        nonlocal failed
+        try:
+            return refine_first(log, len(log), params, settings, start, noise, free, **options)
+        except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as e:
+            failed = e
+            return None
+
+    for name, start in starts:
+        cand = attempt(start)
+        if cand is None and name.startswith("DREM"):
+            starts[-1] = (f"the table's J/B (from DREM's offline optimum the fit failed: {failed})", starts[-1][1])
+        if cand is not None and (r is None or cand.cost < r.cost):
+            r, origin = cand, name
+        if r is not None and _settled(r, noise):
+            break
+    if r is None:
+        return None, f"refinement failed ({failed}); DREM's offline optimum is the estimate", False
+    # where no start reached the noise level, the motor and lag start states may sit in a wrong basin (a log
+    # cut mid-run: the tail motor's fitted at twice what the voltage limit can drive). Two more ways in, from
+    # the best J/B so far: the motors from rest; and multiple shooting, short windows first (each restarts
+    # from its own fitted angles and rates, so a start-state error cannot pile up), then the standard windows
+    # from there, carrying J/B and the start states
+    if not _settled(r, noise):
+        start = r.estimate if _usable_start(r.estimate) else {k: params[k] for k in ESTIMATED}
+        base = origin.split(" (")[0]
+        cand = attempt(start, start_states0=MOTORS_AT_REST)
+        if cand is not None and cand.cost < r.cost:
+            r, origin = cand, f"{base}, then the motors started from rest"
         if not _settled(r, noise):
-            start = r.estimate if _usable_start(r.estimate) else {k: params[k] for k in ESTIMATED}
-            base = origin.split(" (")[0]
-            cand = refine_first(log, len(log), params, settings, start, noise, free, start_states0=MOTORS_AT_REST)
-            if cand.cost < r.cost:
-                r, origin = cand, f"{base}, then the motors started from rest"
-            if not _settled(r, noise):
-                short = refine_first(log, len(log), params, settings, start, noise, free,
-                                     window_s=SHOOTING_WINDOW_S)
-                if _usable_start(short.estimate):
-                    cand = refine_first(log, len(log), params, settings, short.estimate, noise, free,
-                                        start_states0=short.start_states)
-                    if cand.cost < r.cost:
-                        r, origin = cand, f"{base}, then through {SHOOTING_WINDOW_S:g} s windows first"
-    except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as e:
-        return None, f"refinement failed ({e}); DREM's offline optimum is the estimate", False
+            short = attempt(start, window_s=SHOOTING_WINDOW_S)
+            if short is not None and _usable_start(short.estimate):
+                cand = attempt(short.estimate, start_states0=short.start_states)
+                if cand is not None and cand.cost < r.cost:
+                    r, origin = cand, f"{base}, then through {SHOOTING_WINDOW_S:g} s windows first"
     ratio = _over_noise(r, noise)
     base = (f"prediction-error refinement from {origin}: {r.iterations} Gauss-Newton iteration(s), "
             f"{r.windows} window(s) of {len(log) * dt / r.windows:.3g} s, start states estimated, angle error RMS "
