@@ -71,6 +71,7 @@ class Hypothesis:
     value: float  # its value given to the estimate (the finding's)
     finding: int | None  # index of the effect search's finding it is (None: a look-alike of one)
     fitted: float = math.nan  # the effect's value after the estimate (a torque effect is freed beside J/B)
+    fitted_ci95: tuple | None = None  # its 95 % interval there, when the estimate freed it
     fits_alone: bool = False  # the estimate's adequacy check: the effect alone brings both angles to their floors
     over_noise: dict = field(default_factory=dict)  # angle -> error RMS over its floor, alone or with ``value_fit``
     value_fit: dict | None = None  # the known value its known-value search named (KnownValueFit's JSON)
@@ -128,6 +129,7 @@ def estimate_under(h: Hypothesis, log: Log, law: str, overrides: dict) -> Hypoth
     check = res.model_check
     freed = res.refined.freed if res.refined is not None else {}
     fitted = float(freed[h.key]["estimate"]) if h.key in freed else (h.value if not torque else math.nan)
+    h = replace(h, fitted_ci95=_ci95(freed.get(h.key)))
     ratio = _over_noise(check)
     if check.get("adequate") is True:
         return replace(h, fitted=fitted, fits_alone=True, over_noise=ratio)
@@ -138,9 +140,19 @@ def estimate_under(h: Hypothesis, log: Log, law: str, overrides: dict) -> Hypoth
     if named is None or named == SAME.get(h.key):
         return replace(h, fitted=fitted, over_noise=ratio)
     fit = next(f for f in kv["fits"] if f["name"] == named)
-    fitted = fit.get("with_free", {}).get(h.key, {}).get("estimate", fitted)
+    beside = fit.get("with_free", {}).get(h.key)
+    if beside is not None:  # freed beside the known value: its value and interval there
+        fitted, h = beside.get("estimate", fitted), replace(h, fitted_ci95=_ci95(beside))
     return replace(h, fitted=float(fitted), over_noise=dict(fit["over_noise"]), value_fit=fit,
                    look_alikes=list(kv.get("look_alikes", [])))
+
+
+def _ci95(freed: dict | None) -> tuple | None:
+    """A freed value's 95 % interval (refine's or a profile's ``freed`` entry), when it has a finite one."""
+    ci = (freed or {}).get("ci95")
+    if ci is None or len(ci) != 2 or not all(math.isfinite(float(x)) for x in ci):
+        return None
+    return float(ci[0]), float(ci[1])
 
 
 def _over_noise(check: dict) -> dict:
@@ -181,13 +193,15 @@ def _profiled_with_lead(h: Hypothesis, log: Log, law: str, overrides: dict, kv: 
     if not known_values.practical_change(value, given):
         # the lead did not move (known_values.PRACTICAL_CHANGE): the modification profiled again explains the log
         # alone, one parameter (measured: a2 named at 0.02001 for 0.02 beside a yaw saturation, twice)
-        return replace(h, fitted=float(freed[h.key]["estimate"]), fits_alone=True, over_noise=_over_noise(check))
+        return replace(h, fitted=float(freed[h.key]["estimate"]), fitted_ci95=_ci95(freed[h.key]), fits_alone=True,
+                       over_noise=_over_noise(check))
     fit = {"name": lead, "value": value, "table": float(given),
            "ci95": [float(x) for x in freed[lead]["ci95"]], "unit": BY_NAME[lead].unit,
            "over_noise": _over_noise(check), "estimates": {k: float(v) for k, v in res.refined.estimate.items()},
            "start_states": {k: float(v) for k, v in res.refined.start_states.items()},
            "how": f"freed with {h.key}, whose value was profiled again beside it"}
-    return replace(h, fitted=float(freed[h.key]["estimate"]), over_noise=fit["over_noise"], value_fit=fit)
+    return replace(h, fitted=float(freed[h.key]["estimate"]), fitted_ci95=_ci95(freed[h.key]),
+                   over_noise=fit["over_noise"], value_fit=fit)
 
 
 def lead_of(kv: dict, key: str) -> dict | None:
@@ -290,8 +304,10 @@ def _effect_finding(d, h: Hypothesis, alikes: list[Hypothesis]) -> Finding:
         again = (f"; estimated again in the model with {h.value_fit['name']} free beside it: {value:.4g}"
                  if h.value_fit is not None and h.key in TORQUE_KEYS else "")
         param = {**f.parameter, "value": float(value)}
-        if float(value) != f.parameter["value"]:  # the search's interval was for its own value
-            param.pop("ci95", None)
+        if float(value) != f.parameter["value"]:  # the search's interval was for its own value: the estimate's
+            param.pop("ci95", None)  # (an interval that bench files carry, so estimate widens J/B's by it)
+            if h.fitted_ci95 is not None and math.isfinite(h.fitted) and float(value) == h.fitted:
+                param["ci95"] = list(h.fitted_ci95)
         return replace(f, parameter=param, evidence=f.evidence + again,
                        alternatives=list(dict.fromkeys(f.alternatives + others)))
     c = room.BY_KEY[h.key]
