@@ -9,8 +9,13 @@ import json
 import pytest
 from typer.testing import CliRunner
 
+import trms_ident as ti
 from trms_ident.cli import app
+from trms_ident.commands import bench_from_diagnosis
 from trms_ident.errors import EXIT_BAD_PARAMETERS
+from trms_ident.log import validated
+from trms_ident.report.diagnosis import to_doc
+from trms_ident.report.summary import to_json
 
 runner = CliRunner()
 
@@ -388,3 +393,30 @@ def test_a_freed_coulomb_friction_is_integrated_finely_enough_to_be_covered(monk
     monkeypatch.setattr(refine, "COULOMB_SUBSTEP_S", refine.MAX_SUBSTEP_S)
     coarse = freed()
     assert not coarse["ci95"][0] <= fc <= coarse["ci95"][1], coarse
+
+
+def test_a_modification_moved_by_a_known_values_refit_is_exported_with_its_interval_and_jb_cover(tmp_path):
+    """diagnosed_model.py's seed 23: a second-order pitch motor beside Kg 1.53x, mid-run.  The known value's refit
+    (diagnosis/compound.py) moves T2 from the effect search's value; its interval there is the finding's, the
+    bench file holds it, and J/B's intervals (diagnose's under its findings, and estimate's under the file) carry
+    it.  Without it T2 was held exactly and J2, B1 sat 7-8 half-widths off their intervals."""
+    true = {"J1": 0.07373084085834584, "B1": 0.007516309196913426, "J2": 0.019519434125733582,
+            "B2": 0.08486178047865506}
+    t2 = 0.18778875378183318  # s
+    log = ti.simulate("square", sample_rate_hz=500.0, duration_s=49.76257158129879, seed=456033294,
+                      noise_std_rad=0.00043989021665445053, start_s=16.60684548902656,
+                      overrides={**true, "Kg": 0.07668075071361335},
+                      effects=[{"effect": "motor_second_lag", "axis": "pitch", "value": t2}])
+    data = validated(log.t_s, log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, angle_unit="rad")
+    d = ti.diagnose(data)
+    (lag,) = [f for f in d.findings if f.effect == "motor_second_lag"]
+    lo, hi = lag.parameter["ci95"]
+    assert lo <= t2 <= hi
+    w = d.with_findings
+    for k, v in true.items():
+        assert w["ci95"][k][0] <= v <= w["ci95"][k][1], (k, w["ci95"][k], v)
+    doc = to_doc(d, data)
+    path = tmp_path / "diagnosis.json"
+    path.write_text(to_json(doc))
+    (held,) = [e for e in bench_from_diagnosis(path)["effects"] if e.key == "motor_second_lag:pitch"]
+    assert held.ci95 is not None and held.ci95[0] <= t2 <= held.ci95[1]
