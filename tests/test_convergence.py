@@ -172,3 +172,22 @@ def test_a_start_whose_simulation_overflows_gives_way_to_the_next():
     assert "from DREM's offline optimum the fit failed" in res.refine_note
     for k, v in true.items():
         assert res.intervals[k].low <= v <= res.intervals[k].high, (k, res.intervals[k], v)
+
+
+def test_a_fit_given_with_the_model_starts_the_refinement_and_reaches_the_same_optimum(square):
+    """identify's ``start`` (diagnose's J/B with its findings, api.under_findings): the refinement starts there,
+    next to the optimum, and lands where DREM's start and the ways in after it land, in fewer iterations; a start
+    that is no start (a J not positive) is passed over."""
+    part = _slice(square, 6114, 4061)
+    alone = identify(part)
+    given = {**alone.refined.estimate, "start_states": alone.refined.start_states, "from": "an earlier fit"}
+    res = identify(part, start=given)
+    assert res.refine_note.startswith("prediction-error refinement from an earlier fit:"), res.refine_note
+    assert res.refined.iterations < alone.refined.iterations
+    for k in ("J1", "B1", "J2", "B2"):
+        assert res.refined.estimate[k] == pytest.approx(alone.refined.estimate[k], rel=1e-6)
+        assert res.intervals[k].high - res.intervals[k].low == pytest.approx(
+            alone.intervals[k].high - alone.intervals[k].low, rel=1e-3)
+    bad = identify(part, start={**given, "J2": -1.0})
+    assert "an earlier fit" not in bad.refine_note
+    assert bad.refined.estimate["J2"] == pytest.approx(alone.refined.estimate["J2"], rel=1e-6)

@@ -53,17 +53,18 @@ NEAR_POINTS = 8
 SE_STEP = 0.02
 
 
-def identify_with_profiles(log, settings):
+def identify_with_profiles(log, settings, start: dict | None = None):
     """identify's Result, with each input modification of settings.free (a bench file's, --free
     dead_zone:yaw, ...) estimated by its profile: its estimate, ci95, se and how it was found in
     ``refined.freed[key]``.  A value the file holds with a 95 % interval (its ``ci95``: estimated elsewhere, by
     diagnose or another estimate) widens J/B's intervals by what it moves them, as a profiled one does (the
-    refinement's note names them).  Without either, identify itself."""
+    refinement's note names them).  Without either, identify itself.  ``start``: identify's (a fit of the model
+    made elsewhere, the refinements' first start)."""
     keys = [k for k in settings.free if k in MODIFICATION_KEYS]
     held = {k: ci for k, ci in settings.held_ci95.items()
             if (k in settings.effects or k in settings.overrides) and k not in settings.free and k != SENSOR_LAG}
     if not keys and not held:
-        return identify(log, settings)
+        return identify(log, settings, start=start)
     if SENSOR_LAG in keys:
         raise SettingsError(f"--free {SENSOR_LAG}: an acquisition lag changes the angles the fit is scored on; "
                             "estimate holds it at the bench file's value (diagnose fits it)")
@@ -75,7 +76,7 @@ def identify_with_profiles(log, settings):
         value, span = v0, math.log(PROFILE_SPAN)
         # a saturation is placed by one round of its profile, then estimated by Gauss-Newton with J/B (below)
         for _ in range(1 if key in NATIVE_FREE_KEYS else ROUNDS):  # the estimate at the value, then its profile
-            base = identify(log, settings)
+            base = identify(log, settings, start=start)
             if base.refined is None:
                 raise IdentificationError(f"{log.source}: --free {key} needs the output-error refinement, which did "
                                           f"not run ({base.refine_note})")
@@ -92,7 +93,7 @@ def identify_with_profiles(log, settings):
             native.append((key, at_edge))
             continue
         # batch-means standard error from three fits around the minimum (diagnose's profile_se)
-        base = identify(log, settings)
+        base = identify(log, settings, start=start)
         fit, noise = _profile_fit(log, settings, key, base.refined)
         trial = [value * (1.0 - SE_STEP), value, value * (1.0 + SE_STEP)]
         fits = [fit(v) for v in trial]
@@ -125,7 +126,7 @@ def identify_with_profiles(log, settings):
     # the saturations from where their profiles placed them, with J/B: their intervals are the refinement's, from
     # the same covariance as J/B's (held values widen them below as they widen every freed parameter)
     settings = replace(settings, free=settings.free + tuple(k for k, _ in native))
-    res = identify(log, settings)
+    res = identify(log, settings, start=start)
     if res.refined is None:
         return res
     slopes_of, unmeasured = _held_slopes(log, settings, res.refined, held)
