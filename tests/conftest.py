@@ -14,7 +14,7 @@ from trms_ident.log import validated
 #: seconds beside each), every one a capability a faster test also exercises (the sparse correction through the
 #: command line, diagnose and the CE150's published values on the other real recording, the profiles of input
 #: modifications, ...).  The README's test command leaves them out (pyproject.toml's addopts: -m "not slow");
-#: ``pytest -q -n 2 -m slow`` runs them (36 since 28 Nov 2026; 28 took 11:47, 27 Nov 2026), ``-m ""`` runs
+#: ``pytest -q -n 2 -m slow`` runs them (37 since 29 Nov 2026; 28 took 11:47, 27 Nov 2026), ``-m ""`` runs
 #: everything.  Run them before changing diagnose's or estimate's numerics.
 SLOW = {
     # compound bench 3007's pair judged each given the other (judge._given_its_sibling); the rescue's other paths
