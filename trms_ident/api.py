@@ -291,7 +291,7 @@ def under_findings(log, d, overrides: dict, thrust_law: str) -> dict | None:
     settings = Settings(thrust_law=thrust_law, overrides={**overrides, **refits},
                         effects={e.key: e.value for e in found}, free=free, held_ci95=held)
     # the refinement starts from diagnose's own J/B with the findings and its motor start states: next to the
-    # optimum (an hour at 1 kHz with a cable: two passes over the log instead of five from DREM's), the same
+    # optimum (an hour at 1 kHz with a cable: three passes over the log instead of five from DREM's), the same
     # optimum (DREM's and the table's start follow when this one does not reach the noise level)
     start = {**{k: float(v) for k, v in (d.augmented or {}).items() if k in ESTIMATED},
              "start_states": d.settings.get("start_states_after"), "from": "diagnose's J/B with its findings"}

@@ -460,7 +460,7 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict, given: di
                               " (DREM's offline optimum is no start: a value is not positive)"),
          {k: params[k] for k in ESTIMATED})]
     # a fit of this model made elsewhere (diagnose's with its findings) starts Gauss-Newton next to the optimum:
-    # on an hour at 1 kHz, two passes over the log instead of five from DREM's
+    # on an hour at 1 kHz with a cable, three passes over the log instead of five from DREM's
     options = {}
     if given is not None and all(isinstance(given.get(k), float) for k in ESTIMATED) and _usable_start(given):
         name = given.get("from") or "the fit given with the model"
