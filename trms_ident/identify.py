@@ -454,18 +454,17 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict, given: di
     # starts in turn until one converges at the noise level: DREM's offline optimum, then the table's J/B. DREM's
     # numbers can be no start at all (a value not positive: a log cut mid-run starts its filters off their steady
     # state) or start Gauss-Newton in another basin (a wrong known value made J1 3x too large)
+    # (name, J/B, motor start states or None: the first voltages' steady state)
     usable = _usable_start(offline)
-    starts = ([("DREM's offline optimum", offline)] if usable else []) + [
+    starts = ([("DREM's offline optimum", offline, None)] if usable else []) + [
         ("the table's J/B" + (" (DREM's optimum led to a worse fit)" if usable else
                               " (DREM's offline optimum is no start: a value is not positive)"),
-         {k: params[k] for k in ESTIMATED})]
+         {k: params[k] for k in ESTIMATED}, None)]
     # a fit of this model made elsewhere (diagnose's with its findings) starts Gauss-Newton next to the optimum:
     # on an hour at 1 kHz with a cable, three passes over the log instead of five from DREM's
-    options = {}
     if given is not None and all(isinstance(given.get(k), float) for k in ESTIMATED) and _usable_start(given):
-        name = given.get("from") or "the fit given with the model"
-        starts.insert(0, (name, {k: given[k] for k in ESTIMATED}))
-        options = {name: {"start_states0": given.get("start_states") or None}}
+        starts.insert(0, (given.get("from") or "the fit given with the model", {k: given[k] for k in ESTIMATED},
+                          given.get("start_states") or None))
     r, origin, failed = None, "", None
     free = refined_free(settings)
 
@@ -479,10 +478,10 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict, given: di
             failed = e
             return None
 
-    for name, start in starts:
-        cand = attempt(start, **options.get(name, {}))
+    for name, start, states in starts:
+        cand = attempt(start, start_states0=states)
         if cand is None and name.startswith("DREM"):
-            starts[-1] = (f"the table's J/B (from DREM's offline optimum the fit failed: {failed})", starts[-1][1])
+            starts[-1] = (f"the table's J/B (from DREM's offline optimum the fit failed: {failed})", *starts[-1][1:])
         if cand is not None and (r is None or cand.cost < r.cost):
             r, origin = cand, name
         if r is not None and _settled(r, noise):

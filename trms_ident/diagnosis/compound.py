@@ -306,7 +306,7 @@ def _effect_finding(d, h: Hypothesis, alikes: list[Hypothesis]) -> Finding:
         param = {**f.parameter, "value": float(value)}
         if float(value) != f.parameter["value"]:  # the search's interval was for its own value: the estimate's
             param.pop("ci95", None)  # (an interval that bench files carry, so estimate widens J/B's by it)
-            if h.fitted_ci95 is not None and math.isfinite(h.fitted) and float(value) == h.fitted:
+            if h.fitted_ci95 is not None and math.isfinite(h.fitted):  # value is then h.fitted
                 param["ci95"] = list(h.fitted_ci95)
         return replace(f, parameter=param, evidence=f.evidence + again,
                        alternatives=list(dict.fromkeys(f.alternatives + others)))
