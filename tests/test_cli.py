@@ -160,3 +160,20 @@ def test_an_interval_is_printed_with_the_digits_that_show_its_width():
     # +/- 4e-7 about 0.1 was printed "[0.1, 0.1]"
     assert interval_text(0.09999996, 0.1000005, 0.1000002) == "[0.09999996, 0.1000005]"
     assert interval_text(1.0, 1.0) == "[1, 1]"  # a zero-width interval stays what it is
+
+
+def test_a_reader_that_goes_away_stops_the_text_not_the_work(square_csv, tmp_path):
+    # `2>&1 | head` closes the pipe early: the text stops, the command still writes its files and exits 0;
+    # `--json - | head`: the product itself is cut off, so the exit is a shell's for a closed pipe (141)
+    env = {**os.environ, "PYTHONIOENCODING": "utf-8"}
+    out = tmp_path / "o"
+    args = [sys.executable, "-m", "trms_ident", "estimate", str(square_csv), "-o", str(out), "--no-report"]
+    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
+    proc.stderr.close()  # the reader is gone before the first line
+    assert proc.wait(timeout=300) == 0
+    assert (out / "result.json").exists()
+    proc = subprocess.Popen([*args, "--json", "-"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=300) == 141, err
+    assert "Traceback" not in err and "Exception ignored" not in err and "internal error" not in err

@@ -3,7 +3,8 @@
 Exit codes (also in README): 0 ok, 1 internal error, 2 usage or bad option value,
 3 input file missing or unreadable, 4 log unusable, 5 parameter file invalid,
 6 log does not excite the parameters, 7 output cannot be written,
-8 batch: some logs failed, 9 batch: every log failed, 10 --strict: the model does not fit the log.
+8 batch: some logs failed, 9 batch: every log failed, 10 --strict: the model does not fit the log,
+11 --strict: not decided, 130 interrupted, 141 the reader of --json - closed the pipe.
 """
 from __future__ import annotations
 
@@ -26,8 +27,8 @@ if not {"OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"} & set(os.e
 import typer  # noqa: E402
 
 from . import __version__
-from .errors import (EXIT_ALL_FAILED, EXIT_INADEQUATE, EXIT_INTERNAL, EXIT_SOME_FAILED, EXIT_UNDECIDED,
-                     JoinedRunsError, SettingsError, TrmsError)
+from .errors import (EXIT_ALL_FAILED, EXIT_INADEQUATE, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_PIPE_CLOSED,
+                     EXIT_SOME_FAILED, EXIT_UNDECIDED, JoinedRunsError, SettingsError, TrmsError)
 from .settings import GAIN_CONVENTIONS, HEADLINES, Settings
 from .params import (ESTIMATED, THRUST_LAWS, UNITS, bench_names, bench_settings, load_parameter_file,
                      parameter_file_inputs_unit, unit_of)
@@ -43,8 +44,21 @@ app = typer.Typer(
 
 
 def say(msg: str = "") -> None:
-    """Human text goes to stderr, so that --json - on stdout stays machine-readable."""
-    typer.echo(msg, err=True)
+    """Human text goes to stderr, so that --json - on stdout stays machine-readable.  When the reader of stderr
+    has gone (``2>&1 | head``) the text stops and the work goes on: the command's files are still written."""
+    try:
+        typer.echo(msg, err=True)
+    except BrokenPipeError:
+        _to_devnull(sys.stderr)
+
+
+def _to_devnull(stream) -> None:
+    """Point ``stream``'s file descriptor at the null device: a closed pipe is not written again (nor flushed at
+    exit, which would print Python's own "Exception ignored" lines)."""
+    try:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), stream.fileno())
+    except (OSError, ValueError):  # not a file descriptor (a test's captured stream): nothing to redirect
+        pass
 
 
 def handled(fn):
@@ -61,7 +75,11 @@ def handled(fn):
             raise
         except KeyboardInterrupt:
             say("interrupted")
-            raise typer.Exit(130) from None
+            raise typer.Exit(EXIT_INTERRUPTED) from None
+        except BrokenPipeError:  # the reader of stdout went away (``--json - | head``): exit as a shell's pipe does
+            _to_devnull(sys.stdout)
+            _to_devnull(sys.stderr)
+            raise typer.Exit(EXIT_PIPE_CLOSED) from None
         except Exception as exc:  # a bug: say so in one line, traceback only on request
             if os.environ.get("TRMS_IDENT_DEBUG"):
                 raise

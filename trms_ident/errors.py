@@ -15,6 +15,8 @@ EXIT_INADEQUATE = 10  # --strict: the model does not fit the log (model_check.ad
 EXIT_UNDECIDED = 11  # --strict: whether the model fits is not decided (model_check.adequate is null: the fit did
 # not converge and could still reach the noise level, or the log's noise floor cannot be measured, the model
 # simulates it as well as a black box and its halves give the same J/B)
+EXIT_INTERRUPTED = 130  # Ctrl-C, as a shell reports it
+EXIT_PIPE_CLOSED = 141  # the reader of stdout went away (`--json - | head`), as a shell reports a SIGPIPE
 
 
 class TrmsError(Exception):
