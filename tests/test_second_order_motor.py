@@ -150,3 +150,43 @@ def test_a_dead_zone_beside_a_second_order_motor_is_profiled_with_the_lag_refitt
     # (with oe.refitted_lags returning nothing: 0.1969 V, 2.2 % off, the drop 0.62; measured, 28 Nov 2026)
     assert found.value == pytest.approx(0.2014, rel=0.01) and found.cost_drop > 0.85, found
     assert profiled("input_saturation:pitch", 2.2).cost_drop < 1e-3
+
+
+#: seed 27 of benchmarks/diagnosed_model.py: J/B off Table 1
+MID_RUN_TRUE = {"J1": 0.0576023, "B1": 0.00739898, "J2": 0.0142662, "B2": 0.0947021}
+
+
+def test_a_fit_with_a_second_order_motor_says_where_its_further_lag_starts(tmp_path):
+    """The further lag's state at the first sample is not estimated (model.bench.LAG_START_ASSUMED): estimate's
+    note says so beside the start states it does estimate, and a misfit may then be that start; diagnose's
+    "partly explained" with a second-order motor among the findings says it too.  From rest the assumption is
+    right and the model fits; a log under eq. (1) alone says nothing of it."""
+    import trms_ident as ti
+    from trms_ident.diagnosis.result import Finding
+    from trms_ident.diagnosis.verdict import verdict_of
+    from trms_ident.model.bench import LAG_START_ASSUMED
+
+    r = simulate(SimSettings(ref="square", duration_s=30.0, sample_rate_hz=100.0, noise_std_rad=4e-4, seed=3,
+                             effects=[{"effect": "motor_second_lag", "axis": "yaw", "value": 0.22}]))
+    bench = tmp_path / "bench.toml"
+    bench.write_text('[effects]\n"motor_second_lag:yaw" = 0.22\n')
+    doc = ti.estimate(as_log(r), params=bench).doc
+    assert LAG_START_ASSUMED in doc["refinement"] and doc["model_check"]["adequate"] is True
+    assert "began elsewhere" not in doc["refinement"]
+    assert LAG_START_ASSUMED not in ti.estimate(as_log(r)).doc["refinement"]
+    # cut mid-run (diagnosed_model.py's seed 27: the lag at 0.87 V where the first voltage is 1.84 V), the model
+    # with every value right misses the yaw's floor, and the check names the start with the other suspects.  When
+    # the lag's start is estimated this log fits: then the words, and this test, change
+    mid = simulate(SimSettings(ref="square", duration_s=40.212, sample_rate_hz=100.0, noise_std_rad=4.0125e-4,
+                               seed=44866069, start_s=29.5528, overrides={**MID_RUN_TRUE, "kc": -0.10044},
+                               effects=[{"effect": "motor_second_lag", "axis": "yaw", "value": 0.22052}]))
+    bench.write_text('[parameters]\nkc = -0.10044\n\n[effects]\n"motor_second_lag:yaw" = 0.22052\n')
+    check = ti.estimate(as_log(mid), params=bench).doc["model_check"]
+    assert check["adequate"] is False and LAG_START_ASSUMED in check["sentence"], check["sentence"]
+    lag = Finding("motor_second_lag", "yaw", {"name": "T2", "value": 0.22, "unit": "s"}, 90.0, 95.0, "", "", 0.1,
+                  5.0, 1e-6)
+    seed = {"adequate": False, "axes": {}}
+    for findings, said in (([lag], True), (["a finding"], False)):
+        verdict, sentence = verdict_of(as_log(r), seed, findings, {}, {}, {"alpha": 1.0, "beta": 1.9},
+                                       {"beta": "noise"})
+        assert verdict == "partly_explained" and (LAG_START_ASSUMED in sentence) is said

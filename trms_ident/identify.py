@@ -11,6 +11,7 @@ import numpy as np
 
 from .errors import IdentificationError, SettingsError
 from .log import Log
+from .model.bench import KERNEL_KEYS, LAG_START_ASSUMED
 from .numerics.design import FilterDesign, angle_noise_rad, design_filters, quantization_step
 from .numerics.quantization import OFFSETS as QUANTIZATION_OFFSETS
 from .numerics.fused import drem_summaries
@@ -158,7 +159,7 @@ def identify(log: Log, settings: Settings | None = None, halves: bool = True, st
     settings = settings or Settings()
     given = log
     settings.validate()
-    from .model.bench import KERNEL_KEYS, MODIFICATION_KEYS, NATIVE_FREE_KEYS
+    from .model.bench import MODIFICATION_KEYS, NATIVE_FREE_KEYS
 
     profiled = [k for k in settings.free if k in MODIFICATION_KEYS and k not in NATIVE_FREE_KEYS]
     if profiled:  # the refinement has no sensitivity for them: model_profile.identify_with_profiles fits them
@@ -170,7 +171,7 @@ def identify(log: Log, settings: Settings | None = None, halves: bool = True, st
     log, params = under_model(log, params, settings.effects, kernel=True, free=settings.free)
     # DREM's regressions see every modification, the kernel's lags too (the same log when there are none)
     drem_log = (under_model(given, given_params, settings.effects)[0]
-                if any(k in KERNEL_KEYS for k in settings.effects) else log)
+                if _lagged(settings) else log)
     _long_enough(log, params)
     grid_log, motor = on_uniform_grid(drem_log, params)
     settings, design = resolve_filters(grid_log, settings)
@@ -369,9 +370,17 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
         return check, r.prediction
     if check["adequate"] is False:
         _blame(check, log, settings, params)
+        if _lagged(settings):
+            check["sentence"] += (" With a second-order motor in the model, the misfit may also be where its further "
+                                  f"lag started: {LAG_START_ASSUMED}.")
     if check["caution"]:  # said last, after what the data blame
         check["sentence"] += check["caution"]
     return check, r.prediction
+
+
+def _lagged(settings: Settings) -> bool:
+    """Does the model hold a second-order motor (its further lag's start assumed: LAG_START_ASSUMED)?"""
+    return any(k in settings.effects for k in KERNEL_KEYS)
 
 
 def _could_still_fit(r: Refined, n: int) -> bool:
@@ -506,15 +515,17 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict, given: di
                 if cand is not None and cand.cost < r.cost:
                     r, origin = cand, f"{base}, then through {SHOOTING_WINDOW_S:g} s windows first"
     ratio = _over_noise(r, noise)
+    lagged = _lagged(settings)
     base = (f"prediction-error refinement from {origin}: {r.iterations} Gauss-Newton iteration(s), "
             f"{r.windows} window(s) of {len(log) * dt / r.windows:.3g} s, start states estimated, angle error RMS "
             f"alpha {r.rms_rad['alpha']:.3g} rad, beta {r.rms_rad['beta']:.3g} rad (noise {noise['alpha']:.3g}, "
-            f"{noise['beta']:.3g} rad)")
+            f"{noise['beta']:.3g} rad)" + (f"; {LAG_START_ASSUMED}" if lagged else ""))
     if max(ratio.values()) > ADEQUATE_RMS_OVER_NOISE:
         worst = max(ratio, key=ratio.get)
         return r, (base + f"; NOT used: the {worst} error is {ratio[worst]:.3g}x its noise level, so the model "
-                   "misses something in this log (try `trms-ident diagnose`) and DREM's offline optimum is the "
-                   "estimate"), False
+                   "misses something in this log" + (" or its second-order motor's lag began elsewhere" if lagged
+                                                     else "") +
+                   " (try `trms-ident diagnose`) and DREM's offline optimum is the estimate"), False
     if not r.converged:
         return r, base + "; NOT used: Gauss-Newton did not converge", False
     if r.blocks < MIN_BLOCKS:
