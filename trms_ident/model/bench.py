@@ -33,9 +33,10 @@ TORQUE_KEYS = ("com_offset:pitch", "coulomb_friction:pitch", "coulomb_friction:y
 KERNEL_KEYS = ("motor_second_lag:pitch", "motor_second_lag:yaw")
 #: what the fits assume of a second-order motor's further lag at the first sample (numerics.refine.motor_starts,
 #: model.effects.second_lag), said wherever a fit with one is reported: the motors' own start states are
-#: estimated, this one is not yet.  Measured on a 100 Hz square wave cut mid-run (the tail motor second order,
-#: 0.22 s, kc half the table's): the model with every value right left the yaw at 1.97x its noise floor, and
-#: 0.98x with the lag started where the simulation had it (0.87 V, not the first voltage's 1.84 V)
+#: estimated, this one is not yet.  Measured on benchmarks/diagnosed_model.py's three mid-run logs with a
+#: second-order motor (seeds 20, 27, 36; pitch or tail motor, 0.19-0.23 s): the model with every value right left
+#: the yaw at 1.70x, 1.97x and 2.11x its noise floor, in the first 5-10 s, and 1.00x with the lag started where the
+#: simulation had it (seed 27: 0.87 V, not the first voltage's 1.84 V); from rest, 1.00x
 LAG_START_ASSUMED = ("a second-order motor's further lag starts in the steady state of the first voltage (not "
                      "estimated): on a log that begins mid-run that alone can leave the angles up to about 2x "
                      "their noise floors")
