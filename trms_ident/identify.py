@@ -380,7 +380,7 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
 
 
 #: the further lag's start has died out after this many of its chain's time constants (its own T2 plus its motor's
-#: T1/T0): e^-5, under 1 % of the start's error left in the drive
+#: T1/T0, and for the main motor the reaction moment's Tp): e^-5, under 1 % of the start's error left
 LAG_START_SETTLED = 5.0
 
 
@@ -391,7 +391,8 @@ def _past_lag_start(y: np.ndarray, prediction: np.ndarray, noise: dict, dt: floa
     lagged motor, said in one sentence; "" when the log is too short to tell or an angle has no measurable floor.
     The start acts only there: within the floors after it, the misfit is the start's, not missing physics
     (measured on three mid-run logs, benchmarks/RESULTS.md "Diagnosed model")."""
-    motor = {"motor_second_lag:pitch": params["T11"] / params["T10"],
+    # the main motor's start reaches the yaw through the reaction moment's lag too (Tp)
+    motor = {"motor_second_lag:pitch": params["T11"] / params["T10"] + params["Tp"],
              "motor_second_lag:yaw": params["T21"] / params["T20"]}
     settle = max(LAG_START_SETTLED * (float(v) + motor[k]) for k, v in settings.effects.items() if k in KERNEL_KEYS)
     k = int(math.ceil(settle / dt))
