@@ -187,9 +187,13 @@ def test_a_fit_with_a_second_order_motor_says_where_its_further_lag_starts(tmp_p
     # past the lag's start (5 of its chain's time constants: 6.1 s) the angles fit, and the check says so; with kc
     # left at the table's value the misfit remains there, and it says that instead
     assert "After the first 6.1 s, where the lag's start still acts, the angles fit" in check["sentence"]
+    past = check["past_lag_start"]
+    assert past["fits"] is True and past["after_s"] == pytest.approx(5 * (0.22052 + 1.0))
+    assert max(past["rms_over_noise"].values()) <= 1.2 < max(check["axes"][a]["rms_over_noise"] for a in check["axes"])
     bench.write_text('[effects]\n"motor_second_lag:yaw" = 0.22052\n')
     check = ti.estimate(as_log(mid), params=bench).doc["model_check"]
     assert "After the first 6.1 s the misfit remains" in check["sentence"], check["sentence"]
+    assert check["past_lag_start"]["fits"] is False
     lag = Finding("motor_second_lag", "yaw", {"name": "T2", "value": 0.22, "unit": "s"}, 90.0, 95.0, "", "", 0.1,
                   5.0, 1e-6)
     seed = {"adequate": False, "axes": {}}
