@@ -98,7 +98,7 @@ def diagnosis_lines(d, source: str) -> list[str]:
                          f"95 %: {w['text']}{freed}")
             if w.get("past_lag_start"):  # a second-order motor's unestimated lag start (model.bench.LAG_START_ASSUMED)
                 lines.append(f"     its second-order motor's further lag starts at the first voltage's steady state "
-                             f"(not estimated): {w['past_lag_start']['sentence']}")
+                             f"(not estimated). {w['past_lag_start']['sentence']}")
         elif w is not None:
             lines.append(f"  under the findings' model: no estimate ({w['error']})")
     if d.held_out is not None:
