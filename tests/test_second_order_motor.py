@@ -201,3 +201,12 @@ def test_a_fit_with_a_second_order_motor_says_where_its_further_lag_starts(tmp_p
         verdict, sentence = verdict_of(as_log(r), seed, findings, {}, {}, {"alpha": 1.0, "beta": 1.9},
                                        {"beta": "noise"})
         assert verdict == "partly_explained" and (LAG_START_ASSUMED in sentence) is said
+    # diagnose's first line: "still misses something" unless the estimate under the findings fits past the start
+    from trms_ident.report.terminal import headline
+
+    past = {"past_lag_start": {"after_s": 6.1, "fits": True}}
+    said = headline("partly_explained", [lag], past)
+    assert "past the first 6.1 s the model with them fits to the noise level" in said and "misses something" not in said
+    for verdict, w in (("partly_explained", {"past_lag_start": {"after_s": 6.1, "fits": False}}),
+                       ("partly_explained", None), ("explained", past)):
+        assert "past the first" not in headline(verdict, [lag], w)
