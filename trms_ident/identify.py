@@ -371,7 +371,7 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
     if check["adequate"] is False:
         _blame(check, log, settings, params)
         if _lagged(settings):
-            past = _past_lag_start(y, r.prediction, noise, dt, settings, params)
+            past = _past_lag_start(y, r.prediction, check, dt, settings, params)
             check["sentence"] += (" With a second-order motor in the model, the misfit may also be where its further "
                                   f"lag started: {LAG_START_ASSUMED}." + (f" {past['sentence']}" if past else ""))
             check["past_lag_start"] = past
@@ -385,12 +385,13 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
 LAG_START_SETTLED = 5.0
 
 
-def _past_lag_start(y: np.ndarray, prediction: np.ndarray, noise: dict, dt: float, settings: Settings,
+def _past_lag_start(y: np.ndarray, prediction: np.ndarray, check: dict, dt: float, settings: Settings,
                     params: dict) -> dict | None:
     """The misfit once a second-order motor's further lag has forgotten its start (LAG_START_ASSUMED): the
     angles' error RMS over their noise floors after the first LAG_START_SETTLED time constants of the slowest
     lagged motor's chain ("after_s", "rms_over_noise": angle -> ratio, "fits": within RMS_OVER_NOISE, and the
-    "sentence" that says it); None when the log is too short to tell or an angle has no measurable floor.  The
+    "sentence" that says it); None when the log is too short to tell or an angle has no measurable noise floor
+    (``check``: model_check's, whose floors these are; a floor it could not measure is no yardstick here).  The
     start acts only before: within the floors after it, the misfit is the start's, not missing physics (measured
     on three mid-run logs, benchmarks/RESULTS.md "Diagnosed model")."""
     # the main motor's start reaches the yaw through the reaction moment's lag too (Tp)
@@ -398,10 +399,11 @@ def _past_lag_start(y: np.ndarray, prediction: np.ndarray, noise: dict, dt: floa
              "motor_second_lag:yaw": params["T21"] / params["T20"]}
     settle = max(LAG_START_SETTLED * (float(v) + motor[k]) for k, v in settings.effects.items() if k in KERNEL_KEYS)
     k = int(math.ceil(settle / dt))
-    if k > len(prediction) // 2 or not all(noise[a] > 0 for a in ("alpha", "beta")):
+    floor = {v["angle"]: v["noise_floor_rad"] for v in check["axes"].values() if v.get("noise_floor_measured")}
+    if k > len(prediction) // 2 or set(floor) != {"alpha", "beta"}:
         return None
     err = y[k:len(prediction)] - prediction[k:]
-    ratio = {a: float(np.sqrt(np.mean(err[:, i] ** 2)) / noise[a]) for i, a in enumerate(("alpha", "beta"))}
+    ratio = {a: float(np.sqrt(np.mean(err[:, i] ** 2)) / floor[a]) for i, a in enumerate(("alpha", "beta"))}
     fits = max(ratio.values()) <= RMS_OVER_NOISE
     said = f"alpha {ratio['alpha']:.3g}x, beta {ratio['beta']:.3g}x their noise floors"
     sentence = (f"After the first {settle:.3g} s, where the lag's start still acts, the angles fit ({said}): the "
