@@ -1,5 +1,6 @@
 """Prediction-error refinement after DREM: sensitivities, convergence, intervals, and when it is not used."""
 import json
+import math
 
 import numpy as np
 import pytest
@@ -218,12 +219,13 @@ def test_windows_give_the_same_pass_in_one_thread_or_several(monkeypatch):
     n = r.t_s.size
     h = np.diff(r.t_s)
     y = np.column_stack([r.alpha_rad, r.beta_rad])
-    pv = P.model_vector(defaults())
+    # both motors second order: the further lags' starts (lag1(0), lag2(0)) are linear in the motors too
+    pv = P.model_vector(defaults(), effects={"motor_second_lag:pitch": 0.2, "motor_second_lag:yaw": 0.3})
     win, nw = 2000, n // 2000
     starts = np.column_stack([r.alpha_rad[::win][:nw], np.zeros(nw), r.beta_rad[::win][:nw], np.zeros(nw)])
-    m0 = np.array([0.3, -0.2, 0.1])
+    m0 = np.array([0.3, -0.2, 0.1, 1.5, -0.7])
     dsw = np.zeros((n, 2))
-    free = R.motor_starts(r.u1_v, r.u2_v, pv, h, dsw, R.MAX_SUBSTEP_S, win, nw, np.zeros(3))
+    free = R.motor_starts(r.u1_v, r.u2_v, pv, h, dsw, R.MAX_SUBSTEP_S, win, nw, np.zeros(5))
     direct = R.motor_starts(r.u1_v, r.u2_v, pv, h, dsw, R.MAX_SUBSTEP_S, win, nw, m0)
     np.testing.assert_allclose(R.motor_response(free, m0), direct, rtol=1e-12, atol=1e-15)
 
@@ -245,12 +247,75 @@ def test_windows_give_the_same_pass_in_one_thread_or_several(monkeypatch):
     # against a finite difference over the whole log
     step = 1e-6
     out = np.empty((n, 2))
-    R.gauss_newton_pass(r.u1_v, r.u2_v, y, np.ones(2), starts, m0 + [step, 0, 0], pv, False, h, dsw,
+    R.gauss_newton_pass(r.u1_v, r.u2_v, y, np.ones(2), starts, m0 + [step, 0, 0, 0, 0], pv, False, h, dsw,
                         R.MAX_SUBSTEP_S, win, 1000, out, np.zeros((n, 2, 0)))
     jac = (out - o1) / step
     w = 1  # the second window: its diagonal entry for tau1(0) is the sum of squared sensitivities
     sl = slice(w * win, (w + 1) * win)
     np.testing.assert_allclose(a1[w, 4, 4], np.sum(jac[sl] ** 2), rtol=1e-4)
+
+
+@pytest.mark.parametrize("lags", [(0.2, 0.0), (0.15, 0.3)])
+def test_the_further_lags_start_states_have_exact_sensitivities(lags):
+    # a second-order motor's further lag state at the first sample (LAG_START_SLOTS, -3 and -4) is an unknown
+    # whose angle sensitivities the kernel integrates: against a central difference of the pass in m0[3], m0[4]
+    r = simulate(SimSettings(ref="square", duration_s=8.0, jitter=0.1, seed=3))
+    n = r.t_s.size
+    h = np.diff(r.t_s)
+    y = np.column_stack([r.alpha_rad, r.beta_rad])
+    pv = P.model_vector(defaults(), effects={"motor_second_lag:pitch": lags[0], "motor_second_lag:yaw": lags[1]})
+    starts, m0 = np.array([[0.01, 0.2, 0.02, 0.3]]), np.array([0.3, -0.2, 0.1, 1.2, -0.8])
+    slots = [s for s, t2 in zip((-3, -4), lags) if t2 > 0]
+
+    def run(m, fs=()):
+        out = np.empty((n, 2))
+        res = R.gauss_newton_pass(r.u1_v, r.u2_v, y, np.ones(2), starts, m, pv, False, h, np.zeros((n, 2)),
+                                  R.MAX_SUBSTEP_S, n, 1000, out, np.zeros((n, 2, 0)), fs=np.array(fs, dtype=np.int64))
+        return res, out
+
+    (_, a, b, _), out = run(m0, slots)
+    for c, i in enumerate(slots):
+        hi, lo = m0.copy(), m0.copy()
+        hi[-i] += 1e-5
+        lo[-i] -= 1e-5
+        jac = (run(hi)[1] - run(lo)[1]) / 2e-5
+        j = R.NU + c
+        assert np.sum(jac ** 2) > 1e-3  # it acts: a lag of a volt off moves the angles
+        np.testing.assert_allclose(a[0, j, j], np.sum(jac ** 2), rtol=1e-5)
+        np.testing.assert_allclose(b[0, j], np.sum(jac * (y - out)), rtol=1e-4)
+
+
+def test_a_second_order_motors_lag_start_is_estimated_on_a_log_cut_mid_run():
+    # a square wave with the main motor second order, cut mid-run where the lag is far from the first voltage's
+    # steady state: refine estimates it (start_states' lag1_0) and J/B come out exact; without a second-order
+    # motor there is no such unknown
+    from trms_ident.model.plant import steady_motor_states
+
+    t2 = 0.25
+    r = simulate(SimSettings(ref="square", sample_rate_hz=200.0, duration_s=30.0, start_s=17.3, seed=5,
+                             effects=[{"effect": "motor_second_lag", "axis": "pitch", "value": t2}]))
+    truth = r.truth["estimated"]
+    res = R.refine(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, 1 / 200.0, defaults(), "quadratic", truth,
+                   {"alpha": 1e-6, "beta": 1e-6}, effects={"motor_second_lag:pitch": t2})
+    assert res.converged
+    # the simulator's further lag at the first sample: the held voltages of the whole run from rest through it
+    i0 = round(17.3 * 200)
+    run = simulate(SimSettings(ref="square", sample_rate_hz=200.0, duration_s=47.3, seed=5,
+                               effects=[{"effect": "motor_second_lag", "axis": "pitch", "value": t2}]))
+    np.testing.assert_array_equal(run.u1_v[i0:i0 + 100], r.u1_v[:100])
+    c = math.exp(-1 / 200.0 / t2)
+    lag = 0.0
+    for u in run.u1_v[:i0]:
+        lag = c * lag + (1.0 - c) * u
+    assert abs(lag - r.u1_v[0]) > 0.1, "the lag must be off the first voltage's steady state for this test"
+    assert res.start_states["lag1_0"] == pytest.approx(lag, abs=1e-6)
+    assert "lag2_0" not in res.start_states
+    for k in NAMES:
+        assert res.estimate[k] == pytest.approx(truth[k], rel=1e-7)
+    assert max(res.rms_rad.values()) < 1e-7
+    plain = R.refine(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, 1 / 200.0, defaults(), "quadratic", truth,
+                     {"alpha": 1e-6, "beta": 1e-6})
+    assert "lag1_0" not in plain.start_states and len(steady_motor_states(0, 0, defaults())) == 3
 
 
 def test_integration_error_is_estimated_with_a_really_halved_sub_step():

@@ -309,7 +309,6 @@ def under_findings(log, d, overrides: dict, thrust_law: str) -> dict | None:
             "ci95": {k: [iv[k].low, iv[k].high] if math.isfinite(iv[k].low) else None for k in iv},
             "identifiable": {k: iv[k].identifiable for k in iv}, "identifiability": {k: iv[k].reason for k in iv},
             "adequate": res.model_check["adequate"], "sentence": res.model_check["sentence"],
-            "past_lag_start": res.model_check.get("past_lag_start"),
             "text": "  ".join(f"{k} {res.estimates[k]:.6g} {interval_text(iv[k].low, iv[k].high, res.estimates[k])}"
                               if res.estimates[k] is not None else f"{k} not identifiable" for k in iv)}
 

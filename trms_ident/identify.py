@@ -11,7 +11,7 @@ import numpy as np
 
 from .errors import IdentificationError, SettingsError
 from .log import Log
-from .model.bench import KERNEL_KEYS, LAG_START_ASSUMED
+from .model.bench import KERNEL_KEYS
 from .numerics.design import FilterDesign, angle_noise_rad, design_filters, quantization_step
 from .numerics.quantization import OFFSETS as QUANTIZATION_OFFSETS
 from .numerics.fused import drem_summaries
@@ -323,7 +323,7 @@ def refine_first(log: Log, n: int, params: dict, settings: Settings, start: dict
 
 #: motor and reaction-lag start states at rest, a second way into the fit when the steady state of the first
 #: voltages leads to a wrong basin
-MOTORS_AT_REST = {"tau1_0": 0.0, "tau2_0": 0.0, "zeta_0": 0.0}
+MOTORS_AT_REST = {"tau1_0": 0.0, "tau2_0": 0.0, "zeta_0": 0.0, "lag1_0": 0.0, "lag2_0": 0.0}
 
 #: multiple shooting's window [s]: one interval block, about a motor time constant (2 s left a 6 s log cut
 #: mid-run in a wrong basin of the tail motor's start state; 0.5-1 s found the optimum)
@@ -370,50 +370,13 @@ def _model_check(log: Log, settings: Settings, params: dict, r: Refined | None, 
         return check, r.prediction
     if check["adequate"] is False:
         _blame(check, log, settings, params)
-        if _lagged(settings):
-            past = _past_lag_start(y, r.prediction, check, dt, settings, params)
-            check["sentence"] += (" With a second-order motor in the model, the misfit may also be where its further "
-                                  f"lag started: {LAG_START_ASSUMED}." + (f" {past['sentence']}" if past else ""))
-            check["past_lag_start"] = past
     if check["caution"]:  # said last, after what the data blame
         check["sentence"] += check["caution"]
     return check, r.prediction
 
 
-#: the further lag's start has died out after this many of its chain's time constants (its own T2 plus its motor's
-#: T1/T0, and for the main motor the reaction moment's Tp): e^-5, under 1 % of the start's error left
-LAG_START_SETTLED = 5.0
-
-
-def _past_lag_start(y: np.ndarray, prediction: np.ndarray, check: dict, dt: float, settings: Settings,
-                    params: dict) -> dict | None:
-    """The misfit once a second-order motor's further lag has forgotten its start (LAG_START_ASSUMED): the
-    angles' error RMS over their noise floors after the first LAG_START_SETTLED time constants of the slowest
-    lagged motor's chain ("after_s", "rms_over_noise": angle -> ratio, "fits": within RMS_OVER_NOISE, and the
-    "sentence" that says it); None when the log is too short to tell or an angle has no measurable noise floor
-    (``check``: model_check's, whose floors these are; a floor it could not measure is no yardstick here).  The
-    start acts only before: within the floors after it, the misfit is the start's, not missing physics (measured
-    on three mid-run logs, benchmarks/RESULTS.md "Diagnosed model")."""
-    # the main motor's start reaches the yaw through the reaction moment's lag too (Tp)
-    motor = {"motor_second_lag:pitch": params["T11"] / params["T10"] + params["Tp"],
-             "motor_second_lag:yaw": params["T21"] / params["T20"]}
-    settle = max(LAG_START_SETTLED * (float(v) + motor[k]) for k, v in settings.effects.items() if k in KERNEL_KEYS)
-    k = int(math.ceil(settle / dt))
-    floor = {v["angle"]: v["noise_floor_rad"] for v in check["axes"].values() if v.get("noise_floor_measured")}
-    if k > len(prediction) // 2 or set(floor) != {"alpha", "beta"}:
-        return None
-    err = y[k:len(prediction)] - prediction[k:]
-    ratio = {a: float(np.sqrt(np.mean(err[:, i] ** 2)) / floor[a]) for i, a in enumerate(("alpha", "beta"))}
-    fits = max(ratio.values()) <= RMS_OVER_NOISE
-    said = f"alpha {ratio['alpha']:.3g}x, beta {ratio['beta']:.3g}x their noise floors"
-    sentence = (f"After the first {settle:.3g} s, where the lag's start still acts, the angles fit ({said}): the "
-                "misfit is that start's, not missing physics." if fits else
-                f"After the first {settle:.3g} s the misfit remains ({said}): more than the lag's start is missing.")
-    return {"after_s": float(settle), "rms_over_noise": ratio, "fits": fits, "sentence": sentence}
-
-
 def _lagged(settings: Settings) -> bool:
-    """Does the model hold a second-order motor (its further lag's start assumed: LAG_START_ASSUMED)?"""
+    """Does the model hold a second-order motor (a further lag, whose start state the refinement estimates too)?"""
     return any(k in settings.effects for k in KERNEL_KEYS)
 
 
@@ -551,15 +514,15 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict, given: di
     ratio = _over_noise(r, noise)
     lagged = _lagged(settings)
     base = (f"prediction-error refinement from {origin}: {r.iterations} Gauss-Newton iteration(s), "
-            f"{r.windows} window(s) of {len(log) * dt / r.windows:.3g} s, start states estimated, angle error RMS "
-            f"alpha {r.rms_rad['alpha']:.3g} rad, beta {r.rms_rad['beta']:.3g} rad (noise {noise['alpha']:.3g}, "
-            f"{noise['beta']:.3g} rad)" + (f"; {LAG_START_ASSUMED}" if lagged else ""))
+            f"{r.windows} window(s) of {len(log) * dt / r.windows:.3g} s, start states estimated"
+            + (" (a second-order motor's further lag's too)" if lagged else "") +
+            f", angle error RMS alpha {r.rms_rad['alpha']:.3g} rad, beta {r.rms_rad['beta']:.3g} rad (noise "
+            f"{noise['alpha']:.3g}, {noise['beta']:.3g} rad)")
     if max(ratio.values()) > ADEQUATE_RMS_OVER_NOISE:
         worst = max(ratio, key=ratio.get)
         return r, (base + f"; NOT used: the {worst} error is {ratio[worst]:.3g}x its noise level, so the model "
-                   "misses something in this log" + (" or its second-order motor's lag began elsewhere" if lagged
-                                                     else "") +
-                   " (try `trms-ident diagnose`) and DREM's offline optimum is the estimate"), False
+                   "misses something in this log (try `trms-ident diagnose`) and DREM's offline optimum is the "
+                   "estimate"), False
     if not r.converged:
         return r, base + "; NOT used: Gauss-Newton did not converge", False
     if r.blocks < MIN_BLOCKS:

@@ -8,7 +8,6 @@ import math
 import numpy as np
 
 from ..log import Log
-from ..model.bench import KERNEL_KEYS, LAG_START_ASSUMED
 from ..numerics.adequacy import AXIS_OF, RMS_OVER_NOISE
 from ..params import PLAUSIBLE_FACTOR, not_credible
 from .model import AXIS_ANGLE
@@ -68,12 +67,10 @@ def verdict_of(log: Log, seed: dict, findings: list, fit_after: dict, seg: dict,
                 "no measurable noise and a flexible black-box model does not simulate it either, so no floor says "
                 "how well it can be fitted.")
         if not ratio[worst] <= EXPLAINED_OE_OVER_NOISE:
-            lagged = any(f"{getattr(f, 'effect', '')}:{getattr(f, 'axis', '')}" in KERNEL_KEYS for f in findings)
             return "partly_explained", (
                 VERDICTS["partly_explained"] + f" (simulated by output error with the findings in, the "
                 f"{AXIS_OF[worst]} angle's error is still {oe_check[worst]:.3g}x {_floor_words(used, worst)}; "
-                f"{EXPLAINED_OE_OVER_NOISE:g}x is allowed)" + (
-                    f". Or nothing is missing and the fit's start is: {LAG_START_ASSUMED}." if lagged else "."))
+                f"{EXPLAINED_OE_OVER_NOISE:g}x is allowed).")
         boxed = [AXIS_OF[a] for a in ratio if used.get(a) == "black_box"]
         if not boxed:
             floors_told = "noise levels)."

@@ -31,15 +31,6 @@ TORQUE_KEYS = ("com_offset:pitch", "coulomb_friction:pitch", "coulomb_friction:y
 #: within each sample interval): the refinement takes them with the torque effects (identify.model_kw) and the
 #: voltages without them (identify.under_model's ``kernel``); DREM's regressions take the voltages through them
 KERNEL_KEYS = ("motor_second_lag:pitch", "motor_second_lag:yaw")
-#: what the fits assume of a second-order motor's further lag at the first sample (numerics.refine.motor_starts,
-#: model.effects.second_lag), said wherever a fit with one is reported: the motors' own start states are
-#: estimated, this one is not yet.  Measured on benchmarks/diagnosed_model.py's three mid-run logs with a
-#: second-order motor (seeds 20, 27, 36; pitch or tail motor, 0.19-0.23 s): the model with every value right left
-#: the yaw at 1.70x, 1.97x and 2.11x its noise floor, in the first 5-10 s, and 1.00x with the lag started where the
-#: simulation had it (seed 27: 0.87 V, not the first voltage's 1.84 V); from rest, 1.00x
-LAG_START_ASSUMED = ("a second-order motor's further lag starts in the steady state of the first voltage (not "
-                     "estimated): on a log that begins mid-run that alone can leave the angles up to about 2x "
-                     "their noise floors")
 #: input modifications the output-error refinement estimates itself when they are freed: the voltages are clipped
 #: inside the fit and the level is a Gauss-Newton unknown with J/B (numerics.refine.SATURATION_SLOTS); held, they
 #: are applied to the voltages like the others, and a freed one is first placed by its profile (model_profile.py)

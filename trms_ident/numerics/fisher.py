@@ -16,7 +16,7 @@ import math
 import numpy as np
 from scipy.stats import norm
 
-from .refine import NAMES, scaled_inverse, schur
+from .refine import NAMES, NG, NL, scaled_inverse, schur
 from .stats import Z95
 from .refine import refine as oe_refine
 
@@ -24,7 +24,7 @@ from .refine import refine as oe_refine
 #: Gauss-Newton matrix along the model's own trajectory from these states; refine's default start (the motors'
 #: steady state for the first voltages) differs from the run's when the first voltage is not 0, and a square
 #: wave that switched at t = 0 was predicted 30-60x more precise than estimate then was (B1 0.17 % against 10-16 %)
-AT_REST = {"tau1_0": 0.0, "tau2_0": 0.0, "zeta_0": 0.0}
+AT_REST = {"tau1_0": 0.0, "tau2_0": 0.0, "zeta_0": 0.0, "lag1_0": 0.0, "lag2_0": 0.0}
 
 
 def covariance(u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_rad: np.ndarray, dt_s: float,
@@ -45,10 +45,10 @@ def covariance(u1_v: np.ndarray, u2_v: np.ndarray, alpha_rad: np.ndarray, beta_r
     r = oe_refine(u1_v, u2_v, alpha_rad, beta_rad, dt_s, params, law, theta, noise_rad, max_iterations=0,
                   start_states0=start_states0, **kw)
     fit = r.fit
-    ng = fit.a.shape[1] - 4  # the globals: J/B, the motors' start states (refine's NG) and the freed effect
+    ng = fit.a.shape[1] - NL  # the globals: J/B, the start states (refine's NG), the freed effect, the lags' starts
     s_mat, _, _ = schur(fit.a, fit.b, ng)
     cov = scaled_inverse(s_mat)
-    keep = [0, 1, 2, 3] + ([ng - 1] if effect is not None else [])
+    keep = [0, 1, 2, 3] + ([NG] if effect is not None else [])  # the freed effect right after the motors' starts
     return cov[np.ix_(keep, keep)]
 
 

@@ -1,7 +1,7 @@
 """One bench, several logs: J1, B1, J2, B2 fitted by output error over all logs together (pure).
 
-Each log keeps its own unknowns (the motor and reaction-lag start states, each window's starting angles and
-rates), its own noise weights, windows and sample rate; only J/B are shared. Gauss-Newton on the summed
+Each log keeps its own unknowns (the motor and reaction-lag start states, a second-order motor's further lag
+start, each window's starting angles and rates), its own noise weights, windows and sample rate; only J/B are shared. Gauss-Newton on the summed
 noise-weighted angle errors, with the unknowns eliminated level by level: per log the windows' starts (as
 refine does), then that log's start states, leaving one 4 x 4 system in J/B summed over the logs
 (the normal equations of the pooled cost, eq. (1) simulated exactly as numerics/refine.py does).
@@ -26,7 +26,7 @@ import numpy as np
 from scipy.special import stdtrit
 
 from . import safe
-from .refine import (JB_STEP_OVER_SE, MAX_ITERATIONS, MIN_COST_DECREASE, NAMES, NG, START_NAMES, STEP_OVER_SE,
+from .refine import (JB_STEP_OVER_SE, MAX_ITERATIONS, MIN_COST_DECREASE, NAMES, NL, START_NAMES, STEP_OVER_SE,
                      TOLERANCE, WINDOW_S, angle_rms, backtrack, scaled_inverse, schur, setup)
 
 
@@ -68,7 +68,7 @@ def refine_joint(runs: list[Run], params: dict, law: str, theta0: dict, window_s
                     switch_delay_s=r.switch_delay_s, start_states0=r.start_states0, effects=effects)
               for r in runs]
     jb = np.array([theta0[k] for k in NAMES], dtype=float)
-    motors = [su.theta[4:NG].copy() for su in setups]
+    motors = [su.theta[4:].copy() for su in setups]  # each log's start states (no freed values here)
     starts = [su.starts.copy() for su in setups]
     outs = [np.empty((su.n, 2)) for su in setups]
     weights = [r.weight for r in runs]
@@ -76,7 +76,7 @@ def refine_joint(runs: list[Run], params: dict, law: str, theta0: dict, window_s
              for su, m, st, out, w in zip(setups, motors, starts, outs, weights)]
     converged, it = False, 0
     for it in range(1, max_iterations + 1):
-        system = [_eliminate(a, b) for _, a, b, _ in state]
+        system = [_eliminate(a, b, su.theta.size) for (_, a, b, _), su in zip(state, setups)]
         s_mat = sum(e.s_gg for e in system)
         s_rhs = sum(e.r_gg for e in system)
         step = scaled_inverse(s_mat) @ s_rhs
@@ -114,7 +114,7 @@ def refine_joint(runs: list[Run], params: dict, law: str, theta0: dict, window_s
         jb, trial, state, outs = accepted
         motors = [m for m, _ in trial]
         starts = [st for _, st in trial]
-    system = [_eliminate(a, b) for _, a, b, _ in state]
+    system = [_eliminate(a, b, su.theta.size) for (_, a, b, _), su in zip(state, setups)]
     s_mat = sum(e.s_gg for e in system)
     meats = [_meat(e, st, su) if r.cov_jb is None else e.s_gg @ r.cov_jb @ e.s_gg  # (e.s_gg carries w: w^2 S C S)
              for e, st, su, r in zip(system, state, setups, runs)]
@@ -128,7 +128,8 @@ def refine_joint(runs: list[Run], params: dict, law: str, theta0: dict, window_s
     half = float(stdtrit(max(blocks - 1, 1), 0.975)) * np.sqrt(np.maximum(np.diag(cov), 0.0))
     per_run = [{"prediction": out, "rms_rad": angle_rms(su.y, out), "cost": float(c / w), "weight": w,
                 "blocks": int(sc.shape[0]),
-                "start_states": {**dict(zip(START_NAMES, map(float, m))), "alpha_dot_0_rad_s": float(st[0, 1]),
+                "start_states": {**dict(zip(START_NAMES + su.lags, map(float, m))),
+                                 "alpha_dot_0_rad_s": float(st[0, 1]),
                                  "beta_dot_0_rad_s": float(st[0, 3])}}
                for su, out, m, st, (c, _, _, sc), w in zip(setups, outs, motors, starts, state, weights)]
     return JointFit(dict(zip(NAMES, map(float, jb))),
@@ -153,7 +154,7 @@ def noise_inflation(fit) -> float:
     if fit is None or fit.fit is None or fit.cov_jb is None:
         return 1.0
     f = fit.fit
-    e = _eliminate(f.a, f.b)
+    e = _eliminate(f.a, f.b, f.a.shape[1] - NL)
     fisher = np.diag(scaled_inverse(e.s_gg))
     batch = np.diag(fit.cov_jb)
     ok = (fisher > 0) & np.isfinite(batch) & (batch > 0)
@@ -166,7 +167,7 @@ class _Eliminated:
     the rest from a J/B step."""
     s_gg: np.ndarray
     r_gg: np.ndarray
-    k_m: np.ndarray  # (3, 5): A_mm^-1 [A_mg, r_m] for the start states
+    k_m: np.ndarray  # (ng - 4, 5): A_mm^-1 [A_mg, r_m] for the start states (and any other unknown of the log's)
     per_window: list  # refine's per-window (L'L)^-1 [L'G, L'r]
     b: np.ndarray
     local_gain: float  # the decrease the log's own unknowns still bring with J/B held
@@ -175,14 +176,17 @@ class _Eliminated:
         """The log's start-state step and its windows' start steps for a J/B step."""
         dm = self.k_m[:, 4] - self.k_m[:, :4] @ step_jb
         full = np.r_[step_jb, dm]
-        return dm, np.array([k[:, NG] - k[:, :NG] @ full for k in self.per_window])
+        ng = full.size
+        return dm, np.array([k[:, ng] - k[:, :ng] @ full for k in self.per_window])
 
 
-def _eliminate(a: np.ndarray, b: np.ndarray) -> _Eliminated:
-    s_mat, s_rhs, per_window = schur(a, b, NG)  # the windows' starts out, as refine does
+def _eliminate(a: np.ndarray, b: np.ndarray, ng: int) -> _Eliminated:
+    """A log's normal equations with ``ng`` global unknowns (J/B first, then its own start states): the windows'
+    starts and then its start states eliminated."""
+    s_mat, s_rhs, per_window = schur(a, b, ng)  # the windows' starts out, as refine does
     a_gm, a_mm = s_mat[:4, 4:], s_mat[4:, 4:]
     k_m = safe.lstsq(a_mm, np.column_stack([s_mat[4:, :4], s_rhs[4:]]), rcond=1e-13)
-    gain = float(s_rhs[4:] @ k_m[:, 4]) + sum(float(b[w, NG:] @ k[:, NG]) for w, k in enumerate(per_window))
+    gain = float(s_rhs[4:] @ k_m[:, 4]) + sum(float(b[w, ng:] @ k[:, ng]) for w, k in enumerate(per_window))
     return _Eliminated(s_mat[:4, :4] - a_gm @ k_m[:, :4], s_rhs[:4] - a_gm @ k_m[:, 4], k_m, per_window, b, gain)
 
 
@@ -191,8 +195,9 @@ def _meat(e: _Eliminated, state: tuple, su) -> np.ndarray:
     scores = state[3]
     nb = scores.shape[0]
     w_of_block = np.minimum(np.arange(nb) * su.block // su.win, len(e.per_window) - 1)
-    proj = np.stack([k[:, :NG] for k in e.per_window])[w_of_block]
-    sc = scores[:, :NG] - np.einsum("bij,bi->bj", proj, scores[:, NG:NG + 4])  # windows' starts out
+    ng = e.k_m.shape[0] + 4
+    proj = np.stack([k[:, :ng] for k in e.per_window])[w_of_block]
+    sc = scores[:, :ng] - np.einsum("bij,bi->bj", proj, scores[:, ng:ng + 4])  # windows' starts out
     sc = sc[:, :4] - sc[:, 4:] @ e.k_m[:, :4]  # the log's start states out
     sc = sc - sc.mean(axis=0)
     return nb / max(nb - 1, 1) * sc.T @ sc

@@ -21,8 +21,9 @@ advances the state together with its sensitivities (forward sensitivity equation
 gives the Gauss-Newton system).
 
 Unknowns.  Global: J1, B1, J2, B2 and the motors' and the reaction lag's states when the log
-begins, tau1(0), tau2(0), zeta(0) (a log starts from rest with the controller driving, or
-mid-run: these are never assumed, as greyest does with InitialState='estimate').  The motor
+begins, tau1(0), tau2(0), zeta(0), and a second-order motor's further lag state lag1(0), lag2(0) (a log
+starts from rest with the controller driving, or mid-run: these are never assumed, as greyest does with
+InitialState='estimate').  The motor
 states run on continuously through the whole log; they depend on no J/B or angle, so they are integrated
 first (motor_starts, once per set of motor values: they are linear in their start states) and the windows
 then run independently, in threads on the machine's cores, each window computed the same way whatever the
@@ -84,6 +85,12 @@ START_NAMES = ("tau1_0", "tau2_0", "zeta_0")
 NG = 7  # global unknowns: J1, B1, J2, B2, tau1(0), tau2(0), zeta(0)
 NL = 4  # per-window unknowns: alpha, alpha', beta, beta' at the window's first sample
 NU = NG + NL
+#: a second-order motor's further lag state at the first sample (the drive its first-order lag sees [V]): estimated
+#: with J/B when that motor's T2 > 0, as the other start states are (absent from the unknowns otherwise, where it
+#: acts on nothing).  Inside the kernel each is an unknown with exact sensitivities like a freed value, at these
+#: slots of its own (below 0: no model-vector value)
+LAG_START_NAMES = ("lag1_0", "lag2_0")
+LAG_START_SLOTS = {"lag1_0": -3, "lag2_0": -4}
 # the model vector handed to the compiled kernel (model/plant.py): the table's values, the gravity offset, the
 # effects' slots, then exogenous torques' parameters
 _P = PARAM_ORDER
@@ -92,11 +99,14 @@ _NP = N_SLOTS
 # J2, B2, tau1(0), tau2(0), zeta(0), alpha0, alpha'0, beta0, beta'0) the sensitivities of alpha, alpha', beta,
 # beta' at [7 + 4c : 11 + 4c]; then the motor-state sensitivities d tau1/d tau1(0), d tau2/d tau2(0),
 # d zeta/d tau1(0), d zeta/d zeta(0) at [51:55]; then a second-order motor's further lag states (the drives the
-# motors see, model.plant.LAG_SLOTS; unused when its T2 is 0) at [55:57]; then the freed values' sensitivities
+# motors see, model.plant.LAG_SLOTS; unused when its T2 is 0) at [55:57]; then their start states' sensitivities
+# d lag1/d lag1(0), d tau1/d lag1(0), d zeta/d lag1(0), d lag2/d lag2(0), d tau2/d lag2(0) at [57:62]; then the
+# freed values' sensitivities (and the lag starts' when estimated: LAG_START_SLOTS)
 _S0 = 7
 _MS = _S0 + 4 * NU  # 51
 _LAG = _MS + 4  # 55
-_NS = _LAG + 2
+_LS = _LAG + 2  # 57
+_NS = _LS + 5
 
 
 @dataclass(frozen=True)
@@ -112,7 +122,9 @@ class Refined:
     substeps: int  # RK4 sub-steps in a median sample interval
     blocks: int
     integration_error: dict  # estimated parameter error of the RK4 integration (0 when not needed)
-    start_states: dict  # tau1_0, tau2_0, zeta_0 (model units of tau), alpha_dot_0_rad_s, beta_dot_0_rad_s
+    #: tau1_0, tau2_0, zeta_0 (model units of tau), alpha_dot_0_rad_s, beta_dot_0_rad_s, and a second-order motor's
+    #: further lag state lag1_0 / lag2_0 [V] where it is one
+    start_states: dict
     start_states_se: dict  # their standard errors (same keys)
     prediction: np.ndarray  # (n, 2) simulated alpha, beta [rad] at the estimate (per-window restarts)
     freed: dict  # known values estimated with J/B (--free): name -> estimate, ci95, the value given
@@ -166,6 +178,11 @@ def _direct(slot, x, p, signed, g1, g2, m1, sg, cg, sa, ca, th1, th2, f3, fe1, f
                 coriolis_yaw(1.0, sa, ca, x[1], x[3]) + sa * sa * f3)
     if slot == SENSOR_OFFSET_SLOT:
         return 0.0, 0.0
+    if slot == -3:  # lag1(0): through tau1, M1 and M_R's direct and lagged paths, as tau1(0)
+        return (g1 * thrust_slope(x[4], p[4], p[5], signed) * gyro * x[_LS + 1],
+                -p[16] * (p[17] / p[18] * x[_LS + 1] + (1.0 - p[17] / p[18]) * x[_LS + 2]))
+    if slot == -4:  # lag2(0): through tau2 and M2
+        return 0.0, g2 * thrust_slope(x[5], p[6], p[7], signed) * x[_LS + 4]
     return fe1, fe2  # an exogenous torque's parameter
 
 
@@ -268,6 +285,20 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe):
     d[_MS + 1] = -p2 * st2
     d[_MS + 2] = (st1 - sz1) / p[18]
     d[_MS + 3] = -sz0 / p[18]
+    _lag_start_rates(x, _LS, p, d)
+
+
+@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
+def _lag_start_rates(x, i, p, d):
+    """The further lags' start-state sensitivities at x[i:i + 5] (layout above): d lag1/d lag1(0), d tau1/d lag1(0),
+    d zeta/d lag1(0), d lag2/d lag2(0), d tau2/d lag2(0), each decaying with its own lag (0 when its T2 is 0)."""
+    l1 = x[i] if p[LAG1_SLOT] > 0.0 else 0.0
+    l2 = x[i + 3] if p[LAG2_SLOT] > 0.0 else 0.0
+    d[i] = -l1 / p[LAG1_SLOT] if p[LAG1_SLOT] > 0.0 else 0.0
+    d[i + 1] = (p[10] * l1 - p[13] * x[i + 1]) / p[12]
+    d[i + 2] = (x[i + 1] - x[i + 2]) / p[18]
+    d[i + 3] = -l2 / p[LAG2_SLOT] if p[LAG2_SLOT] > 0.0 else 0.0
+    d[i + 4] = (p[11] * l2 - p[15] * x[i + 4]) / p[14]
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
@@ -307,8 +338,8 @@ def _pieces(k, u1, u2, h, dsw):
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
 def _motor_rhs(x, u1, u2, p, d):
     """The motor lags and M_R's lag state of eq. (1) with their sensitivities to the start states, and the
-    further lags of second-order motors: the layout's states 4, 5, 6, 51..54, 55, 56 as x[0..8] (the same
-    formulas as _rhs; they depend on no J/B or angle)."""
+    further lags of second-order motors with theirs: the layout's states 4, 5, 6, 51..54, 55, 56, 57..61 as
+    x[0..13] (the same formulas as _rhs; they depend on no J/B or angle)."""
     d[0] = motor_rate(_drive(u1, x[7], p[LAG1_SLOT]), x[0], p[10], p[12], p[13])
     d[1] = motor_rate(_drive(u2, x[8], p[LAG2_SLOT]), x[1], p[11], p[14], p[15])
     d[2] = lag_rate(x[0], x[2], p[18])
@@ -318,27 +349,32 @@ def _motor_rhs(x, u1, u2, p, d):
     d[6] = -x[6] / p[18]
     d[7] = _lag_drive_rate(u1, x[7], p[LAG1_SLOT])
     d[8] = _lag_drive_rate(u2, x[8], p[LAG2_SLOT])
+    _lag_start_rates(x, 9, p, d)
+
+
+#: motor_starts' sensitivity states (to the start states), flushed to 0 once they have died out
+_SENSITIVITIES = (3, 4, 5, 6, 9, 10, 11, 12, 13)
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
 def motor_starts(u1, u2, p, h, dsw, max_sub, win, nw, m0):
-    """(nw, 9) motor states and their start-state sensitivities (layout states 4, 5, 6, 51..54) and the further
-    lags' states (55, 56) at each window's first sample, integrated through the log from m0 = tau1(0), tau2(0),
-    zeta(0) (a further lag from the steady state of the first voltage, as model/effects.second_lag) with the same
-    RK4 sub-steps as the full pass.  They depend on no J/B or angle, so the windows can then be integrated
-    independently."""
-    out = np.zeros((nw, 9))
-    x = np.zeros(9)
-    xt = np.empty(9)
-    k1 = np.empty(9)
-    k2 = np.empty(9)
-    k3 = np.empty(9)
-    k4 = np.empty(9)
+    """(nw, 14) motor states and their start-state sensitivities (layout states 4, 5, 6, 51..54), the further
+    lags' states (55, 56) and their start-state sensitivities (57..61) at each window's first sample, integrated
+    through the log from m0 = tau1(0), tau2(0), zeta(0), lag1(0), lag2(0) with the same RK4 sub-steps as the full
+    pass.  They depend on no J/B or angle, so the windows can then be integrated independently."""
+    out = np.zeros((nw, 14))
+    x = np.zeros(14)
+    xt = np.empty(14)
+    k1 = np.empty(14)
+    k2 = np.empty(14)
+    k3 = np.empty(14)
+    k4 = np.empty(14)
     x[0], x[1], x[2] = m0[0], m0[1], m0[2]
     x[3], x[4], x[6] = 1.0, 1.0, 1.0
-    x[7], x[8] = u1[0], u2[0]
+    x[7], x[8] = m0[3], m0[4]
+    x[9], x[12] = 1.0, 1.0
     for w in range(nw):
-        for i in range(3, 7):  # the start states' influence has died out: exactly 0, never subnormal numbers
+        for i in _SENSITIVITIES:  # the start states' influence has died out: exactly 0, never subnormal numbers
             if abs(x[i]) < 1e-200:  # (whose arithmetic is ~100x slower: an hour took 62 s instead of 5 s)
                 x[i] = 0.0
         out[w] = x
@@ -354,21 +390,21 @@ def motor_starts(u1, u2, p, h, dsw, max_sub, win, nw, m0):
                 hs = dur / nsub
                 for _ in range(nsub):
                     _motor_rhs(x, v1[j], v2[j], p, k1)
-                    for i in range(9):
+                    for i in range(14):
                         xt[i] = x[i] + 0.5 * hs * k1[i]
                     _motor_rhs(xt, v1[j], v2[j], p, k2)
-                    for i in range(9):
+                    for i in range(14):
                         xt[i] = x[i] + 0.5 * hs * k2[i]
                     _motor_rhs(xt, v1[j], v2[j], p, k3)
-                    for i in range(9):
+                    for i in range(14):
                         xt[i] = x[i] + hs * k3[i]
                     _motor_rhs(xt, v1[j], v2[j], p, k4)
-                    for i in range(9):
+                    for i in range(14):
                         x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
     return out
 
 
-_MOTOR = (4, 5, 6, _MS, _MS + 1, _MS + 2, _MS + 3, _LAG, _LAG + 1)
+_MOTOR = (4, 5, 6, _MS, _MS + 1, _MS + 2, _MS + 3, _LAG, _LAG + 1, _LS, _LS + 1, _LS + 2, _LS + 3, _LS + 4)
 #: the model values the motor states depend on (k1, k2, T11, T10, T21, T20, Tp, the further lags): keys of the
 #: motor cache
 _MOTOR_P = np.array([_P.index(k) for k in ("k1", "k2", "T11", "T10", "T21", "T20", "Tp")] + [LAG1_SLOT, LAG2_SLOT])
@@ -411,7 +447,7 @@ def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub,
         e = n if w == nw - 1 else s + win
         for i in range(ns):  # the angles restart: their sensitivities are relative to this window's start
             x[i] = 0.0
-        for i in range(9):
+        for i in range(14):
             x[_MOTOR[i]] = mstart[w, i]
         x[0], x[1], x[2], x[3] = starts[w, 0], starts[w, 1], starts[w, 2], starts[w, 3]
         for j in range(4):  # d (alpha, alpha', beta, beta') / d (alpha0, alpha'0, beta0, beta'0) = identity
@@ -481,12 +517,15 @@ def _threads() -> int:
 
 
 def motor_response(free, m0):
-    """motor_starts from the start states m0, given its result from zero start states (``free``): the motors'
-    equations are linear in their start states and the sensitivity columns are their coefficients."""
+    """motor_starts from the start states m0 (tau1(0), tau2(0), zeta(0), lag1(0), lag2(0)), given its result from
+    zero start states (``free``): the motors' equations are linear in their start states and the sensitivity
+    columns are their coefficients."""
     ms = free.copy()
-    ms[:, 0] += free[:, 3] * m0[0]
-    ms[:, 1] += free[:, 4] * m0[1]
-    ms[:, 2] += free[:, 5] * m0[0] + free[:, 6] * m0[2]
+    ms[:, 0] += free[:, 3] * m0[0] + free[:, 10] * m0[3]
+    ms[:, 1] += free[:, 4] * m0[1] + free[:, 13] * m0[4]
+    ms[:, 2] += free[:, 5] * m0[0] + free[:, 6] * m0[2] + free[:, 11] * m0[3]
+    ms[:, 7] += free[:, 9] * m0[3]
+    ms[:, 8] += free[:, 12] * m0[4]
     return ms
 
 
@@ -520,7 +559,9 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
     b_grid = np.zeros((nw, grids.shape[0], nt))
     scores_grid = np.zeros((grids.shape[0], nb, nt))
     if motor_free is None:
-        motor_free = motor_starts(u1, u2, p, h, dsw, max_sub, win, nw, np.zeros(3))
+        motor_free = motor_starts(u1, u2, p, h, dsw, max_sub, win, nw, np.zeros(5))
+    if len(m0) == 3:  # no further lags' starts given: the steady state of the first voltages
+        m0 = np.r_[m0, u1[0], u2[0]]
     mstart = motor_response(motor_free, m0)
     args = (u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block,
             np.zeros((0, 2)) if ext is None else ext, fs, tq, quanta, grids)
@@ -546,7 +587,7 @@ def warm_up() -> None:
 
     n = 8
     u = np.zeros(n)
-    gauss_newton_pass(u, u, np.zeros((n, 2)), np.ones(2), np.zeros((1, 4)), np.zeros(3), model_vector(defaults()),
+    gauss_newton_pass(u, u, np.zeros((n, 2)), np.ones(2), np.zeros((1, 4)), np.zeros(5), model_vector(defaults()),
                       False, np.full(n - 1, 1e-3), np.zeros((n, 2)), MAX_SUBSTEP_S, n, n, np.empty((n, 2)),
                       np.zeros((n, 2, 0)))
 
@@ -608,7 +649,10 @@ DIRECT_SLOTS = frozenset([_P.index(k) for k in ("a1", "b1", "a2", "b2", "Mg", "K
 
 
 def _exact(i: int) -> bool:
-    return i in DIRECT_SLOTS or i >= _NP
+    return i in DIRECT_SLOTS or i >= _NP or i in _LAG_START_SLOT_SET
+
+
+_LAG_START_SLOT_SET = frozenset(LAG_START_SLOTS.values())
 
 
 #: an input saturation's level (effect key -> a slot of its own below 0: it is no model-vector value).  The
@@ -618,6 +662,7 @@ def _exact(i: int) -> bool:
 #: integrates any thrust error): a profile over U with a few Gauss-Newton steps per trial stopped 0.05 % off it
 #: and left the yaw at 5x its floor; Gauss-Newton over U with J/B and the start states converges onto it
 SATURATION_SLOTS = {"input_saturation:pitch": -1, "input_saturation:yaw": -2}
+_SATURATION_SLOT_SET = frozenset(SATURATION_SLOTS.values())
 
 
 @dataclass
@@ -634,7 +679,7 @@ class _Problem:
     dsw: np.ndarray  # (n, 2) voltage switch delays after each stamp [s]
     win: int
     block: int
-    free_idx: list  # positions in the model vector of the freed known values
+    free_idx: list  # positions in the model vector of the freed known values (then the lag starts' LAG_START_SLOTS)
     motor_cache: dict = field(default_factory=dict)  # (max_sub, motor values) -> motor_starts from zero states
     #: (n, 2, m) exogenous torques per unit parameter [N m / unit], held over each sample interval; their
     #: parameters sit after _NP in the model vector (model_vector's ``exogenous``)
@@ -643,6 +688,16 @@ class _Problem:
     clips: dict = field(default_factory=dict)
     max_sub: float = MAX_SUBSTEP_S  # the RK4 sub-step's upper bound [s] (COULOMB_SUBSTEP_S with a friction)
     _clipped: dict = field(default_factory=dict)  # (pitch, yaw levels) -> the clipped voltages (a few kept)
+    #: the further lags' start states [V] where they are not unknowns (their T2 is 0: they act on nothing)
+    lag0: tuple = (0.0, 0.0)
+
+    def motor0(self, th) -> np.ndarray:
+        """The motors' start states at th: tau1(0), tau2(0), zeta(0), lag1(0), lag2(0)."""
+        m0 = np.r_[th[4:NG], self.lag0]
+        for j, i in enumerate(self.free_idx):
+            if i in _LAG_START_SLOT_SET:
+                m0[-i] = th[NG + j]  # slot -3: lag1(0), m0[3]; -4: lag2(0), m0[4]
+        return m0
 
     def levels(self, th) -> tuple[float, float]:
         """The main and tail motors' saturation levels [V] at th (inf: none)."""
@@ -650,7 +705,7 @@ class _Problem:
         for i, v in self.clips.items():
             lv[-1 - i] = abs(v)
         for j, i in enumerate(self.free_idx):
-            if i < 0:
+            if i in _SATURATION_SLOT_SET:
                 lv[-1 - i] = abs(float(th[NG + j]))
         return lv[0], lv[1]
 
@@ -693,8 +748,8 @@ class _Problem:
         key = (max_sub, pv[_MOTOR_P].tobytes(), self.levels(th))
         if key not in self.motor_cache:
             self.motor_cache[key] = motor_starts(u1, u2, pv, self.h, self.dsw, max_sub, self.win,
-                                                 st.shape[0], np.zeros(3))
-        return gauss_newton_pass(u1, u2, self.y, self.inv_sig, st, th[4:NG], pv, self.signed, self.h,
+                                                 st.shape[0], np.zeros(5))
+        return gauss_newton_pass(u1, u2, self.y, self.inv_sig, st, self.motor0(th), pv, self.signed, self.h,
                                  self.dsw, max_sub, self.win, self.block, out, ext, self.motor_cache[key],
                                  self.exogenous(pv), np.array(exact, dtype=np.int64), self.torques, rounding)
 
@@ -704,7 +759,7 @@ class _Problem:
         cols = np.empty((pred.shape[0], 2, len(idx)))
         tmp = np.empty_like(pred)
         for c, i in enumerate(idx):
-            if i < 0:  # a saturation's level: in theta
+            if i in _SATURATION_SLOT_SET:  # a saturation's level: in theta
                 th_c = np.array(th, dtype=float)
                 j = NG + self.free_idx.index(i)
                 step = 1e-6 * max(abs(th_c[j]), 1e-3)
@@ -758,6 +813,12 @@ class _Setup:
     step_s: float
     y: np.ndarray
     given: list  # the freed values' starts
+    lags: tuple = ()  # the further lags' start states estimated (LAG_START_NAMES), after the freed values in theta
+
+    @property
+    def start_idx(self) -> np.ndarray:
+        """theta's start states: the motors' (4..NG) and the further lags' (the last ones)."""
+        return np.r_[4:NG, self.theta.size - len(self.lags):self.theta.size]
 
 
 def setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s=WINDOW_S, gravity_offset_rad=0.0,
@@ -782,26 +843,36 @@ def setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s=WIND
     if any(k in SATURATION_SLOTS and not g > 0 for k, g in zip(free, given)):
         raise ValueError("a freed input saturation needs a positive starting level [V] in effects")
     motor0 = steady_motor_states(u1[0], u2[0], params)
+    # a second-order motor's further lag starts where the first voltage's steady state has it unless told
+    lag0 = [float(u1[0]), float(u2[0])]
     if start_states0:
         motor0 = np.array([start_states0.get(k, v) for k, v in zip(START_NAMES, motor0)], dtype=float)
+        lag0 = [float(start_states0.get(k, v)) for k, v in zip(LAG_START_NAMES, lag0)]
         starts[0, 1] = start_states0.get("alpha_dot_0_rad_s", starts[0, 1])
         starts[0, 3] = start_states0.get("beta_dot_0_rad_s", starts[0, 3])
-    theta = np.concatenate([[theta0[k] for k in NAMES], motor0, given])
+    base = model_vector(params, gravity_offset_rad, effects, exogenous)
+    # the further lags' starts are unknowns where their motor is second order (T2 > 0)
+    lags = tuple(k for k, s in zip(LAG_START_NAMES, (LAG1_SLOT, LAG2_SLOT)) if base[s] > 0.0)
+    lag_given = [lag0[LAG_START_NAMES.index(k)] for k in lags]
+    theta = np.concatenate([[theta0[k] for k in NAMES], motor0, given, lag_given])
     # what "negligible" means per unknown: J/B and freed values relative to themselves, start states to the
-    # motors' range
+    # motors' (and the lags' to the voltages') range
     motor_range = np.abs(steady_motor_states(float(np.max(np.abs(u1))), float(np.max(np.abs(u2))), params))
+    volts = {"lag1_0": float(np.max(np.abs(u1))), "lag2_0": float(np.max(np.abs(u2)))}
     scale = np.concatenate([np.abs(theta[:4]), np.maximum(motor_range, 1e-6) * 1e3,
-                            np.maximum(np.abs(theta[NG:]), 1e-9)])
+                            np.maximum(np.abs(np.asarray(given, dtype=float)), 1e-9),
+                            [max(volts[k], 1e-6) * 1e3 for k in lags]])
     prob = _Problem(np.ascontiguousarray(u1, dtype=float), np.ascontiguousarray(u2, dtype=float), y, 1.0 / sig,
-                    model_vector(params, gravity_offset_rad, effects, exogenous), law == "signed", h,
+                    base, law == "signed", h,
                     np.zeros((n, 2)) if switch_delay_s is None else np.ascontiguousarray(switch_delay_s, dtype=float),
                     win, block,
-                    [SATURATION_SLOTS.get(k) or slot(k, exogenous) for k in free],
+                    [SATURATION_SLOTS.get(k) or slot(k, exogenous) for k in free] + [LAG_START_SLOTS[k] for k in lags],
                     torques=_held(torques, n) if exogenous else None,
                     clips={i: v for i, v in clips.items() if i not in [SATURATION_SLOTS.get(k) for k in free]},
                     max_sub=(COULOMB_SUBSTEP_S if any(k in free or effects.get(k) for k in COULOMB_KEYS)
-                             else MAX_SUBSTEP_S))
-    return _Setup(prob, starts, theta, scale, win, block, n, nw, step_s, y, given)
+                             else MAX_SUBSTEP_S),
+                    lag0=tuple(lag0))
+    return _Setup(prob, starts, theta, scale, win, block, n, nw, step_s, y, given, lags)
 
 
 def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict, noise_rad: dict,
@@ -825,26 +896,29 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     the caller from the measured states (an effect not compiled into the kernel: model/effects.py); the
     torque is held over each sample interval at the mean of its two ends, its parameter taken from
     ``effects`` (or 0) and estimated when its key is in ``free``.  ``start_states0``: where the motor and lag
-    start states (START_NAMES) and the first window's rates (alpha_dot_0_rad_s, beta_dot_0_rad_s) begin, e.g. a
-    previous fit's ``start_states`` (default: the motors' steady state for the first voltages, rates from the
-    angles' first 50 ms).  ``hold``: J/B and the freed values stay at theta0 and their starts, only the start
+    start states (START_NAMES, and LAG_START_NAMES for a second-order motor's further lag) and the first window's
+    rates (alpha_dot_0_rad_s, beta_dot_0_rad_s) begin, e.g. a previous fit's ``start_states`` (default: the motors'
+    steady state for the first voltages, rates from the angles' first 50 ms).  A second-order motor's further lag
+    start (the motor's effect ``motor_second_lag:...`` in ``effects`` with T2 > 0) is estimated with the others and
+    reported among ``start_states``.  ``hold``: J/B and the freed values stay at theta0 and their starts, only the start
     states (the motors' and each window's) are fitted: a model fitted elsewhere simulated on these samples (a
     held-out check); the intervals are then those of the values held, not estimates."""
     su = setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s, gravity_offset_rad, t_s, free,
                switch_delay_s, effects, torques, start_states0)
     prob, starts, theta, scale, win, block, n, nw, y = (su.prob, su.starts, su.theta, su.scale, su.win, su.block,
                                                         su.n, su.windows, su.y)
-    step_s, given, m = su.step_s, su.given, len(su.given)
-    ng = NG + m
+    step_s, given = su.step_s, su.given
+    ng = theta.size
+    held = su.start_idx
     out = np.empty((n, 2))
     cost, a, b, scores = prob.evaluate(theta, starts, out)
     converged, it = False, 0
     for it in range(1, max_iterations + 1):
         s_mat, s_rhs, per_window = schur(a, b, ng)
         step = scaled_inverse(s_mat) @ s_rhs
-        if hold:  # only the motors' start states move among the globals: their block of the Schur complement
+        if hold:  # only the start states move among the globals: their block of the Schur complement
             step = np.zeros_like(step)
-            step[4:NG] = scaled_inverse(s_mat[4:NG, 4:NG]) @ s_rhs[4:NG]
+            step[held] = scaled_inverse(s_mat[np.ix_(held, held)]) @ s_rhs[held]
         step_starts = np.array([k[:, ng] - k[:, :ng] @ step for k in per_window])
         se = np.sqrt(np.maximum(np.diag(batch_covariance(s_mat, per_window, scores, win, block)), 0.0))
         small = (np.abs(step) <= STEP_OVER_SE * se) | (np.abs(step) <= TOLERANCE * scale)
@@ -899,9 +973,10 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
         integration = np.abs(scaled_inverse(s_mat) @ (rhs_fine - s_rhs))[:4] * 16.0 / 15.0
         half = half + 2.0 * integration
     half = np.maximum(half, 10.0 * TOLERANCE * theta[:4])  # no claim finer than the convergence test
-    start_states = {**dict(zip(START_NAMES, map(float, theta[4:NG]))),
+    names = START_NAMES + su.lags
+    start_states = {**dict(zip(names, map(float, theta[held]))),
                     "alpha_dot_0_rad_s": float(starts[0, 1]), "beta_dot_0_rad_s": float(starts[0, 3])}
-    start_se = dict(zip(START_NAMES, map(float, se[4:NG])))
+    start_se = dict(zip(names, map(float, se[held])))
     freed = {k: {"estimate": float(theta[NG + j]), "ci95": [float(theta[NG + j] - tq * se[NG + j]),
                                                             float(theta[NG + j] + tq * se[NG + j])],
                  "se": float(se[NG + j]), "table_or_file_value": given[j]}

@@ -48,16 +48,9 @@ def listed(words: list[str]) -> str:
     return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
 
 
-def headline(verdict: str, findings, with_findings: dict | None = None) -> str:
-    """The verdict's plain words with the findings named (HEADLINES).  ``with_findings``: the estimate under the
-    findings' model (diagnosis.json's estimates.with_findings); when the findings leave only the start of a
-    second-order motor's further lag (its model check's past_lag_start fits), the first line says that instead
-    of "still misses something"."""
+def headline(verdict: str, findings) -> str:
+    """The verdict's plain words with the findings named (HEADLINES)."""
     found = listed([finding_words(f) for f in findings]) if findings else "nothing"
-    past = (with_findings or {}).get("past_lag_start") or {}
-    if verdict == "partly_explained" and past.get("fits"):
-        return (f"{found} found; past the first {past['after_s']:.3g} s the model with them fits to the noise level, "
-                "and what it misses before is where its second-order motor's further lag started (not estimated)")
     return HEADLINES[verdict].format(found=found)
 
 
@@ -70,7 +63,7 @@ def diagnosis_lines(d, source: str) -> list[str]:
     from ..diagnosis.held_out import sentence as held_out_sentence
     from ..diagnosis.predict import fit_change, fit_text
 
-    lines = [f"{source}: {d.verdict.upper().replace('_', ' ')}: {headline(d.verdict, d.findings, d.with_findings)}.",
+    lines = [f"{source}: {d.verdict.upper().replace('_', ' ')}: {headline(d.verdict, d.findings)}.",
              f"  why: {d.verdict_sentence}"]
     fits = ", ".join(f"{k} {fit_text(v)}" for k, v in d.fit_before.items())
     if not d.findings:
@@ -103,9 +96,6 @@ def diagnosis_lines(d, source: str) -> list[str]:
                             for k, v in (w.get("values") or {}).items())
             lines.append(f"  under the findings' model ({verdict}; `trms-ident export` writes it for --params), "
                          f"95 %: {w['text']}{freed}")
-            if w.get("past_lag_start"):  # a second-order motor's unestimated lag start (model.bench.LAG_START_ASSUMED)
-                lines.append(f"     its second-order motor's further lag starts at the first voltage's steady state "
-                             f"(not estimated). {w['past_lag_start']['sentence']}")
         elif w is not None:
             lines.append(f"  under the findings' model: no estimate ({w['error']})")
     if d.held_out is not None:
