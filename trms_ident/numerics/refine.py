@@ -804,7 +804,7 @@ class _Setup:
     """One log made ready for Gauss-Newton: the problem, the windows' starts, the unknowns' start and scale."""
     prob: "_Problem"
     starts: np.ndarray  # (windows, 4) alpha, alpha', beta, beta' at each window's first sample
-    theta: np.ndarray  # J/B, the motor and lag start states, the freed values
+    theta: np.ndarray  # J/B, the motors' start states, the freed values, the further lags' start states (lags)
     scale: np.ndarray  # what "negligible" means per unknown (the stopping rule)
     win: int
     block: int
