@@ -1,10 +1,10 @@
 """One bench, several logs: J1, B1, J2, B2 fitted by output error over all logs together (pure).
 
 Each log keeps its own unknowns (the motor and reaction-lag start states, a second-order motor's further lag
-start, each window's starting angles and rates), its own noise weights, windows and sample rate; only J/B are shared. Gauss-Newton on the summed
-noise-weighted angle errors, with the unknowns eliminated level by level: per log the windows' starts (as
-refine does), then that log's start states, leaving one 4 x 4 system in J/B summed over the logs
-(the normal equations of the pooled cost, eq. (1) simulated exactly as numerics/refine.py does).
+start, each window's starting angles and rates), its own noise weights, windows and sample rate; only J/B are
+shared. Gauss-Newton on the summed noise-weighted angle errors, with the unknowns eliminated level by level: per
+log the windows' starts (as refine does), then that log's start states, leaving one 4 x 4 system in J/B summed
+over the logs (the normal equations of the pooled cost, eq. (1) simulated exactly as numerics/refine.py does).
 
 Each log's cost counts with a weight (Run.weight: the caller's; joint.py gives 1 / noise_inflation), so that the
 output-error fit leans on each log by the information it really carries. From its optimum the pool then takes one
