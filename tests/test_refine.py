@@ -72,7 +72,7 @@ def test_forward_sensitivities_match_finite_differences(jitter, effects):
     n = r.t_s.size
     h = np.diff(r.t_s)
     base = P.model_vector(defaults(), effects=effects)
-    starts, m0 = np.array([[0.01, 0.2, 0.02, 0.3]]), np.array([0.3, -0.2, 0.1])
+    starts, m0 = np.array([[0.01, 0.2, 0.02, 0.3]]), np.array([0.3, -0.2, 0.1, 0.0, 0.0])  # no further lags
     out = np.empty((n, 2))
     _, a, b, _ = _pass(r, base, starts, m0, h, out)
     y = np.column_stack([r.alpha_rad, r.beta_rad])
@@ -177,7 +177,7 @@ def test_freed_values_sensitivities_are_exact(signed):
     pv0 = P.model_vector(defaults(), effects=effects, exogenous=("gain",))
     pv0[P.N_SLOTS] = 0.5
     tq = np.ascontiguousarray(np.stack([np.sin(r.beta_rad), np.cos(3 * r.alpha_rad)], axis=1)[:, :, None])
-    starts, m0 = np.array([[0.01, 0.2, 0.02, 0.3]]), np.array([0.3, -0.2, 0.1])
+    starts, m0 = np.array([[0.01, 0.2, 0.02, 0.3]]), np.array([0.3, -0.2, 0.1, 0.0, 0.0])  # no further lags
     slots = sorted(R.DIRECT_SLOTS) + [P.N_SLOTS]
     assert set(slots) >= set(P.EFFECT_SLOTS.values())
     assert {P.PARAM_ORDER.index(k) for k in ("Mg", "Kg", "a1", "kc")} <= set(slots)

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .refine import batch_covariance, scaled_inverse, schur, setup
+from .refine import batch_covariance, scaled_inverse, schur, setup, start_step
 
 #: grids tried, each shifted by a further 1 / OFFSETS of the quantum (the two angles' shifts in another order)
 OFFSETS = 8
@@ -74,9 +74,7 @@ def rounding_steps(u1_v: np.ndarray, u2_v: np.ndarray, angles_rad: np.ndarray, d
         # Gauss-Newton on the start states alone (refine's hold), on angles without noise: full steps
         _, a, b, _ = prob.evaluate(point, starts, out)
         s_mat, s_rhs, per_window = schur(a, b, ng)
-        step = np.zeros(ng)
-        held = su.start_idx
-        step[held] = scaled_inverse(s_mat[np.ix_(held, held)]) @ s_rhs[held]
+        step = start_step(s_mat, s_rhs, su.start_idx)
         point, starts = point + step, starts + _starts_step(per_window, step)
     grids = np.array([[(k + 0.5) / OFFSETS * quantum_rad["alpha"],
                        ((3 * k + 1) % OFFSETS + 0.5) / OFFSETS * quantum_rad["beta"]] for k in range(OFFSETS)])

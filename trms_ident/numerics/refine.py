@@ -539,7 +539,8 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
     sub-steps <= max_sub.  ``dsw`` (n, 2): u1[k], u2[k] take effect dsw[k] [s] after sample k (before that the
     previous voltage holds); zeros when every voltage acts from its own stamp.
 
-    The motor states at each window's start come first (motor_starts); the windows are then independent and
+    ``m0``: the motors' start states tau1(0), tau2(0), zeta(0), lag1(0), lag2(0) (motor_response).  The motor
+    states at each window's start come first (motor_starts); the windows are then independent and
     run on up to _threads() cores, each window computed the same way whatever the split, so the numbers do not
     depend on the machine.  ``motor_free``: motor_starts from zero start states for this p (computed when
     None).  ``ext`` (n, 2): exogenous torques [N m] held over each sample interval (None: none).  ``rounding``:
@@ -560,8 +561,6 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
     scores_grid = np.zeros((grids.shape[0], nb, nt))
     if motor_free is None:
         motor_free = motor_starts(u1, u2, p, h, dsw, max_sub, win, nw, np.zeros(5))
-    if len(m0) == 3:  # no further lags' starts given: the steady state of the first voltages
-        m0 = np.r_[m0, u1[0], u2[0]]
     mstart = motor_response(motor_free, m0)
     args = (u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block,
             np.zeros((0, 2)) if ext is None else ext, fs, tq, quanta, grids)
@@ -916,9 +915,8 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     for it in range(1, max_iterations + 1):
         s_mat, s_rhs, per_window = schur(a, b, ng)
         step = scaled_inverse(s_mat) @ s_rhs
-        if hold:  # only the start states move among the globals: their block of the Schur complement
-            step = np.zeros_like(step)
-            step[held] = scaled_inverse(s_mat[np.ix_(held, held)]) @ s_rhs[held]
+        if hold:  # only the start states move among the globals
+            step = start_step(s_mat, s_rhs, held)
         step_starts = np.array([k[:, ng] - k[:, :ng] @ step for k in per_window])
         se = np.sqrt(np.maximum(np.diag(batch_covariance(s_mat, per_window, scores, win, block)), 0.0))
         small = (np.abs(step) <= STEP_OVER_SE * se) | (np.abs(step) <= TOLERANCE * scale)
@@ -986,6 +984,14 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
                    converged, it, rms, float(cost), win * step_s, nw, substeps(step_s, prob.max_sub), nb,
                    {k: float(integration[i]) for i, k in enumerate(NAMES)}, start_states, start_se, out, freed,
                    _Fit(prob, theta, starts, a, b), pending, cov[:4, :4].copy())
+
+
+def start_step(s_mat: np.ndarray, s_rhs: np.ndarray, held: np.ndarray) -> np.ndarray:
+    """A Gauss-Newton step of the global unknowns at ``held`` alone (the start states: _Setup.start_idx), the others
+    kept: their block of the Schur complement."""
+    step = np.zeros(s_rhs.size)
+    step[held] = scaled_inverse(s_mat[np.ix_(held, held)]) @ s_rhs[held]
+    return step
 
 
 def backtrack(lam: float, cost: float, slope: float, trial_cost: float) -> float:
