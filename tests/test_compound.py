@@ -171,3 +171,61 @@ def test_a_lead_that_does_not_move_leaves_the_modification_alone_as_the_explanat
     monkeypatch.setattr(model_profile, "identify_with_profiles", fitted(0.2))
     got = compound._profiled_with_lead(h, None, "quadratic", {}, kv, h)
     assert not got.fits_alone and got.value_fit["name"] == "a2" and got.parameters == 2
+
+
+def _tested(effect, axis, gain, value, p=0.3):
+    return {"effect": effect, "axis": axis, "held_out_gain": gain, "explained_share": gain, "t": 1.0, "p": p,
+            "passed": p < 0.0025, "parameter": value}
+
+
+def test_ranked_hypotheses_are_the_first_rounds_best_gains_a_bench_file_holds_passed_or_not():
+    tested = [_tested("coulomb_friction", "pitch", 0.26, 0.012), _tested("gyroscopic_gain", "pitch", 0.9, 0.05),
+              _tested("com_offset", "pitch", 0.52, 0.013), _tested("thrust_asymmetry", "pitch", 0.85, 0.28, 0.001),
+              _tested("cable_stiffness", "yaw", -0.01, 0.0), _tested("quadratic_drag", "pitch", 0.19, -1.9),
+              _tested("dead_zone", "yaw", 0.1, 0.2), _tested("sensor_offset", "pitch", 0.5, -0.013)]
+    d = _diagnosis([_finding("thrust_asymmetry", "pitch", "s", 0.28)])
+    d.tested = tested
+    hs = compound.ranked(d, {"thrust_asymmetry:pitch"})
+    # by gain, the finding (seen) and what a bench file cannot hold (an effect not in the model room) left out, at
+    # most three
+    assert [(h.key, h.value, h.finding) for h in hs] == [("com_offset:pitch", 0.013, None),
+                                                         ("sensor_offset:pitch", -0.013, None),
+                                                         ("coulomb_friction:pitch", 0.012, None)]
+    assert hs[0].ranked_by["p"] == 0.3 and compound.MAX_RANKED == 3
+    # a negative drag is no drag (implausible), and a gain of zero or less is no rank
+    d.tested = [tested[5], tested[4], _tested("dead_zone", "pitch", 0.0, 0.1)]
+    assert compound.ranked(d, set()) == []
+
+
+def test_an_effect_that_did_not_pass_beside_a_known_value_off_its_table_is_tried_and_both_are_named():
+    """diagnosed_model.py's seed 29, at a smaller size: Mg 15 % low beside a 0.015 rad centre-of-mass offset.  The
+    equation error passed only a pitch thrust asymmetry (invented); the offset, with Mg's misfit in its test, did
+    not pass alone.  Neither the finding nor a look-alike explains the log with a known value freed beside it
+    (together), so the first round's next-best effects are tried (ranked_together, the rule's last step): the offset
+    with Mg freed reaches the floor, and the asymmetry is refused as not needed."""
+    table = defaults()
+    r = simulate(SimSettings(ref="multisine", sample_rate_hz=200.0, duration_s=40.0, quantization_rad=Q12, seed=29,
+                             overrides={"Mg": 0.855 * table["Mg"]},
+                             effects=[{"effect": "com_offset", "axis": "pitch", "value": 0.015}]))
+    log = as_log(r)
+    d = _diagnosis([_finding("thrust_asymmetry", "pitch", "s", 0.28)])
+    d.tested = [_tested("thrust_asymmetry", "pitch", 0.85, 0.28, 0.001), _tested("com_offset", "pitch", 0.52, 0.013),
+                _tested("coulomb_friction", "pitch", 0.26, 0.012)]
+
+    def refit(pp, est, start, found):
+        return {}, {}, {}
+
+    none, before = compound.together(d, log, table, "quadratic", {}, refit)
+    assert none is None and [t["effect"] for t in before] == ["thrust_asymmetry:pitch"]
+    new, tried = compound.ranked_together(d, log, table, "quadratic", {}, refit, {"thrust_asymmetry:pitch"})
+    assert new is not None, tried
+    assert new.verdict == "explained" and "(ranked)" in new.settings["rule"]
+    offset, mg = new.findings
+    assert (offset.effect, offset.axis) == ("com_offset", "pitch")
+    assert abs(offset.parameter["value"] / 0.015 - 1) < 0.05
+    assert "did not pass alone" in offset.evidence
+    assert mg.effect == "known_value" and mg.parameter["name"] == "Mg"
+    assert abs(mg.parameter["value"] / (0.855 * table["Mg"]) - 1) < 0.01
+    assert [(x["effect"], x["axis"]) for x in new.refused] == [("thrust_asymmetry", "pitch")]
+    assert [t["effect"] for t in tried if t.get("ranked_by_equation_error")] == ["com_offset:pitch",
+                                                                                  "coulomb_friction:pitch"]

@@ -36,7 +36,12 @@ refitted with every one):
    the effect search runs again with one of them at its refit, and its findings are estimated under with the
    value freed beside them; a pair that reaches the floor explains the log, the first search's findings
    refused.  Refits that wander off to implausible numbers are never reported (known_values.far_from_table
-   says the bench is far from the values given).
+   says the bench is far from the values given);
+7. when none of that reaches the floor, the effects the equation error ranked best in its first round that were
+   not tried yet, passed or not (compound.ranked: a known value off its table leaves its misfit in every effect's
+   test, so the other difference need not pass alone), are estimated under as in 4, each with the known values
+   freed in turn; an effect with a known value that reaches the floor explains the log, the search's findings
+   refused.  Last, so that every log an earlier step explains is explained as before.
 """
 from __future__ import annotations
 
@@ -50,7 +55,7 @@ from ..log import Log
 from ..numerics.adequacy import RMS_OVER_NOISE
 from ..numerics.stats import block_length
 from . import search
-from .compound import together, tried_sentence, value_first
+from .compound import ranked_together, together, tried_sentence, value_first
 from .fits import prediction_fits
 from .model import AXIS_ANGLE, regression
 from .oe import motor_states
@@ -110,8 +115,12 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None, exclude
                                                    exclude))
             if first is not None:
                 return first
-            if tried_first:
-                d.settings["together"] = tried + tried_first
+            last, tried_last = ranked_together(d, log, p, law, overrides, refit, {t["effect"] for t in tried})
+            if last is not None:
+                last.settings["together"] = tried + tried_first + tried_last
+                return last
+            if tried_first or tried_last:
+                d.settings["together"] = tried + tried_first + tried_last
         return d
     fit = next(f for f in kv["fits"] if f["name"] == named)
     name, value, table = fit["name"], fit["value"], fit["table"]
