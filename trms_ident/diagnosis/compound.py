@@ -154,7 +154,7 @@ def estimate_under(h: Hypothesis, log: Log, law: str, overrides: dict) -> Hypoth
     fitted = float(freed[h.key]["estimate"]) if h.key in freed else (h.value if not torque else math.nan)
     h = replace(h, fitted_ci95=_ci95(freed.get(h.key)))
     ratio = _over_noise(check)
-    if check.get("adequate") is True:
+    if check.get("adequate") is True and _physical(res, h.key, fitted):
         return replace(h, fitted=fitted, fits_alone=True, over_noise=ratio)
     kv = check.get("known_values") or {}
     named = kv.get("named")
@@ -168,6 +168,15 @@ def estimate_under(h: Hypothesis, log: Log, law: str, overrides: dict) -> Hypoth
         fitted, h = beside.get("estimate", fitted), replace(h, fitted_ci95=_ci95(beside))
     return replace(h, fitted=float(fitted), over_noise=dict(fit["over_noise"]), value_fit=fit,
                    look_alikes=list(kv.get("look_alikes", [])))
+
+
+def _physical(res, key: str, fitted: float) -> bool:
+    """An estimate under one effect describes a bench: J/B credible (params.not_credible) and the effect's value in
+    its plausible range (a fit that reaches a smoothed log's floor with J2 4.6e4 kg m^2 describes none)."""
+    from ..params import not_credible
+
+    est = res.refined.estimate if res.refined is not None else res.estimates
+    return not not_credible(est) and room.BY_KEY[key].plausible(fitted)
 
 
 def _ci95(freed: dict | None) -> tuple | None:
@@ -252,13 +261,14 @@ def best(tried: list[Hypothesis]) -> tuple[Hypothesis | None, list[Hypothesis]]:
     return same[0], same[1:]
 
 
-def together(d, log: Log, p: dict, law: str, overrides: dict | None, refit) -> tuple[object | None, list]:
+def together(d, log: Log, p: dict, law: str, overrides: dict | None, refit, tries: list[Hypothesis] | None = None
+             ) -> tuple[object | None, list]:
     """(the diagnosis ``d`` -- the effect search's, not at the noise floor, no known value alone reaching it --
     with one of its findings and, where needed, a known value together explaining the log (module docstring), or
     None when no hypothesis reaches the noise floor; the hypotheses tried, as settings["together"] lists them).
     ``refit(pp, est, start, findings)``: the findings' model's 2 s prediction fits, overlay and residual
-    (weigh._refitted)."""
-    tried = [estimate_under(h, log, law, dict(overrides or {})) for h in hypotheses(d)]
+    (weigh._refitted).  ``tries``: the hypotheses to estimate under (default: hypotheses(d))."""
+    tried = [estimate_under(h, log, law, dict(overrides or {})) for h in (hypotheses(d) if tries is None else tries)]
     chosen, alikes = best(tried)
     record = [_record(t) for t in tried]
     if chosen is None:
@@ -271,13 +281,9 @@ def ranked_together(d, log: Log, p: dict, law: str, overrides: dict | None, refi
     """together() over ranked(d, seen): the equation error's next-best effects of the first round, each estimated
     under with every known value freed in turn beside it (the last step of weigh.py's rule, when nothing before it
     reached the noise floor; ``seen``: the effects tried before, in together())."""
-    tried = [estimate_under(h, log, law, dict(overrides or {})) for h in ranked(d, set(seen))]
-    chosen, alikes = best(tried)
-    record = [_record(t) for t in tried]
-    if chosen is None:
-        return None, record
-    out = _diagnosis(d, log, p, chosen, alikes, record, refit)
-    out.settings["rule"] += "; an effect the equation error ranked in its first round, passed or not (ranked)"
+    out, record = together(d, log, p, law, overrides, refit, ranked(d, set(seen)))
+    if out is not None:
+        out.settings["rule"] += "; an effect the equation error ranked in its first round, passed or not (ranked)"
     return out, record
 
 
