@@ -229,3 +229,40 @@ def test_an_effect_that_did_not_pass_beside_a_known_value_off_its_table_is_tried
     assert [(x["effect"], x["axis"]) for x in new.refused] == [("thrust_asymmetry", "pitch")]
     assert [t["effect"] for t in tried if t.get("ranked_by_equation_error")] == ["com_offset:pitch",
                                                                                   "coulomb_friction:pitch"]
+
+
+def test_an_effect_alone_fits_only_with_jb_credible_and_its_value_plausible():
+    from types import SimpleNamespace
+
+    table = {"J1": 0.068, "B1": 0.006, "J2": 0.02, "B2": 0.1}
+
+    def res(**jb):
+        return SimpleNamespace(refined=SimpleNamespace(estimate={**table, **jb}), estimates={})
+
+    assert compound._physical(res(), "cable_stiffness:yaw", 0.004)
+    assert not compound._physical(res(J2=4.6e4), "cable_stiffness:yaw", 0.004)  # a fit that ran off
+    assert not compound._physical(res(B1=-0.01), "cable_stiffness:yaw", 0.004)  # not physical
+    assert not compound._physical(res(), "cable_stiffness:yaw", -0.004)  # a cable pushes back, never away
+    assert not compound._physical(res(), "cable_stiffness:yaw", math.nan)  # not freed: no value to judge
+    assert compound._physical(SimpleNamespace(refined=None, estimates={**table, "J2": None}), "dead_zone:yaw", 0.2)
+
+
+def test_an_effect_whose_estimate_fits_with_jb_no_bench_has_does_not_fit_alone(monkeypatch):
+    from types import SimpleNamespace
+
+    import trms_ident.identify
+
+    table = {"J1": 0.068, "B1": 0.006, "J2": 0.02, "B2": 0.1}
+
+    def identify(log, settings, halves=True):  # the angles at their floors, J2 as the estimate left it
+        refined = SimpleNamespace(estimate={**table, "J2": j2}, freed={"cable_stiffness:yaw": {
+            "estimate": 0.004, "ci95": (0.0039, 0.0041)}})
+        return SimpleNamespace(refined=refined, estimates=refined.estimate, model_check={
+            "adequate": True, "axes": {"pitch": {"angle": "alpha", "rms_over_noise": 1.0},
+                                       "yaw": {"angle": "beta", "rms_over_noise": 1.0}}})
+
+    monkeypatch.setattr(trms_ident.identify, "identify", identify)
+    h = compound.Hypothesis("cable_stiffness:yaw", 0.004, 0)
+    for j2, alone in ((0.02, True), (4.6e4, False)):
+        got = compound.estimate_under(h, None, "quadratic", {})
+        assert got.fits_alone is alone and got.fitted == 0.004, j2

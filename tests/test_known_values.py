@@ -94,6 +94,26 @@ def test_a_value_that_barely_moves_explains_nothing():
         assert got.stage == "windows" and got.explains is explains
 
 
+def test_a_refit_at_the_floor_with_a_value_or_jb_no_bench_has_explains_nothing():
+    """A refit that reaches the floor by running off (b2 1.6e4 for 0.09 with J2 4.6e4 kg m^2, measured on the real
+    CE150 azimuth sweep, whose smoothed angles such a model follows) describes no bench: it never explains."""
+    from types import SimpleNamespace
+
+    table_jb = {"J1": 0.068, "B1": 0.006, "J2": 0.02, "B2": 0.1}
+
+    def fit(free, theta0, values, **options):  # every refit at the floor, at `factor` times the table's value
+        name = free[-1]
+        return SimpleNamespace(rms_rad={"alpha": 1e-3, "beta": 1e-3}, converged=True, cost=1.0,
+                               estimate={**theta0, **jb}, start_states={},
+                               freed={name: {"estimate": defaults()[name] * factor, "ci95": (0.0, 1.0)}})
+
+    noise = {"alpha": 1e-3, "beta": 1e-3}
+    for factor, jb, explains in ((1.3, {}, True), (1.7e5, {}, False), (-1.3, {}, False),
+                                 (1.3, {"J2": 4.6e4}, False), (1.3, {"B2": 50.0}, False)):
+        got = known_values._refit(fit, "b2", defaults(), noise, 1.0, table_jb, ())
+        assert got.stage == "windows" and got.explains is explains, (factor, jb)
+
+
 def test_a_value_whose_shooting_fit_stays_above_the_floor_is_not_refitted_in_full_windows():
     """Multiple shooting contains the standard windows' model: a value it leaves above the floor cannot reach
     the floor there, so the costly fit is skipped (stage 'shooting')."""
