@@ -129,8 +129,7 @@ def ranked(d, seen: set) -> list[Hypothesis]:
             break
         if key in seen or key not in TORQUE_KEYS + MODIFICATION_KEYS or not room.BY_KEY[key].plausible(value):
             continue
-        out.append(Hypothesis(key, value, None, ranked_by=t))
-        seen.add(key)
+        out.append(Hypothesis(key, value, None, ranked_by=t))  # (d.tested holds one row per key)
     return out
 
 
@@ -281,7 +280,7 @@ def ranked_together(d, log: Log, p: dict, law: str, overrides: dict | None, refi
     """together() over ranked(d, seen): the equation error's next-best effects of the first round, each estimated
     under with every known value freed in turn beside it (the last step of weigh.py's rule, when nothing before it
     reached the noise floor; ``seen``: the effects tried before, in together())."""
-    out, record = together(d, log, p, law, overrides, refit, ranked(d, set(seen)))
+    out, record = together(d, log, p, law, overrides, refit, ranked(d, seen))
     if out is not None:
         out.settings["rule"] += "; an effect the equation error ranked in its first round, passed or not (ranked)"
     return out, record

@@ -116,11 +116,12 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None, exclude
             if first is not None:
                 return first
             last, tried_last = ranked_together(d, log, p, law, overrides, refit, {t["effect"] for t in tried})
+            record = tried + tried_first + tried_last
             if last is not None:
-                last.settings["together"] = tried + tried_first + tried_last
+                last.settings["together"] = record
                 return last
             if tried_first or tried_last:
-                d.settings["together"] = tried + tried_first + tried_last
+                d.settings["together"] = record
         return d
     fit = next(f for f in kv["fits"] if f["name"] == named)
     name, value, table = fit["name"], fit["value"], fit["table"]
