@@ -31,7 +31,8 @@ SLOW = {
     "published_values[Data100_ea_a0]": 250,
     "test_real_recordings.py::test_diagnose_on_real_ce150_recordings_under_table_1_is_honest[Data100_ea_a0]": 60,
     "test_diagnose.py::test_an_input_modification_is_fitted_again_given_the_later_findings": 134,
-    "test_sparse_correction.py::test_outside_the_library_is_described_and_raises_the_fit": 112,
+    # 832 s at 760f54f (1 Dec 2026; 112 s when listed): xfail, a known defect of #47 (its reason says which)
+    "test_sparse_correction.py::test_outside_the_library_is_described_and_raises_the_fit": 832,
     "test_known_values.py::test_the_known_value_wins_over_effects_that_need_more_parameters": 96,
     "test_diagnose.py::test_a_rugged_dead_zone_profile_is_scanned_and_a_wrong_width_is_never_called_explained": 84,
     "test_held_out.py::test_diagnose_searches_again_without_a_finding_the_held_out_fit_refuses": 68,
@@ -78,42 +79,47 @@ SLOW = {
 }
 
 
-#: the fast tier's longest tests, seconds each on 2 cores (pytest --durations, 27 Nov 2026, updated for the day's
-#: changes): run first, so that the run does not end on one long test on one core while the other idles.  With
+#: the fast tier's longest tests (12 s or more), seconds each on 2 cores (pytest --durations=70, 1 Dec 2026, 616 s
+#: in all): run first, so that the run does not end on one long test on one core while the other idles.  With
 #: --maxschedchunk 1 (set in pytest_configure) each core takes the next test as it finishes one (two in hand)
 LONG = {
-    "test_known_values.py::test_estimate_and_diagnose_name_the_same_known_value": 54,
-    "test_both_motors.py::test_the_other_motors_saturation_is_placed_again_beside_the_first_and_named": 45,
-    "test_second_order_motor.py::test_a_dead_zone_beside_a_second_order_motor_is_profiled_with_the_lag_refitted": 45,
-    "test_bench_file.py::test_a_freed_dead_zones_interval_covers_the_width_its_steps_cannot_tell_apart": 15,
-    "test_batch.py::test_a_folder_diagnosed_names_each_misfits_findings_and_which_recur": 22,
+    "test_docs.py::test_runnable_examples_run_as_written[docs/diagnose.md]": 59,
+    "test_known_values.py::test_estimate_and_diagnose_name_the_same_known_value": 49,
+    "test_second_order_motor.py::test_a_dead_zone_beside_a_second_order_motor_is_profiled_with_the_lag_refitted": 48,
     "test_real_recordings.py::test_real_ce150_recordings_get_an_honest_verdict_and_fit_better_with_the_ce150s_"
-    "published_values[Data100_ea_e675_aN130toP130]": 40,
-    "test_api.py::test_diagnose_from_python": 12,
-    "test_bench_file.py::test_runs_of_the_bench_are_pooled_under_its_model": 30,
-    "test_bench_file.py::test_an_effects_value_freed_comes_back_from_a_wrong_start": 15,
-    "test_diagnose.py::test_a_profile_on_a_log_cut_mid_run_starts_where_the_current_models_fit_did": 22,
-    "test_diagnose.py::test_concealed_effect_is_named_fitted_and_improves_the_fit[motor_lag-pitch-1.32-steps]": 21,
-    "test_api.py::test_estimate_from_a_dataframe_equals_the_cli_on_the_same_csv": 20,
-    "test_docs.py::test_runnable_examples_run_as_written[docs/diagnose.md]": 30,
-    "test_docs.py::test_runnable_examples_run_as_written[README.md]": 18,
-    "test_accuracy.py::test_paper_square_1khz_60s": 18,
-    "test_design.py::test_a_design_keeps_its_limits_and_estimate_achieves_its_predicted_precision": 29,
-    "test_real_recordings.py::test_a_published_plant_outside_eq1_is_flagged_and_strict_fails": 16,
-    "test_readonly_install.py::test_read_only_install_run_by_a_user_without_a_home": 16,
-    "test_real_recordings.py::test_a_missing_effect_is_not_blamed_on_a_known_value": 15,
-    "test_refine.py::test_refinement_not_used_when_the_model_misses_something": 15,
-    "test_diagnose.py::test_output_error_fit_tells_the_two_offsets_apart[sensor_offset-0.01-sine-119]": 14,
-    "test_batch.py::test_folder_of_20_with_2_broken": 14,
-    "test_refine.py::test_held_motor_states_match_scipy_zero_order_hold_and_a_fine_integration": 13,
+    "published_values[Data100_ea_e675_aN130toP130]": 43,
+    "test_both_motors.py::test_the_other_motors_saturation_is_placed_again_beside_the_first_and_named": 39,
+    "test_batch.py::test_a_folder_diagnosed_names_each_misfits_findings_and_which_recur": 32,
+    "test_docs.py::test_runnable_examples_run_as_written[README.md]": 30,
     "test_both_motors.py::test_a_dead_zone_on_both_motors_is_named_on_both": 28,
-    "test_both_motors.py::test_a_saturation_whose_fit_alone_lands_wide_is_fitted_with_the_other_motors_"
-    "from_scratch": 20,
-    "test_held_out.py::test_a_smoothed_log_is_judged_against_the_black_box_and_its_findings_raise_the_held_out_fit": 13,
-    "test_diagnose.py::test_the_equation_error_orders_and_the_output_error_test_decides": 12,
-    "test_diagnose.py::test_output_error_profile_fits_an_input_modification_and_leaves_a_clean_log_alone"
-    "[input_saturation-pitch-1.6-steps-30.0]": 12,
-    "test_real_recordings.py::test_bench_shaped_logs_reach_the_accuracy_with_an_adequate_verdict[jitter-1kHz-12bit]": 12,
+    "test_diagnose.py::test_a_profile_on_a_log_cut_mid_run_starts_where_the_current_models_fit_did": 28,
+    "test_readonly_install.py::test_read_only_install_run_by_a_user_without_a_home": 24,
+    "test_compound.py::test_an_effect_that_did_not_pass_beside_a_known_value_off_its_table_is_tried_and_both_are_"
+    "named": 24,
+    "test_diagnose.py::test_concealed_effect_is_named_fitted_and_improves_the_fit[motor_lag-pitch-1.32-steps]": 24,
+    "test_design.py::test_a_design_keeps_its_limits_and_estimate_achieves_its_predicted_precision": 22,
+    "test_diagnose.py::test_output_error_fit_tells_the_two_offsets_apart[sensor_offset-0.01-sine-119]": 21,
+    "test_refine.py::test_held_motor_states_match_scipy_zero_order_hold_and_a_fine_integration": 20,
+    "test_held_out.py::test_a_smoothed_log_is_judged_against_the_black_box_and_its_findings_raise_the_held_out_fit": 19,
+    "test_fisher.py::test_an_effects_predicted_standard_error_matches_its_monte_carlo_spread": 19,
+    "test_design.py::test_a_mat_design_is_a_simulink_structure_with_time_holding_the_csvs_references": 18,
+    "test_both_motors.py::test_a_saturation_whose_fit_alone_lands_wide_is_fitted_with_the_other_motors_from_"
+    "scratch": 18,
+    "test_design.py::test_a_robust_design_keeps_its_limits_on_a_bench_off_the_given_one": 17,
+    "test_bench_file.py::test_an_effects_value_freed_comes_back_from_a_wrong_start": 17,
+    "test_known_values.py::test_two_known_values_off_are_found_together_and_win_over_invented_effects": 16,
+    "test_design.py::test_a_design_from_a_previous_estimate_takes_its_bench_and_its_measured_noise": 15,
+    "test_diagnose.py::test_clean_logs_report_no_mismatch[multisine-100.0-0.001-0.0]": 15,
+    "test_compound.py::test_a_modification_found_under_a_wrong_known_value_is_profiled_again_beside_it": 15,
+    "test_diagnose.py::test_concealed_effect_is_named_fitted_and_improves_the_fit[input_delay-both-0.02-multisine]": 15,
+    "test_diagnose.py::test_cli_json_contract_and_report": 14,
+    "test_bench_file.py::test_design_plans_for_the_bench_as_diagnosed_and_estimate_then_gets_what_it_predicted": 14,
+    "test_diagnose.py::test_a_friction_the_equation_error_cannot_fit_physically_is_judged_by_output_error": 14,
+    "test_diagnose.py::test_output_error_fit_finds_small_friction_the_equation_error_misses": 13,
+    "test_real_recordings.py::test_a_recording_without_a_noise_floor_is_checked_half_against_half": 13,
+    "test_design.py::test_the_search_gives_the_same_design_on_one_process_and_on_two": 13,
+    "test_sensor_lag.py::test_diagnose_tells_an_acquisition_lag_from_an_input_delay[input_"
+    "delay-0.03-multisine-200.0-15]": 12,
 }
 
 
