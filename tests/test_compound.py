@@ -266,3 +266,18 @@ def test_an_effect_whose_estimate_fits_with_jb_no_bench_has_does_not_fit_alone(m
     for j2, alone in ((0.02, True), (4.6e4, False)):
         got = compound.estimate_under(h, None, "quadratic", {})
         assert got.fits_alone is alone and got.fitted == 0.004, j2
+
+
+def test_a_verdict_the_later_steps_did_not_change_says_what_they_left():
+    """When neither value_first nor ranked_together reaches the floor, the verdict says what each tried left (as
+    tried_sentence does for together's), from the records weigh keeps in settings["together"]."""
+    under = compound.Hypothesis("dead_zone:yaw", 0.1, 0, over_noise={"alpha": 1.1, "beta": 3.04})
+    ranked = compound.Hypothesis("com_offset:pitch", 0.02, None, over_noise={"alpha": 12.5, "beta": 0.9},
+                                 ranked_by={"effect": "com_offset"})
+    records = [compound._record(under, "Mg"), compound._record(ranked), {"searched_under": "kc", "error": "failed"}]
+    said = compound.later_tries_sentence(records)
+    assert "dead_zone:yaw with Mg refitted 3.04x" in said
+    assert "next-ranked effects" in said and "com_offset:pitch 12.5x" in said
+    assert "kc" not in said  # a search that failed left no angles to tell
+    assert compound.later_tries_sentence([]) == ""
+    assert "next-ranked" not in compound.later_tries_sentence(records[:1])

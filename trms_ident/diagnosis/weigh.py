@@ -55,7 +55,7 @@ from ..log import Log
 from ..numerics.adequacy import RMS_OVER_NOISE
 from ..numerics.stats import block_length
 from . import search
-from .compound import ranked_together, together, tried_sentence, value_first
+from .compound import later_tries_sentence, ranked_together, together, tried_sentence, value_first
 from .fits import prediction_fits
 from .model import AXIS_ANGLE, regression
 from .oe import motor_states
@@ -122,6 +122,7 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None, exclude
                 return last
             if tried_first or tried_last:
                 d.settings["together"] = record
+                d.verdict_sentence += later_tries_sentence(tried_first + tried_last)
         return d
     fit = next(f for f in kv["fits"] if f["name"] == named)
     name, value, table = fit["name"], fit["value"], fit["table"]
