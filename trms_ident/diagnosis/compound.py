@@ -452,8 +452,8 @@ def later_tries_sentence(tried: list[dict]) -> str:
     out = ""
     if under:
         out += (" The effect search run again under the known values whose refits alone came nearest the floor finds "
-                f"effects that leave the worst angle above it too ({', '.join(under)}).")
+                f"effects that leave the worst angle above its noise floor too ({', '.join(under)}).")
     if ranked:
-        out += (" So do the equation error's next-ranked effects of its first round, each estimated under with each "
-                f"known value freed in turn ({', '.join(ranked)}).")
+        out += (" The equation error's next-ranked effects of its first round, each estimated under with each known "
+                f"value freed in turn, leave the worst angle above its floor too ({', '.join(ranked)}).")
     return out
