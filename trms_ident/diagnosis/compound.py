@@ -430,11 +430,16 @@ def _diagnosis(d, log: Log, p: dict, h: Hypothesis, alikes: list, record: list, 
                    corrections=[], steps=steps, settings=settings)
 
 
+def _worst(t: dict) -> str:
+    """A try's record (_record) as its worst angle over its noise floor, for the verdict's words."""
+    return f"{max(t['over_noise'].values()):.3g}x"
+
+
 def tried_sentence(tried: list[dict]) -> str:
     """What the hypotheses left, for a verdict they did not change (settings["together"])."""
     if not tried:
         return ""
-    parts = [f"{t['effect']} {max(t['over_noise'].values()):.3g}x" for t in tried if t.get("over_noise")]
+    parts = [f"{t['effect']} {_worst(t)}" for t in tried if t.get("over_noise")]
     return (" Each finding put into the model and the log estimated under it, with each known value freed in turn, "
             f"leaves the worst angle above its noise floor ({', '.join(parts)}).") if parts else ""
 
@@ -443,12 +448,9 @@ def later_tries_sentence(tried: list[dict]) -> str:
     """What the rule's later steps left, for a verdict they did not change: the effects the search found again under
     a known value's refit (value_first, ``searched_under``) and the equation error's next-ranked effects (ranked,
     ``ranked_by_equation_error``), each as its worst angle over its noise floor."""
-    def worst(t: dict) -> str:
-        return f"{max(t['over_noise'].values()):.3g}x"
-
-    under = [f"{t['effect']} with {t['searched_under']} refitted {worst(t)}" for t in tried
+    under = [f"{t['effect']} with {t['searched_under']} refitted {_worst(t)}" for t in tried
              if t.get("searched_under") and t.get("effect") and t.get("over_noise")]
-    ranked = [f"{t['effect']} {worst(t)}" for t in tried if t.get("ranked_by_equation_error") and t.get("over_noise")]
+    ranked = [f"{t['effect']} {_worst(t)}" for t in tried if t.get("ranked_by_equation_error") and t.get("over_noise")]
     out = ""
     if under:
         out += (" The effect search run again under the known values whose refits alone came nearest the floor finds "
