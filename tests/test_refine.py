@@ -13,6 +13,7 @@ from trms_ident.model import plant as P
 from trms_ident.numerics import refine as R
 from trms_ident.numerics.filters import discretize
 from trms_ident.numerics.hold import motor_states_on_grid
+from trms_ident.numerics.kernel_args import readonly
 from trms_ident.params import defaults
 
 from sim import SimSettings, simulate
@@ -225,8 +226,9 @@ def test_windows_give_the_same_pass_in_one_thread_or_several(monkeypatch):
     starts = np.column_stack([r.alpha_rad[::win][:nw], np.zeros(nw), r.beta_rad[::win][:nw], np.zeros(nw)])
     m0 = np.array([0.3, -0.2, 0.1, 1.5, -0.7])
     dsw = np.zeros((n, 2))
-    free = R.motor_starts(r.u1_v, r.u2_v, pv, h, dsw, R.MAX_SUBSTEP_S, win, nw, np.zeros(5))
-    direct = R.motor_starts(r.u1_v, r.u2_v, pv, h, dsw, R.MAX_SUBSTEP_S, win, nw, m0)
+    u1, u2 = readonly(r.u1_v), readonly(r.u2_v)  # the type gauss_newton_pass passes (one compiled kernel)
+    free = R.motor_starts(u1, u2, pv, h, dsw, R.MAX_SUBSTEP_S, win, nw, np.zeros(5))
+    direct = R.motor_starts(u1, u2, pv, h, dsw, R.MAX_SUBSTEP_S, win, nw, m0)
     np.testing.assert_allclose(R.motor_response(free, m0), direct, rtol=1e-12, atol=1e-15)
 
     def run(threads):

@@ -19,6 +19,7 @@ from numba import njit
 
 from ..model.plant import (centrifugal_pitch, coriolis_yaw, coulomb_sign, friction, pitch_torque, reversed_gain, thrust,
                            yaw_torque)
+from ..numerics.kernel_args import readonly
 
 HORIZON_S = 2.0
 
@@ -73,6 +74,7 @@ def _windows(n: int, horizon: int) -> int:
 
 def predict(pitch, x_start, v_start, tau, other, s2, scw, ext, dt, horizon, th, fx) -> np.ndarray:
     """Angle predictions [rad], restarted every ``horizon`` samples from x_start and v_start (see _predict)."""
+    x_start = readonly(x_start)  # one compiled _predict (numerics.kernel_args)
     zero = np.zeros(_windows(x_start.size, horizon))
     out = np.empty(x_start.size)
     _predict(pitch, x_start, v_start, zero, zero, tau, other, s2, scw, ext, dt, horizon, th, fx, out)
@@ -115,6 +117,7 @@ def predict_fitted_start(pitch, x_meas, v_guess, tau, other, s2, scw, ext, dt, h
     """Predictions with each window's initial angle and velocity fitted to the window's measurements (one
     Gauss-Newton step, kept where it lowers the window's error: friction makes the start non-smooth).  Three
     prediction buffers, no other temporaries the length of the log."""
+    x_meas = readonly(x_meas)  # one compiled _predict, _normal_sums, _keep_better (numerics.kernel_args)
     n, nw = x_meas.size, _windows(x_meas.size, horizon)
     zero = np.zeros(nw)
     args = (tau, other, s2, scw, ext, dt, horizon, th, fx)

@@ -166,7 +166,8 @@ def _f64_sequence(buf, q, base, end):
 
 @njit(cache=True, nogil=True)
 def decode_joint_state(buf, starts, lens, field, want_flat, want_start, want_len, want_index, values, stamp, status):
-    """Per message: header stamp [ns] and ``field`` (0 position, 1 velocity, 2 effort) of each wanted joint.
+    """Per message: header stamp [ns] and ``field`` (0 position, 1 velocity, 2 effort) of each wanted joint, into
+    values[j, message] ((wanted, messages), C order: one compiled kernel whatever the count).
 
     A wanted joint is a name (bytes in want_flat[want_start[j]:+want_len[j]]) or, when
     want_index[j] >= 0, a position in the arrays."""
@@ -221,13 +222,14 @@ def decode_joint_state(buf, starts, lens, field, want_flat, want_start, want_len
                     elif idx[j] >= cnt:
                         status[i] = INDEX_OUT_OF_RANGE
                     else:
-                        values[i, j] = _f64(buf, q + 8 * idx[j], scratch)
+                        values[j, i] = _f64(buf, q + 8 * idx[j], scratch)
             q += 8 * cnt
 
 
 @njit(cache=True, nogil=True)
 def decode_float64_multiarray(buf, starts, lens, want_index, values, status):
-    """Per message: data[want_index[j]] of a Float64MultiArray."""
+    """Per message: data[want_index[j]] of a Float64MultiArray, into values[j, message] ((wanted, messages), C order:
+    one compiled kernel whatever the count)."""
     k = want_index.size
     scratch = np.empty(1, np.int64)
     for i in range(starts.size):
@@ -251,7 +253,7 @@ def decode_float64_multiarray(buf, starts, lens, want_index, values, status):
             if want_index[j] >= cnt:
                 status[i] = INDEX_OUT_OF_RANGE
             else:
-                values[i, j] = _f64(buf, q + 8 * want_index[j], scratch)
+                values[j, i] = _f64(buf, q + 8 * want_index[j], scratch)
 
 
 # ---- encoders (simulate --format mcap): fixed layouts, struct-packed ----------------------------

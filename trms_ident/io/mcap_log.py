@@ -293,7 +293,7 @@ _STATUS_TEXT = {SHORT: "is shorter than its layout", BIG_ENDIAN: "is big-endian 
 
 def _decode_fast(path, ch, buf, st, ln, srcs):
     n, k = st.size, len(srcs)
-    vals = np.full((k, n), np.nan).T  # (n, k) indexing over field-major memory: each field one block
+    fields = np.full((k, n), np.nan)  # field-major memory, each field one block: always C order (one compiled kernel)
     status = np.zeros(n, np.int64)
     if ch.schema_name == JOINT_STATE:
         steps = [s.steps for s in srcs]
@@ -307,12 +307,12 @@ def _decode_fast(path, ch, buf, st, ln, srcs):
         index = np.array([p[0].index if p[0].index is not None else (-1 if p[0].name else 0) for p in steps], np.int64)
         stamp = np.zeros(n, np.int64)
         decode_joint_state(buf, st, ln, ("position", "velocity", "effort").index(steps[0][0].key), flat, starts, lens,
-                           index, vals, stamp, status)
+                           index, fields, stamp, status)
     else:
         steps = [s.steps for s in srcs]
         if any(len(p) != 1 or p[0].key != "data" or p[0].index is None for p in steps):
             return None, None
-        decode_float64_multiarray(buf, st, ln, np.array([p[0].index for p in steps], np.int64), vals, status)
+        decode_float64_multiarray(buf, st, ln, np.array([p[0].index for p in steps], np.int64), fields, status)
         stamp = None
     bad = np.flatnonzero(status != OK)
     if bad.size:
@@ -322,7 +322,7 @@ def _decode_fast(path, ch, buf, st, ln, srcs):
         which = ", ".join(s.field for s in srcs)
         raise LogFormatError(f"{path}: topic {ch.topic}: message {i} {_STATUS_TEXT[int(status[i])]} ({which}); "
                              f"expected {ch.schema_name} with those fields")
-    return vals, stamp
+    return fields.T, stamp  # (n, k)
 
 
 def _decode_general(path, ch, data, st, ln, srcs, decoders):

@@ -19,6 +19,7 @@ from numba import njit
 from ..model.plant import pitch_torque, reaction_moment, thrust, yaw_torque
 from .coefficients import bilinear_second_order, zoh_first_order, zoh_reaction
 from .drem import gradient_step
+from .kernel_args import readonly
 
 # filter slots: motor lag, M_R path, F, F s^2, F s, H on g, H on m1, H on m2
 TAU, MR, F0, F2, F1, HG, HM1, HM2 = range(8)
@@ -158,7 +159,8 @@ def _axis_inputs(axis: str, u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dic
             b[slot], a[slot] = (1.0, 0.0, 0.0), (1.0, 0.0, 0.0)
         drive, reaction = motor[0 if pitch else 1], motor[2]
     th_a, th_b = (p["a1"], p["b1"]) if pitch else (p["a2"], p["b2"])
-    return (pitch, drive, reaction, alpha_rad if pitch else beta_rad, beta_rad, dt_s, b, a, th_a, th_b,
+    drive, reaction, angle, beta = map(readonly, (drive, reaction, alpha_rad if pitch else beta_rad, beta_rad))
+    return (pitch, drive, reaction, angle, beta, dt_s, b, a, th_a, th_b,
             law == "signed", p["Mg"], p["Kg"])
 
 
@@ -231,7 +233,7 @@ def biquad(b: np.ndarray, a: np.ndarray, x: np.ndarray) -> np.ndarray:
     """lfilter(b, a, x) for one second-order section, starting in the steady state of x[0]."""
     y = np.empty(x.size)
     _biquad(np.ascontiguousarray(b, dtype=float), np.ascontiguousarray(a, dtype=float),
-            np.ascontiguousarray(x, dtype=float), y)
+            readonly(x), y)
     return y
 
 
@@ -341,7 +343,7 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
 
         c1 = np.array(zoh_motor_lag_states(p["k1"], p["Tp"], p["T11"], p["T10"], dt_s))
         bb, aa = zoh_first_order(p["k2"], p["T21"], p["T20"], dt_s)
-        _motor_states(np.ascontiguousarray(u1_v, dtype=float), np.ascontiguousarray(u2_v, dtype=float), c1,
+        _motor_states(readonly(u1_v), readonly(u2_v), c1,
                       np.array([-aa[1], bb[1]]), p["kc"], p["T0"], p["Tp"],
                       np.array([start["tau1_0"], start["tau2_0"], start["zeta_0"]], dtype=float), out)
     mode = ROWS[rows]
@@ -349,9 +351,8 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
         sin_a = cos_a = np.empty(0)
     else:
         sin_a, cos_a = trig if trig is not None else (np.sin(alpha_rad), np.cos(alpha_rad))
-    _plant_signals(np.ascontiguousarray(u1_v, dtype=float), np.ascontiguousarray(u2_v, dtype=float),
-                   np.ascontiguousarray(sin_a, dtype=float), np.ascontiguousarray(cos_a, dtype=float),
-                   np.ascontiguousarray(beta_rad, dtype=float),
+    _plant_signals(readonly(u1_v), readonly(u2_v),
+                   readonly(sin_a), readonly(cos_a), readonly(beta_rad),
                    float(dt_s), b, a, p["a1"], p["b1"], p["a2"], p["b2"], law == "signed", p["Mg"], p["Kg"],
                    float(gravity_offset_rad), start is not None, mode, out)
     if mode == ROWS_MOTORS:

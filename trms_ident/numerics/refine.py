@@ -46,6 +46,7 @@ from numba import njit
 from scipy.special import stdtrit
 
 from . import safe
+from .kernel_args import readonly
 from ..model.plant import (FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, LAG1_SLOT, LAG2_SLOT, N_SLOTS, PARAM_ORDER,
                            SENSOR_OFFSET_SLOT, YAW_INERTIA_SLOT, centrifugal_pitch, coriolis_yaw, coulomb_sign,
                            friction, lag_rate, model_vector, motor_rate, pitch_torque, reaction_moment, reversed_gain,
@@ -546,6 +547,7 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
     None).  ``ext`` (n, 2): exogenous torques [N m] held over each sample interval (None: none).  ``rounding``:
     (quanta (2,) [rad], grids (r, 2) [rad]) for windows_pass, whose b_grid and scores_grid are then returned
     after the scores."""
+    u1, u2 = readonly(u1), readonly(u2)  # one compiled windows_pass and motor_starts (kernel_args)
     n = u1.size
     nw = starts.shape[0]
     nb = max(n // block, 1)
@@ -746,7 +748,7 @@ class _Problem:
         # the motor states depend on the motors' values and voltages alone
         key = (max_sub, pv[_MOTOR_P].tobytes(), self.levels(th))
         if key not in self.motor_cache:
-            self.motor_cache[key] = motor_starts(u1, u2, pv, self.h, self.dsw, max_sub, self.win,
+            self.motor_cache[key] = motor_starts(readonly(u1), readonly(u2), pv, self.h, self.dsw, max_sub, self.win,
                                                  st.shape[0], np.zeros(5))
         return gauss_newton_pass(u1, u2, self.y, self.inv_sig, st, self.motor0(th), pv, self.signed, self.h,
                                  self.dsw, max_sub, self.win, self.block, out, ext, self.motor_cache[key],
