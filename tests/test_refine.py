@@ -404,3 +404,27 @@ def test_a_freed_saturation_level_is_estimated_with_j_b_and_its_interval_covers(
     # (to Gauss-Newton's stopping rule)
     held = identify(as_log(r), Settings(effects={key: f["estimate"]}))
     assert held.refined.cost == pytest.approx(res.refined.cost, abs=2 * R.MIN_COST_DECREASE)
+
+
+def test_each_kernel_is_compiled_for_one_array_type_whatever_the_voltages_flags():
+    """Read-only and writable voltages (the log's views, a clipped copy) reach the same compiled kernel: numba
+    compiles once per argument type, and each extra type of windows_pass cost ~5 s of a first run's compilation
+    (numerics.kernel_args)."""
+    from trms_ident.numerics import fused
+
+    r = sim_cached("steps", 200.0, 4.0)
+    n = r.t_s.size
+    pv = P.model_vector(defaults())
+    starts = np.array([[r.alpha_rad[0], 0.0, r.beta_rad[0], 0.0]])
+    y = np.column_stack([r.alpha_rad, r.beta_rad])
+    kernels = (R.windows_pass, R.motor_starts, fused._plant_signals)
+    before = [len(k.signatures) for k in kernels]  # what this worker's earlier tests compiled (at most one each)
+    frozen = r.u1_v.view(), r.u2_v.view()
+    for v in frozen:
+        v.flags.writeable = False
+    for u1, u2 in ((r.u1_v.copy(), r.u2_v.copy()), frozen, (r.u1_v[::1].copy(), np.asfortranarray(r.u2_v))):
+        R.gauss_newton_pass(u1, u2, y, np.ones(2), starts, np.zeros(5), pv, False, np.diff(r.t_s),
+                            np.zeros((n, 2)), R.MAX_SUBSTEP_S, n, 100, np.empty((n, 2)), np.zeros((n, 2, 0)))
+        fused.plant_signals(u1, u2, r.alpha_rad.copy(), r.beta_rad, 1 / 200.0, defaults(), "signed")
+    for kernel, b in zip(kernels, before):
+        assert len(kernel.signatures) == max(b, 1), (kernel.py_func.__name__, kernel.signatures)
