@@ -19,6 +19,7 @@ from ..log import Log
 from ..model import effects
 from ..numerics.filters import discretize, second_order_lowpass
 from ..numerics.fused import plant_signals  # compiled, equal to regressors.plant_signals to round-off
+from ..numerics.kernel_args import readonly
 from ..numerics.regressors import PlantSignals, filtered_regression
 
 AXIS_ANGLE = {"pitch": "alpha_rad", "yaw": "beta_rad"}
@@ -131,9 +132,7 @@ def modified_inputs(log: Log, mods: dict) -> tuple[np.ndarray, np.ndarray, dict]
 
     A voltage no modification touches is the log's own, as a read-only view (no copy: an hour at 1 kHz is
     29 MB a column)."""
-    u = {"pitch": log.u1_v.view(), "yaw": log.u2_v.view()}
-    for v in u.values():
-        v.flags.writeable = False
+    u = {"pitch": readonly(log.u1_v), "yaw": readonly(log.u2_v)}
     changes = {}
     dt = log.sample_time_s
     for key, v in mods.items():

@@ -670,7 +670,7 @@ _SATURATION_SLOT_SET = frozenset(SATURATION_SLOTS.values())
 class _Problem:
     """One log and model, evaluated at any parameters: the kernel pass with the freed values' sensitivities
     (exact for DIRECT_SLOTS and exogenous torques, forward differences for the motors' values)."""
-    u1: np.ndarray
+    u1: np.ndarray  # the voltages [V], read-only (kernel_args: one compiled motor_starts and windows_pass)
     u2: np.ndarray
     y: np.ndarray
     inv_sig: np.ndarray
@@ -718,7 +718,7 @@ class _Problem:
         if lv not in self._clipped:
             if len(self._clipped) >= 4:  # a Gauss-Newton iteration asks for two (the point, its difference)
                 self._clipped.pop(next(iter(self._clipped)))
-            self._clipped[lv] = tuple(u if math.isinf(v) else np.clip(u, -v, v)
+            self._clipped[lv] = tuple(u if math.isinf(v) else readonly(np.clip(u, -v, v))
                                       for u, v in ((self.u1, lv[0]), (self.u2, lv[1])))
         return self._clipped[lv]
 
@@ -748,7 +748,7 @@ class _Problem:
         # the motor states depend on the motors' values and voltages alone
         key = (max_sub, pv[_MOTOR_P].tobytes(), self.levels(th))
         if key not in self.motor_cache:
-            self.motor_cache[key] = motor_starts(readonly(u1), readonly(u2), pv, self.h, self.dsw, max_sub, self.win,
+            self.motor_cache[key] = motor_starts(u1, u2, pv, self.h, self.dsw, max_sub, self.win,
                                                  st.shape[0], np.zeros(5))
         return gauss_newton_pass(u1, u2, self.y, self.inv_sig, st, self.motor0(th), pv, self.signed, self.h,
                                  self.dsw, max_sub, self.win, self.block, out, ext, self.motor_cache[key],
@@ -863,7 +863,7 @@ def setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s=WIND
     scale = np.concatenate([np.abs(theta[:4]), np.maximum(motor_range, 1e-6) * 1e3,
                             np.maximum(np.abs(np.asarray(given, dtype=float)), 1e-9),
                             [max(volts[k], 1e-6) * 1e3 for k in lags]])
-    prob = _Problem(np.ascontiguousarray(u1, dtype=float), np.ascontiguousarray(u2, dtype=float), y, 1.0 / sig,
+    prob = _Problem(readonly(u1), readonly(u2), y, 1.0 / sig,
                     base, law == "signed", h,
                     np.zeros((n, 2)) if switch_delay_s is None else np.ascontiguousarray(switch_delay_s, dtype=float),
                     win, block,
