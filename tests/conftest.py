@@ -131,9 +131,29 @@ def slow_key(nodeid: str) -> str:
     return f"{path.rsplit('/', 1)[-1]}::{name}"
 
 
+#: the compiled kernels in two halves of about equal compile time (20 s and 12 s alone on an empty cache, 2 Dec
+#: 2026): the refinement's, and the DREM core's; a diagnose then compiles ~5 s more of its own
+KERNEL_HALVES = ("from trms_ident.numerics.refine import warm_up; warm_up()",
+                 "from trms_ident.numerics.fused import warm_up; warm_up()")
+
+
+def compile_kernels_in_halves() -> list[int]:
+    """Compile (or load) the kernels into numba's cache in two processes at once, each its own half: on an empty
+    cache every xdist worker would otherwise compile all of them itself, the same ~30 s at the same time.  Their
+    exit codes (a failure here is not the suite's: the workers compile what is missing, as before)."""
+    import subprocess
+    import sys
+
+    procs = [subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+             for code in KERNEL_HALVES]
+    return [p.wait() for p in procs]
+
+
 def pytest_configure(config):
     if getattr(config.option, "maxschedchunk", False) is None:  # pytest-xdist loaded, no chunk size given
         config.option.maxschedchunk = 1
+    if getattr(config.option, "numprocesses", None) and not hasattr(config, "workerinput"):  # xdist's controller
+        compile_kernels_in_halves()  # before the workers start: ~2 s when the cache holds them already
 
 
 @pytest.hookimpl(tryfirst=True)
