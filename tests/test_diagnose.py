@@ -197,7 +197,9 @@ def test_cli_json_contract_and_report(tmp_path):
     assert "Finding 1: coulomb_friction on yaw" in html
     # the page says the verdict as the terminal's first line does: the findings in plain words, then why
     from trms_ident.report.terminal import headline
-    assert f"</span> {headline(doc['verdict'], doc['findings'])}</b>." in html and "Coulomb friction on yaw (Fc = " in html
+    leads = bool(doc["estimates"]["not_credible"]["augmented"])
+    assert f"</span> {headline(doc['verdict'], doc['findings'], leads)}</b>." in html
+    assert "Coulomb friction on yaw (Fc = " in html
     import html as html_mod
     assert f"Why: {html_mod.escape(doc['verdict_sentence'])}" in html
     assert json.loads((tmp_path / "rep" / "diagnosis.json").read_text())["mismatch"] is True

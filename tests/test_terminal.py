@@ -1,6 +1,6 @@
 """diagnose's terminal words (report/terminal.py, issue #47 item 6): the verdict and the findings in plain words
 first, the same words in batch's summary; pure, on diagnosis.json-shaped findings."""
-from trms_ident.report.terminal import HEADLINES, finding_words, headline, listed
+from trms_ident.report.terminal import HEADLINES, LEADS, finding_words, headline, listed
 
 
 def _effect(effect, axis, name, value, unit):
@@ -28,6 +28,9 @@ def test_the_first_line_names_every_finding_in_one_sentence():
     assert headline("partly_explained", [cable]).startswith("a cable on yaw (k = 0.004 N m/rad) found, and the model "
                                                             "still misses something")
     assert headline("consistent", []) == HEADLINES["consistent"]
+    # J/B not credible with the findings: leads, whether or not they reach the noise level (verdict.credible)
+    assert headline("partly_explained", [cable], leads=True) == LEADS.format(found="a cable on yaw (k = 0.004 N m/rad)")
+    assert "not measurements" in LEADS and "not credible" in LEADS and "still misses" not in LEADS
     assert listed(["a", "b", "c"]) == "a, b and c" and listed(["a"]) == "a"
 
 
@@ -59,3 +62,26 @@ def test_a_findings_lines_carry_one_fit_figure_its_interval_and_look_alikes_not_
     assert "the 2 s prediction fit of its axes: 97.50 % -> 99.90 %" in text
     assert "diagnosis.json" in text  # where the evidence is
     assert "cable_stiffness:yaw 0.00401 [0.00399, 0.00403]" in text  # fitted with J/B under the findings' model
+
+
+def test_findings_whose_jb_are_not_credible_are_called_leads_on_the_first_line():
+    # a weak-excitation log (the angles a random walk, the voltages within 10 mV): a 6 s second-order main motor
+    # refitted J2 to 18.7 kg m^2; the first line said it was "found", and that the model "does not reach the noise
+    # level" also where only credible() had turned "explained" into "partly explained"
+    from types import SimpleNamespace
+
+    from trms_ident.diagnosis.result import Finding
+    from trms_ident.report.terminal import diagnosis_lines
+
+    lag = Finding("motor_second_lag", "pitch", {"name": "T2", "value": 6.06, "unit": "s"}, 10.0, 40.0, "",
+                  "a further lag", 0.3, 5.0, 1e-6)
+    est = {"J1": 0.068, "B1": 0.006, "J2": 0.02, "B2": 0.1}
+    d = SimpleNamespace(verdict="partly_explained", findings=[lag], verdict_sentence="far from this bench",
+                        fit_before={"pitch": 10.0, "yaw": 5.0}, settings={"candidates": 20}, nominal=est,
+                        augmented={**est, "J2": 18.7}, held_out=None, refused=[], corrections=[], with_findings=None)
+    first = diagnosis_lines(d, "weak.csv")[0]
+    assert first == ("weak.csv: PARTLY EXPLAINED: a second-order main motor (T2 = 6.06 s) found as leads to check, not "
+                     "measurements: the J/B refitted with them are not credible (the findings' model is far from this "
+                     "bench).")
+    d.augmented = est  # credible: the plain partly-explained line
+    assert "still misses something" in diagnosis_lines(d, "weak.csv")[0]

@@ -311,9 +311,10 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
     colour = {"consistent": "#e8f5e9", "explained": "#e8f5e9", "partly_explained": "#fff4e0"}.get(doc["verdict"],
                                                                                                    "#fdecea")
     # as the terminal says it (report/terminal.py): the verdict and the findings in plain words, then why
+    leads = bool(doc["estimates"]["not_credible"]["augmented"])
     verdict = (f'<span style="background:{colour};padding:2px 6px;border-radius:4px">'
                f'{html.escape(doc["verdict"].replace("_", " ").upper())}</span> '
-               f'{html.escape(headline(doc["verdict"], doc["findings"]))}')
+               f'{html.escape(headline(doc["verdict"], doc["findings"], leads))}')
     why = f'Why: {html.escape(doc["verdict_sentence"])} {len(doc["findings"])} finding(s).'
     check = doc["settings"].get("output_error_check")
     oe_line = html.escape("" if check is None else " Output-error check of the findings' model: error RMS over its "

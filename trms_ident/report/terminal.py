@@ -4,7 +4,7 @@ findings with the same words (finding_words).  Pure: a Diagnosis (or its diagnos
 from __future__ import annotations
 
 from ..model.effects import with_unit
-from ..params import ESTIMATED, marked
+from ..params import ESTIMATED, marked, not_credible
 
 #: the first line after the verdict, in plain words: {found} is the findings named
 HEADLINES = {
@@ -14,6 +14,10 @@ HEADLINES = {
                         "level",
     "unexplained": "the model misses something that no effect of the library and no known value explains",
 }
+#: the first line when J/B refitted with the findings are not credible (diagnosis.verdict.credible): the verdict is
+#: then partly explained whether or not the findings reach the noise level, so the line says why instead
+LEADS = ("{found} found as leads to check, not measurements: the J/B refitted with them are not credible (the "
+         "findings' model is far from this bench)")
 
 
 def _field(f, name: str):
@@ -48,10 +52,11 @@ def listed(words: list[str]) -> str:
     return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
 
 
-def headline(verdict: str, findings) -> str:
-    """The verdict's plain words with the findings named (HEADLINES)."""
+def headline(verdict: str, findings, leads: bool = False) -> str:
+    """The verdict's plain words with the findings named (HEADLINES); ``leads``: the J/B refitted with the findings
+    are not credible (LEADS)."""
     found = listed([finding_words(f) for f in findings]) if findings else "nothing"
-    return HEADLINES[verdict].format(found=found)
+    return (LEADS if leads and findings else HEADLINES[verdict]).format(found=found)
 
 
 def diagnosis_lines(d, source: str) -> list[str]:
@@ -63,7 +68,8 @@ def diagnosis_lines(d, source: str) -> list[str]:
     from ..diagnosis.held_out import sentence as held_out_sentence
     from ..diagnosis.predict import fit_change, fit_text
 
-    lines = [f"{source}: {d.verdict.upper().replace('_', ' ')}: {headline(d.verdict, d.findings)}.",
+    leads = bool(not_credible(d.augmented))
+    lines = [f"{source}: {d.verdict.upper().replace('_', ' ')}: {headline(d.verdict, d.findings, leads)}.",
              f"  why: {d.verdict_sentence}"]
     fits = ", ".join(f"{k} {fit_text(v)}" for k, v in d.fit_before.items())
     if not d.findings:
