@@ -146,7 +146,14 @@ def compile_kernels_in_halves() -> list[int]:
 
     procs = [subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
              for code in KERNEL_HALVES]
-    return [p.wait() for p in procs]
+    codes = []
+    for p in procs:
+        try:
+            codes.append(p.wait(timeout=300))
+        except subprocess.TimeoutExpired:  # a stuck compile must not hold the suite: the workers compile instead
+            p.kill()
+            codes.append(p.wait())
+    return codes
 
 
 def pytest_configure(config):
