@@ -131,8 +131,8 @@ def slow_key(nodeid: str) -> str:
     return f"{path.rsplit('/', 1)[-1]}::{name}"
 
 
-#: the compiled kernels in two halves of about equal compile time (20 s and 12 s alone on an empty cache, 2 Dec
-#: 2026): the refinement's, and the DREM core's; a diagnose then compiles ~5 s more of its own
+#: the compiled kernels in two halves, the refinement's and the DREM core's (20 s and 12 s alone on an empty cache,
+#: 2 Dec 2026); a diagnose then compiles ~5 s more of its own (the predictions', a second signature of two)
 KERNEL_HALVES = ("from trms_ident.numerics.refine import warm_up; warm_up()",
                  "from trms_ident.numerics.fused import warm_up; warm_up()")
 
