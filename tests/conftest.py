@@ -160,7 +160,12 @@ def pytest_configure(config):
     if getattr(config.option, "maxschedchunk", False) is None:  # pytest-xdist loaded, no chunk size given
         config.option.maxschedchunk = 1
     if getattr(config.option, "numprocesses", None) and not hasattr(config, "workerinput"):  # xdist's controller
-        compile_kernels_in_halves()  # before the workers start: ~2 s when the cache holds them already
+        from pathlib import Path
+
+        from trms_ident import _cache
+
+        if not _cache.kernels_cached(Path(__file__).resolve().parents[1]):  # an empty cache (a fresh clone, CI)
+            compile_kernels_in_halves()  # before the workers start
 
 
 @pytest.hookimpl(tryfirst=True)
