@@ -227,14 +227,16 @@ def main() -> None:
     args = seed_args(__doc__, n=30, only=True)
     t0 = time.perf_counter()
     chosen = [c for c in cases(args.n) if not args.only or c["i"] in args.only]
-    with ProcessPoolExecutor(max_workers=2) as pool:
-        rows = list(pool.map(run, chosen))
     lines = ["| bench | kind | log | concealed | verdict | findings | named | within 30 % | invented |",
              "|---|---|---|---|---|---|---|---|---|"]
-    for r in rows:
-        lines.append(f"| {r['i']} | {r['kind']} | {r['log']} | {', '.join(r['hidden'])} | {r['verdict']} | "
-                     f"{', '.join(r['found']) or '-'} | {sum(r['named'].values())}/{len(r['named'])} | "
-                     f"{sum(r['within'].values())}/{len(r['within'])} | {', '.join(r['invented']) or '-'} |")
+    rows = []
+    with ProcessPoolExecutor(max_workers=2) as pool:
+        for r in pool.map(run, chosen):  # each row on stderr as it comes: a run stopped early keeps its rows
+            rows.append(r)
+            lines.append(f"| {r['i']} | {r['kind']} | {r['log']} | {', '.join(r['hidden'])} | {r['verdict']} | "
+                         f"{', '.join(r['found']) or '-'} | {sum(r['named'].values())}/{len(r['named'])} | "
+                         f"{sum(r['within'].values())}/{len(r['within'])} | {', '.join(r['invented']) or '-'} |")
+            print(lines[-1], f"({r['seconds']:.0f} s)", file=sys.stderr, flush=True)
     two = [r for r in rows if r["kind"] == "two differences"]
     both = [r for r in rows if r["kind"].startswith("both motors")]
 
