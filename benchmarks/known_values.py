@@ -98,7 +98,7 @@ def run_case(c: dict) -> dict:
     first = d.findings[0] if d.findings else None
     named = None
     if first is not None:
-        from trms_ident.diagnosis.weigh import SAME
+        from trms_ident.diagnosis.compound import SAME
 
         if first.effect == "known_value":
             named = first.parameter["name"]

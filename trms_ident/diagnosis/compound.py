@@ -57,8 +57,9 @@ MAX_RANKED = 3
 #: 17 % low, at the floor after; a refit that leaves 10x is not one value away from the floor, and each profile
 #: costs 10-30 s)
 LEAD_OVER_NOISE = 2.0
-#: effects that are a known value under another name (weigh.SAME): a known value named under one is not a second
-#: difference but the effect's own value moved again
+#: library effects that are a known value of eq. (1) under another name (the motor time constant the motor_lag
+#: candidate fits is T11 (T21) itself): a known value named under one is not a second difference but the
+#: effect's own value moved again
 SAME = {"motor_lag:pitch": "T11", "motor_lag:yaw": "T21"}
 #: value_first: at most this many known values lead, each one effect search run again (4-150 s)
 MAX_LEADS = 2

@@ -55,16 +55,13 @@ from ..log import Log
 from ..numerics.adequacy import RMS_OVER_NOISE
 from ..numerics.stats import block_length
 from . import search
-from .compound import later_tries_sentence, ranked_together, together, tried_sentence, value_first
+from .compound import SAME, later_tries_sentence, ranked_together, together, tried_sentence, value_first
 from .fits import prediction_fits
 from .model import AXIS_ANGLE, regression
 from .oe import motor_states
 from .result import known_value_finding
 from .select import block_ids, score
 
-#: library effects that are a known value of eq. (1) under another name: the motor time constant the motor_lag
-#: candidate fits is T11 (T21) itself
-SAME = {"motor_lag:pitch": "T11", "motor_lag:yaw": "T21"}
 #: the verdict sentence of a known value that explains the log
 EXPLAINED_BY_VALUE = ("the model fits the log to its noise level once one known value takes the bench's own value "
                       "instead of the one it was given: a known value, not new physics")
