@@ -25,7 +25,10 @@ EFFECTS: dict[str, Effect] = {
         Effect("cable_stiffness", ("yaw",), "k", "N m/rad", "yaw restoring torque -k*beta"),
         Effect("com_offset", ("pitch",), "delta", "rad", "gravity moment Mg*sin(alpha + delta)"),
         Effect("sensor_offset", ("pitch", "yaw"), "delta", "rad", "logged angle = angle + delta"),
-        Effect("dead_zone", ("pitch", "yaw"), "w", "V", "|u| < w applies no voltage"),
+        Effect("dead_zone", ("pitch", "yaw"), "w", "V", "|u| < w applies no voltage, a larger u passes unchanged"),
+        Effect("shifted_dead_zone", ("pitch", "yaw"), "w", "V",
+               "the Dead Zone block of Simulink, Simscape, Modelica and PLECS: 0 inside [-w, w], u - w sign(u) "
+               "outside"),
         Effect("input_saturation", ("pitch", "yaw"), "U", "V", "plant sees clip(u, -U, U)"),
         Effect("input_delay", ("both",), "d", "s", "plant sees u(t - d)"),
         Effect("motor_lag", ("pitch", "yaw"), "T", "s", "true motor time constant T11 or T21"),
@@ -56,7 +59,8 @@ I_ASYM = (13, 14)
 I_YAW_INERTIA = 15
 I_LAG2 = (16, 17)
 I_SENSOR_LAG = 18
-N_EFFECT_SLOTS = 19
+I_SHIFTED_DEADZONE = (19, 20)
+N_EFFECT_SLOTS = 21
 AXIS_INDEX = {"pitch": 0, "yaw": 1}
 
 
@@ -81,6 +85,7 @@ def pack(effects: list[dict]) -> list[float]:
             "quadratic_drag": I_DRAG,
             "sensor_offset": I_SENSOR,
             "dead_zone": I_DEADZONE,
+            "shifted_dead_zone": I_SHIFTED_DEADZONE,
             "input_saturation": I_SAT,
             "thrust_asymmetry": I_ASYM,
             "motor_second_lag": I_LAG2,

@@ -30,9 +30,13 @@ def _thrust(tau, a, b, law):
 
 
 @njit(cache=True)
-def _deadzone_sat(u, w, big_u):
-    if abs(u) < w:
+def _deadzone_sat(u, w, big_u, shift=0.0):
+    """A motor's drive: the cut-off dead zone (|u| < w gives 0, larger u unchanged), the shifted one of the
+    modelling tools' Dead Zone blocks (0 inside [-shift, shift], u - shift sign(u) outside), then the clip."""
+    if abs(u) < w or abs(u) <= shift:
         return 0.0
+    if shift > 0.0:
+        u = u - shift if u > 0.0 else u + shift
     return min(max(u, -big_u), big_u)
 
 
@@ -121,7 +125,7 @@ def closed_loop(dts, aref, bref, p, law, gains, u_lim, fx, noise_a, noise_b, q, 
     measurement filtered with time constant Tf [s]).  u_lim [V] is the controller's
     output limit; the logged u is the commanded (applied) voltage.
     """
-    if x0.size != 9 or fx.size < 18:
+    if x0.size != 9 or fx.size < 21:
         raise ValueError("closed_loop needs 9 start states and an effect vector of sim.effects.N_EFFECT_SLOTS")
     n = aref.size
     x = x0.copy()
@@ -202,8 +206,8 @@ def closed_loop(dts, aref, bref, p, law, gains, u_lim, fx, noise_a, noise_b, q, 
             ns = int(math.ceil(length / h_max - 1e-9))
             if ns < 1:
                 ns = 1
-            w1 = _deadzone_sat(pieces_u1[j], fx[8], fx[10])
-            w2 = _deadzone_sat(pieces_u2[j], fx[9], fx[11])
+            w1 = _deadzone_sat(pieces_u1[j], fx[8], fx[10], fx[19])
+            w2 = _deadzone_sat(pieces_u2[j], fx[9], fx[11], fx[20])
             _rk4(x, w1, w2, p, law, fx, length / ns, ns)
     return u1_log, u2_log, a_log, b_log, true_state
 
@@ -212,7 +216,7 @@ def closed_loop(dts, aref, bref, p, law, gains, u_lim, fx, noise_a, noise_b, q, 
 def open_loop(dt, u1, u2, p, law, fx, h_max, x0):
     """Plant driven by logged, held voltages (no controller); returns true (alpha, beta) per sample.  ``x0``: the
     9 states (module docstring); ``fx``: the effect vector (sim.effects.pack's N_EFFECT_SLOTS)."""
-    if x0.size != 9 or fx.size < 18:
+    if x0.size != 9 or fx.size < 21:
         raise ValueError("open_loop needs 9 start states and an effect vector of sim.effects.N_EFFECT_SLOTS")
     n = u1.size
     x = x0.copy()
@@ -222,5 +226,6 @@ def open_loop(dt, u1, u2, p, law, fx, h_max, x0):
         out[k, 0] = x[0]
         out[k, 1] = x[2]
         if k < n - 1:
-            _rk4(x, _deadzone_sat(u1[k], fx[8], fx[10]), _deadzone_sat(u2[k], fx[9], fx[11]), p, law, fx, dt / ns, ns)
+            _rk4(x, _deadzone_sat(u1[k], fx[8], fx[10], fx[19]),
+                 _deadzone_sat(u2[k], fx[9], fx[11], fx[20]), p, law, fx, dt / ns, ns)
     return out

@@ -80,3 +80,30 @@ def test_an_acquisition_lag_filters_the_logged_angles_by_its_difference_equation
     assert np.max(np.abs(r.alpha_rad - plain.alpha_rad)) > 1e-3  # a 50 ms lag shows, and the loop reacts to it
     with pytest.raises(ValueError, match="sensor_lag must be > 0 s"):
         simulate(SimSettings(ref="square", effects=[{"effect": "sensor_lag", "axis": "both", "value": 0.0}]))
+
+
+@pytest.mark.parametrize("axis", ["pitch", "yaw"])
+def test_the_shifted_dead_zone_is_the_plain_plant_driven_by_the_blocks_output(axis):
+    """simulate's shifted_dead_zone (Simulink's Dead Zone block: 0 inside [-w, w], u - w sign(u) outside) acts as
+    the same voltages shifted by hand and fed to the plant without it, to round-off; it differs from the cut-off
+    form (dead_zone), which passes a voltage above the width unchanged."""
+    from sim.effects import pack
+    from sim.plant import PARAM_ORDER, open_loop
+    from trms_ident.params import defaults
+
+    p = defaults()
+    vec = np.array([p[k] for k in PARAM_ORDER])
+    dt, w = 0.005, 0.3
+    t = np.arange(int(6.0 / dt)) * dt
+    u1 = 0.9 * np.sin(2 * np.pi * 0.4 * t)
+    u2 = 0.8 * np.sin(2 * np.pi * 0.3 * t + 1.0)
+    shifted = lambda u: np.sign(u) * np.maximum(np.abs(u) - w, 0.0)  # noqa: E731
+    fx = np.array(pack([{"effect": "shifted_dead_zone", "axis": axis, "value": w}]), dtype=float)
+    cut = np.array(pack([{"effect": "dead_zone", "axis": axis, "value": w}]), dtype=float)
+    plain = np.array(pack([]), dtype=float)
+    a = open_loop(dt, u1, u2, vec, 0, fx, 5e-4, np.zeros(9))
+    b = open_loop(dt, shifted(u1) if axis == "pitch" else u1, shifted(u2) if axis == "yaw" else u2, vec, 0, plain,
+                  5e-4, np.zeros(9))
+    c = open_loop(dt, u1, u2, vec, 0, cut, 5e-4, np.zeros(9))
+    assert np.max(np.abs(a - b)) < 1e-12
+    assert np.max(np.abs(a - c)) > 1e-2  # rad: the two forms are different benches
