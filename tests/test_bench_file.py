@@ -120,7 +120,10 @@ def test_a_held_value_with_its_interval_widens_jb_so_they_cover(bench_log):
     ('"motor_second_lag:yaw" = { T = 0.3 }', 'line 3: [effects] "motor_second_lag:yaw": unexpected T; expected T2 [s]'),
     ('"motor_second_lag:yaw" = { from = "a log" }', 'line 3: [effects] "motor_second_lag:yaw": no value for its '
                                                   "parameter T2 [s]"),
-    ('"dead_zone:yaw" = -0.1', 'line 3: [effects] "dead_zone:yaw": w = -0.1 V is not physical; expected > 0'),
+    ('"dead_zone:yaw" = -0.1', 'line 3: [effects] "dead_zone:yaw": w = -0.1 V is not physical for a bench; '
+                              'expected between 0 and 1'),
+    ('"sensor_offset:pitch" = -0.86', 'line 3: [effects] "sensor_offset:pitch": delta = -0.86 rad is not physical '
+                                     'for a bench; expected between -0.174533 and 0.174533'),
     ('"motor_second_lag:yaw" = 0.001', 'line 3: [effects] "motor_second_lag:yaw": T2 = 0.001 s is shorter than the '
                                        "output-error fit integrates (at least 0.0025 s"),
 ])
@@ -215,13 +218,17 @@ def test_runs_of_the_bench_are_pooled_under_its_model(bench_log):
 
 def test_the_bench_files_effect_lists_are_the_fitters():
     """model.bench lists the effects by hand (reading a parameter file loads no compiled kernel): the same as the
-    refinement's effect slots and diagnose's profiled modifications with the second-order motors."""
+    refinement's effect slots and diagnose's profiled modifications with the model room's declared ones (the
+    second-order motors, the shifted dead zones)."""
     from trms_ident.diagnosis.oe import PROFILE_KEYS
     from trms_ident.model.bench import MODIFICATION_KEYS, TORQUE_KEYS
+    from trms_ident.model.effects import CANDIDATES
     from trms_ident.model.plant import EFFECT_SLOTS
 
     assert set(TORQUE_KEYS) == set(EFFECT_SLOTS)
-    assert set(MODIFICATION_KEYS) == set(PROFILE_KEYS) | {"motor_second_lag:pitch", "motor_second_lag:yaw"}
+    declared = {c.key for c in CANDIDATES if c.modify is not None}
+    assert {"motor_second_lag:yaw", "shifted_dead_zone:pitch"} <= declared
+    assert set(MODIFICATION_KEYS) == set(PROFILE_KEYS) | declared
 
 
 def test_design_plans_for_the_bench_as_diagnosed_and_estimate_then_gets_what_it_predicted(bench_log):

@@ -11,7 +11,10 @@ def test_each_kind_of_finding_reads_as_words_with_its_value_and_unit():
     assert finding_words(_effect("cable_stiffness", "yaw", "k", 0.004, "N m/rad")) == "a cable on yaw (k = 0.004 N m/rad)"
     assert finding_words(_effect("motor_second_lag", "yaw", "T2", 0.463, "s")) == \
         "a second-order tail motor (T2 = 0.463 s)"
-    assert finding_words(_effect("dead_zone", "pitch", "w", 0.25, "V")) == "a dead zone on the main motor (w = 0.25 V)"
+    assert finding_words(_effect("shifted_dead_zone", "pitch", "w", 0.25, "V")) == \
+        "a dead zone on the main motor (w = 0.25 V)"
+    assert finding_words(_effect("dead_zone", "yaw", "w", 0.25, "V")) == \
+        "a cut-off dead zone on the tail motor (w = 0.25 V)"
     kv = {"effect": "known_value", "axis": "pitch",
           "parameter": {"name": "Mg", "value": 0.288, "unit": "N m", "table": 0.32}}
     assert finding_words(kv) == "Mg = 0.288 N m instead of 0.32 N m"

@@ -10,7 +10,7 @@ from dataclasses import replace
 
 from ..model import effects as room
 from ..model.bench import NATIVE_FREE_KEYS
-from ..model.effects import Candidate
+from ..model.effects import SIBLING_EFFECTS, Candidate
 from ..numerics.adequacy import AXIS_OF, RMS_OVER_NOISE
 from . import oe
 from .discriminate import PAIR, tell_offsets_apart
@@ -119,7 +119,7 @@ def oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, 
         f, short = oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested, scan=scan)
         if not short:
             good.append((r, f))
-        elif f is not None and r["c"].effect in ("dead_zone", "input_saturation") and f.cost_drop > 0:
+        elif f is not None and r["c"].effect in SIBLING_EFFECTS and f.cost_drop > 0:
             short_of.append((r, f))
     other = None
     if not good and short_of:  # a motor's nonlinearity that helps but falls short: perhaps both motors have one

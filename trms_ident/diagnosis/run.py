@@ -11,7 +11,8 @@ import numpy as np
 from ..log import Log
 from ..params import KNOWN, merge
 from . import held_out, search
-from .result import Diagnosis
+from .result import VERDICTS, Diagnosis
+from .verdict import STAND_IN, stand_in_sentence, stand_ins
 from .weigh import weigh
 
 
@@ -32,6 +33,13 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
             exclude = tuple(g["key"] for g in gated)
             found = search.effect_search(log, overrides, law, a_rad_s, progress, exclude, seed)
             d = weigh(found, log, p, law, overrides, exclude)
+            # no finding leaves diagnose with a value outside its plausible range, whichever step placed it: it
+            # stands in for physics the model lacks, and the search runs again without it
+            outside = stand_ins(d.findings)
+            if outside and attempt < HELD_OUT_RERUNS:
+                gated += outside
+                continue
+            d = _without_stand_ins(d, outside)
             progress("held-out simulation fits", 0.97)
             h = held_out.held_out_fits(d, log, p, law)
             refuse = held_out.lowering(d.findings, h)
@@ -39,9 +47,24 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
                 break
             gated += refuse  # the search again without them: a rival they hid may hold on held-out samples
         refused = [{k: v for k, v in g.items() if k != "key"} for g in gated]
+        held = [g for g in refused if not g["reason"].startswith(STAND_IN)]
         given = {k: {"value": p[k], "source": "override" if k in (overrides or {}) else "table"} for k in KNOWN}
-        return replace(d, held_out=h, refused=d.refused + refused, settings={**d.settings, "known_values": given},
-                       verdict_sentence=d.verdict_sentence + held_out.gate_sentence(refused) + held_out.caution(h))
+        refused = d.refused + [g for g in refused if g not in d.refused]
+        return replace(d, held_out=h, refused=refused, settings={**d.settings, "known_values": given},
+                       verdict_sentence=d.verdict_sentence + held_out.gate_sentence(held) + held_out.caution(h)
+                       + (stand_in_sentence(refused) if d.verdict not in ("explained", "consistent") else ""))
+
+
+def _without_stand_ins(d: Diagnosis, outside: list[dict]) -> Diagnosis:
+    """The diagnosis without the findings ``outside`` names (the reruns did not get rid of them): never reported
+    as findings; the verdict can then be at most partly explained (with findings left) or unexplained."""
+    if not outside:
+        return d
+    keys = {g["key"] for g in outside}
+    kept = [f for f in d.findings if f"{f.effect}:{f.axis}" not in keys]
+    verdict = d.verdict if d.verdict == "consistent" else "partly_explained" if kept else "unexplained"
+    return replace(d, findings=kept, verdict=verdict, verdict_sentence=VERDICTS[verdict] + ".",
+                   refused=d.refused + [{k: v for k, v in g.items() if k != "key"} for g in outside])
 
 
 #: diagnose runs its search again without the effects whose model simulated an axis worse on held-out samples

@@ -14,7 +14,7 @@ from ..errors import LogFormatError
 from ..log import Log
 from ..model import effects
 from ..model.bench import NATIVE_FREE_KEYS
-from ..model.effects import UNOBSERVABLE, Candidate
+from ..model.effects import SIBLING_EFFECTS, UNOBSERVABLE, Candidate
 from ..numerics.adequacy import AXIS_OF
 from ..numerics.design import design_filters
 from ..numerics.stats import Z95, block_length
@@ -33,7 +33,8 @@ from .shapes import declared_shape, term_shape, thin
 from .trials import (ALIAS_GAIN_RATIO, EXACT_OFFSETS, MOTOR_LAG_NEUTRAL, aliased, axes_of, axis_residual,
                      effect_values, grid_span, jb_estimates, params_of, practical, separable, try_candidate,
                      value_grid)
-from .verdict import EXPLAINED_OE_OVER_NOISE, EXPLAINED_RMS_OVER_NOISE, credible, over_noise, verdict_of
+from .verdict import (EXPLAINED_OE_OVER_NOISE, EXPLAINED_RMS_OVER_NOISE, credible, over_noise, stand_in,
+                      verdict_of)
 
 MAX_FINDINGS = 3
 
@@ -179,6 +180,8 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
                 continue
             if c.effect in SIBLING_EFFECTS and effects.other_motor_key(c) in current.keys:
                 continue  # the other motor's of a kind found: the sibling step places the pair (_siblings)
+            if effects.other_form_key(c) in current.keys:
+                continue  # the motor's dead zone is in the model in its other form
             res = try_candidate(c, log, p, law, a, current, cache, ids, score_now, n_tests, span)
             if res is not None:
                 if not (res["test"].passed and c.plausible(res["value"])):
@@ -191,6 +194,7 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
                        "parameter": r["value"]} for r in results]
         ok = [r for r in results if r["test"].passed and r["c"].plausible(r["value"]) and
               practical(r["c"], r["value"], log, p, law)]
+        _stand_in(results, ok, refused)
         best, rescued = None, False
         while best is None:
             if not ok:  # the equation error finds nothing (more): the output-error fit judges its best candidates
@@ -313,9 +317,20 @@ def _both_saturations(run: _Run, best, current: Model, reg_now, score_now, oe_va
     return both
 
 
-#: input nonlinearities of a motor's drive: the same kind of drive runs both motors, so one found on a motor is
-#: tried on the other after the rounds (it must pass the output-error test like any candidate)
-SIBLING_EFFECTS = ("dead_zone", "input_saturation")
+def _stand_in(results: list, ok: list, refused: list) -> None:
+    """A round whose best passing hypothesis (by held-out gain) has a value outside its plausible range: that one
+    would have been the finding, so it is said as what it is, a stand-in for physics the model lacks
+    (verdict.stand_in), among the refusals (once per key)."""
+    passing = [r for r in results if r["test"].passed]
+    if not passing:
+        return
+    top = max(passing, key=lambda r: r["test"].gain)
+    if ok and top["test"].gain <= max(r["test"].gain for r in ok):
+        return
+    told = stand_in(top["c"].effect, top["c"].axis, top["value"])
+    if told is not None and not any((r["effect"], r["axis"]) == (told["effect"], told["axis"]) and
+                                    r.get("reason") == told["reason"] for r in refused):
+        refused.append({k: v for k, v in told.items() if k != "key"})
 
 
 def _siblings(findings: list, current: Model, excluded: set) -> list[Candidate]:

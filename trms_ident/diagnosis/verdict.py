@@ -121,3 +121,51 @@ def credible(verdict: str, sentence: str, augmented: dict) -> tuple[str, str]:
             sentence + f" The J/B refitted with the findings are not credible ({told}: not positive, or more than "
                        f"{PLAUSIBLE_FACTOR:g}x from Table 1): the findings' model is far from this bench, so read the "
                        "findings and their values as leads to check, not measurements.")
+
+
+#: a refusal's reason begins so when the value lies outside its parameter's plausible range (stand_in)
+STAND_IN = "stands in for something the model lacks"
+
+
+def stand_in(effect: str, axis: str, value: float) -> dict | None:
+    """A refusal ({"key", "effect", "axis", "parameter", "reason"}) when ``value`` of the library's ``effect`` on
+    ``axis`` lies outside its plausible range (model.effects: a 49 deg encoder offset describes no bench, it
+    absorbs a misfit the model cannot otherwise fit); None when it is plausible or not the library's."""
+    from ..model import effects
+
+    c = effects.by_key(f"{effect}:{axis}")
+    if c is None or c.plausible(value):
+        return None
+    lo, hi = c.bounds
+    shown = f"{value:.4g} {c.unit}" + (f" ({math.degrees(value):.3g} deg)" if c.unit == "rad" else "")
+    if not math.isfinite(lo):
+        span = f"below {hi:.4g} {c.unit}"
+    elif not math.isfinite(hi):
+        span = f"above {lo:.4g} {c.unit}"
+    else:
+        span = f"{lo:.4g} to {hi:.4g} {c.unit}"
+    return {"key": c.key, "effect": effect, "axis": axis, "parameter": float(value),
+            "reason": (f"{STAND_IN}: {c.parameter} = {shown} is outside a bench's plausible range ({span}), so "
+                       f"the value describes no bench; the {'motors' if axis == 'both' else axis} model lacks "
+                       "something it stands in for")}
+
+
+def stand_ins(findings) -> list[dict]:
+    """The effect findings whose values lie outside their plausible ranges, each as stand_in's refusal."""
+    out = []
+    for f in findings:
+        if f.effect != "known_value":
+            r = stand_in(f.effect, f.axis, float(f.parameter["value"]))
+            if r is not None:
+                out.append(r)
+    return out
+
+
+def stand_in_sentence(refused: list[dict]) -> str:
+    """The verdict's words for the refusals that stood in for missing physics (STAND_IN); empty when none."""
+    told = [r for r in refused if str(r.get("reason", "")).startswith(STAND_IN)]
+    if not told:
+        return ""
+    names = "; ".join(f"{r['effect'].replace('_', ' ')} on {r['axis']} ({r['parameter']:.4g})" for r in told)
+    return (f" Not findings: {names}: each would need a value outside a bench's plausible range, so it stands in "
+            "for physics the model lacks; that part of the misfit is unexplained.")

@@ -40,7 +40,8 @@ NATIVE_FREE_KEYS = ("input_saturation:pitch", "input_saturation:yaw")
 MIN_KERNEL_LAG_S = 2.5e-3
 #: effects that change what drives the plant (the voltages, a motor's time constant) or what the log records
 #: (the acquisition lag): applied to the log before the fit, their value held
-MODIFICATION_KEYS = ("dead_zone:pitch", "dead_zone:yaw", "input_saturation:pitch", "input_saturation:yaw",
+MODIFICATION_KEYS = ("dead_zone:pitch", "dead_zone:yaw", "shifted_dead_zone:pitch", "shifted_dead_zone:yaw",
+                     "input_saturation:pitch", "input_saturation:yaw",
                      "input_delay:both", "motor_lag:pitch", "motor_lag:yaw", "motor_second_lag:pitch",
                      "motor_second_lag:yaw", room.SENSOR_LAG)
 
@@ -56,7 +57,8 @@ PHRASES = {
     "coulomb_friction": "Coulomb friction", "quadratic_drag": "quadratic drag", "cable_stiffness": "a cable",
     "com_offset": "a centre-of-mass offset", "sensor_offset": "an encoder offset", "thrust_asymmetry":
     "a reversed rotor's thrust asymmetry", "yaw_inertia_pitch": "a pitch-dependent yaw inertia",
-    "sensor_lag": "an acquisition lag", "dead_zone": "a dead zone", "input_saturation": "a saturation",
+    "sensor_lag": "an acquisition lag", "dead_zone": "a cut-off dead zone", "shifted_dead_zone":
+    "a dead zone", "input_saturation": "a saturation",
     "input_delay": "a transport delay", "motor_lag": "a motor time constant", "motor_second_lag":
     "a second-order motor"}
 AXIS_WORDS = {"pitch": "pitch", "yaw": "yaw", "both": "both axes"}
@@ -83,7 +85,7 @@ class BenchEffect:
         effect, axis = self.key.split(":")
         c = self.candidate
         value = room.with_unit(self.value, c.unit)
-        if effect in ("motor_second_lag", "motor_lag", "dead_zone", "input_saturation"):
+        if effect in ("motor_second_lag", "motor_lag", "dead_zone", "shifted_dead_zone", "input_saturation"):
             what = PHRASES[effect].replace("motor", MOTOR_WORDS[axis]) if "motor" in PHRASES[effect] else \
                 f"{PHRASES[effect]} on the {MOTOR_WORDS[axis]}"
         else:
@@ -146,7 +148,8 @@ def parse_effect(key: str, spec) -> BenchEffect:
     if not c.plausible(value) or (effect == "motor_lag" and not value > 0):
         lo, hi = c.bounds
         rng = (f"> {lo:g}" if math.isinf(hi) else f"between {lo:g} and {hi:g}")
-        raise BenchEffectError(f"\"{key}\": {c.parameter} = {value:g} {c.unit} is not physical; expected {rng}")
+        raise BenchEffectError(f"\"{key}\": {c.parameter} = {value:g} {c.unit} is not physical for a bench; "
+                               f"expected {rng}")
     if key in KERNEL_KEYS and value < MIN_KERNEL_LAG_S:
         raise BenchEffectError(f"\"{key}\": {c.parameter} = {value:g} {c.unit} is shorter than the output-error fit "
                                f"integrates (at least {MIN_KERNEL_LAG_S:g} s, its sub-step); a lag this short is not "
