@@ -299,7 +299,7 @@ class Fitter:
         J/B; default: the motors' steady state for the first voltages, refine's, which a log cut mid-run can be far
         from: measured, a steps log cut 30 s in, restarted there from the current model's J/B, stayed at ~1000x its
         noise level in angle error).  ``levels``: the model's saturations (NATIVE_FREE_KEYS) whose levels are fitted
-        too, from their values in the model (the fit clips the voltages itself: numerics.refine.SATURATION_SLOTS)."""
+        too, from their values in the model (the fit transforms the voltages itself: numerics.refine.INPUT_SLOTS)."""
         n, log = self.n, self.log
         effects = {k: values[k] for k in model.linear}
         effects.update({k: values.get(k, v) if hold else v for k, v in model.mods if k in OFFSETS})

@@ -32,9 +32,11 @@ TORQUE_KEYS = ("com_offset:pitch", "coulomb_friction:pitch", "coulomb_friction:y
 #: voltages without them (identify.under_model's ``kernel``); DREM's regressions take the voltages through them
 KERNEL_KEYS = ("motor_second_lag:pitch", "motor_second_lag:yaw")
 #: input modifications the output-error refinement estimates itself when they are freed: the voltages are clipped
-#: inside the fit and the level is a Gauss-Newton unknown with J/B (numerics.refine.SATURATION_SLOTS); held, they
-#: are applied to the voltages like the others, and a freed one is first placed by its profile (model_profile.py)
-NATIVE_FREE_KEYS = ("input_saturation:pitch", "input_saturation:yaw")
+#: (shifted) inside the fit and the level (width) is a Gauss-Newton unknown with J/B (numerics.refine.INPUT_SLOTS);
+#: held, they are applied to the voltages like the others, and a freed one is first placed by its profile
+#: (model_profile.py)
+NATIVE_FREE_KEYS = ("input_saturation:pitch", "input_saturation:yaw", "shifted_dead_zone:pitch",
+                    "shifted_dead_zone:yaw")
 #: the shortest further lag [s] the kernel integrates: its RK4 sub-steps are up to numerics.refine.MAX_SUBSTEP_S
 #: (2.5 ms) long, and a lag much shorter than a sub-step is neither stable nor resolved by a 100 Hz-1 kHz log
 MIN_KERNEL_LAG_S = 2.5e-3
