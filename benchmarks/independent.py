@@ -36,11 +36,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from compound import SAME  # noqa: E402  (library keys that are a known value under another name)
+
 KINDS = (("clean", 4), ("dead zone", 6), ("dead zone, both motors", 4), ("second-order motor", 6),
          ("known value + dead zone", 4), ("saturation", 3), ("dead zone + second-order motor", 3))
 TOLERANCE = 0.3
-#: library keys that are a known value under another name (benchmarks/compound.py)
-SAME = {"motor_lag:pitch": "known_value:T11", "motor_lag:yaw": "known_value:T21"}
 KNOWN = ("Mg", "kc", "k1", "k2", "b1", "a2")
 TIME_CONSTANT = {"pitch": "T11", "yaw": "T21"}
 
@@ -50,7 +50,6 @@ def _draw(kind: str, rng) -> tuple[dict, dict]:
     kw: dict = {"values": {}}
     truth: dict = {}
     axis = ("pitch", "yaw")[int(rng.integers(2))]
-    i = 0 if axis == "pitch" else 1
 
     def dead_zone(ax):
         w = round(float(rng.uniform(0.1, 0.3)), 3)
@@ -87,9 +86,7 @@ def _draw(kind: str, rng) -> tuple[dict, dict]:
         truth[f"known_value:{name}"] = kw["values"][name]
         dead_zone(axis)
     elif kind == "saturation":
-        kw["saturation_v"] = [math.inf, math.inf]
-        kw["saturation_v"][i] = None  # placed where the voltages reach (run)
-        truth[f"input_saturation:{axis}"] = None
+        truth[f"input_saturation:{axis}"] = None  # its level: where the voltages reach (run)
     elif kind == "dead zone + second-order motor":
         dead_zone(axis)
         second_order(("yaw", "pitch")[int(rng.integers(2))] if axis == "yaw" else "yaw")
@@ -142,7 +139,7 @@ def run(case: dict) -> dict:
         kw, truth = _draw(case["kind"], rng)
         if case["kind"] == "saturation":  # a level the motor reaches: 70-95 % of its samples below it
             j = next(0 if k.endswith("pitch") else 1 for k in truth)
-            bare = simulate_log(**{k: v for k, v in kw.items() if k != "saturation_v"})
+            bare = simulate_log(**kw)
             u = np.abs(bare[1 + j])
             level = round(min(max(float(np.quantile(u, rng.uniform(0.7, 0.95))), 0.8), 2.4), 3)
             kw["saturation_v"] = tuple(level if m == j else math.inf for m in range(2))

@@ -49,7 +49,7 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
         refused = [{k: v for k, v in g.items() if k != "key"} for g in gated]
         held = [g for g in refused if not g["reason"].startswith(STAND_IN)]
         given = {k: {"value": p[k], "source": "override" if k in (overrides or {}) else "table"} for k in KNOWN}
-        refused = d.refused + [g for g in refused if g not in d.refused]
+        refused = d.refused + refused
         return replace(d, held_out=h, refused=refused, settings={**d.settings, "known_values": given},
                        verdict_sentence=d.verdict_sentence + held_out.gate_sentence(held) + held_out.caution(h)
                        + (stand_in_sentence(refused) if d.verdict not in ("explained", "consistent") else ""))

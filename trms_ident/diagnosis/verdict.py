@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from ..log import Log
+from ..model import effects
 from ..numerics.adequacy import AXIS_OF, RMS_OVER_NOISE
 from ..params import PLAUSIBLE_FACTOR, not_credible
 from .model import AXIS_ANGLE
@@ -131,8 +132,6 @@ def stand_in(effect: str, axis: str, value: float) -> dict | None:
     """A refusal ({"key", "effect", "axis", "parameter", "reason"}) when ``value`` of the library's ``effect`` on
     ``axis`` lies outside its plausible range (model.effects: a 49 deg encoder offset describes no bench, it
     absorbs a misfit the model cannot otherwise fit); None when it is plausible or not the library's."""
-    from ..model import effects
-
     c = effects.by_key(f"{effect}:{axis}")
     if c is None or c.plausible(value):
         return None
