@@ -233,7 +233,7 @@ def _halves_check(log: Log, settings: Settings, check: dict) -> None:
     HALVES_LEVEL).  Halves that differ are a misfit this log measures: the verdict becomes "does not fit",
     and the intervals, which measure the noise alone, are then read as conditional.  Halves that agree leave
     it undecided; ``check["halves"]`` records what was compared either way."""
-    from scipy.stats import norm
+    from scipy.special import ndtri
 
     n = len(log)
     parts = {}
@@ -251,7 +251,7 @@ def _halves_check(log: Log, settings: Settings, check: dict) -> None:
         (a, alo, ahi), (b, blo, bhi) = parts["first"][k], parts["second"][k]
         se = math.hypot((ahi - alo) / 2.0, (bhi - blo) / 2.0) / Z95
         z[k] = abs(a - b) / se if se > 0 else math.inf
-    crit = float(norm.isf(HALVES_LEVEL / (2 * max(len(both), 1))))
+    crit = float(-ndtri(HALVES_LEVEL / (2 * max(len(both), 1))))  # the normal's upper quantile
     differ = [k for k in both if z[k] > crit]
     check["halves"] = {"compared": both, "z": z, "critical_z": crit, "level": HALVES_LEVEL, "differ": differ,
                        "first": parts["first"], "second": parts["second"]}

@@ -28,7 +28,6 @@ import math
 from dataclasses import replace
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 from scipy.special import stdtrit
 
 from .errors import IdentificationError, SettingsError, TrmsError
@@ -283,6 +282,8 @@ def _profile_fit(log, settings, key: str, r0):
 
 def _search(fit, x0: float, span: float) -> tuple[float, float]:
     """(the best log-value within ``span`` of x0 by bounded Brent, x0): never worse than x0."""
+    from scipy.optimize import minimize_scalar  # here: scipy.optimize costs 0.2 s of import on every estimate
+
     costs: dict = {}
 
     def cost(x: float) -> float:
