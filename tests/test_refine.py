@@ -233,7 +233,7 @@ def test_windows_give_the_same_pass_in_one_thread_or_several(monkeypatch):
 
     def run(threads):
         monkeypatch.setattr(R, "THREAD_MIN_SAMPLES", 0)
-        monkeypatch.setattr(R, "_threads", lambda: threads)
+        monkeypatch.setattr(R.parallel, "cores", lambda: threads)
         out = np.empty((n, 2))
         res = R.gauss_newton_pass(r.u1_v, r.u2_v, y, np.ones(2), starts, m0, pv, False, h, dsw, R.MAX_SUBSTEP_S,
                                   win, 1000, out, np.zeros((n, 2, 0)))
@@ -245,6 +245,14 @@ def test_windows_give_the_same_pass_in_one_thread_or_several(monkeypatch):
         assert c == c1
         for x, x1 in ((a, a1), (b, b1), (s, s1), (o, o1)):
             np.testing.assert_array_equal(x, x1)
+    # the predictions-only pass (sens=False: line-search trials, forward-difference columns) integrates the
+    # states by the same arithmetic: the same predictions and cost to the bit, no normal equations
+    out = np.empty((n, 2))
+    c0, a0, b0, s0 = R.gauss_newton_pass(r.u1_v, r.u2_v, y, np.ones(2), starts, m0, pv, False, h, dsw,
+                                         R.MAX_SUBSTEP_S, win, 1000, out, np.zeros((n, 2, 0)), sens=False)
+    assert c0 == c1
+    np.testing.assert_array_equal(out, o1)
+    assert not np.any(a0) and not np.any(b0) and not np.any(s0)
     # the windows after the first still see the start states through the motors: tau1(0)'s column there
     # against a finite difference over the whole log
     step = 1e-6
@@ -428,3 +436,25 @@ def test_each_kernel_is_compiled_for_one_array_type_whatever_the_voltages_flags(
         fused.plant_signals(u1, u2, r.alpha_rad.copy(), r.beta_rad, 1 / 200.0, defaults(), "signed")
     for kernel, b in zip(kernels, before):
         assert len(kernel.signatures) == max(b, 1), (kernel.py_func.__name__, kernel.signatures)
+
+
+def test_fan_out_keeps_order_and_does_not_nest():
+    """parallel.fan_out: results in the items' order, work inside a worker runs serially there (a nested pool
+    would wait for ever on work queued behind it), and a fit's windows stay in its thread inside a worker."""
+    import threading
+
+    from trms_ident.numerics import parallel
+
+    def inner(x):
+        return (x, parallel.in_worker(), threading.current_thread().name)
+
+    def outer(x):
+        return parallel.fan_out(inner, range(x, x + 3))
+
+    out = parallel.fan_out(outer, range(0, 12, 3))
+    assert [[v for v, _, _ in row] for row in out] == [[x, x + 1, x + 2] for x in range(0, 12, 3)]
+    if parallel.cores() > 1:
+        for row in out:
+            assert all(busy for _, busy, _ in row)
+            assert len({name for _, _, name in row}) == 1  # the inner items ran in their outer item's thread
+    assert not parallel.in_worker()

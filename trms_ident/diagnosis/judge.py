@@ -12,6 +12,7 @@ from ..model import effects as room
 from ..model.bench import NATIVE_FREE_KEYS
 from ..model.effects import SIBLING_EFFECTS, Candidate
 from ..numerics.adequacy import AXIS_OF, RMS_OVER_NOISE
+from ..numerics.parallel import fan_out
 from . import oe
 from .discriminate import PAIR, tell_offsets_apart
 from .model import Model, modified_inputs
@@ -65,6 +66,7 @@ def alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache,
     theta0 = oe_start(score_now, reg_now, p)
     values = effect_values(current, score_now, reg_now)
     fits, fitted = {}, []
+    _fitted_first(pool, fitter, current, values, theta0, log, p)
     for r in pool:
         f, short = oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested)
         if f is None and r is best:  # the best cannot be fitted (a torque needs a converged current model, a
@@ -115,6 +117,7 @@ def oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, 
     off = _misfit_axes(fitter, current, effect_values(current, score_now, reg_now, oe_values), theta0)
     order = _rescue_order((r for r in results if oe.fittable(r["c"].key) and r["c"].key not in current.keys), off)
     good, short_of = [], []
+    _fitted_first(order, fitter, current, values, theta0, log, p, scan)
     for r in order:
         f, short = oe_fit(r["c"], r["value"], fitter, current, values, theta0, log, p, n_tests, tested, scan=scan)
         if not short:
@@ -359,6 +362,23 @@ def _acts_on(c: Candidate, axes: set) -> bool:
 def oe_start(sc, reg, p: dict) -> dict:
     """J/B the output-error fits start from: the equation error's, or the table's when those are not physical."""
     return jb_start(jb_estimates(sc, reg), p)
+
+
+def _fitted_first(results, fitter, current, values, theta0, log, p, scan: bool = True) -> None:
+    """The output-error fits oe_fit will ask for of ``results``, made first on both cores (numerics.parallel; the
+    Fitter keeps each answer): the caller's loop then reads them in its own order, so what it records and decides
+    is what it was one fit at a time.  The current model's own fit first, once: each candidate's starts there."""
+    if fitter.base(current, values, theta0) is None:
+        return
+
+    def one(r) -> None:
+        c = r["c"]
+        if oe.profiled(c.key):
+            fitter.profile(current, values, theta0, c.key, value_grid(c, log, p), r["value"], scan)
+        else:
+            fitter.candidate(current, values, theta0, c.key)
+
+    fan_out(one, results)
 
 
 def oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested, torque_floor: bool = True,

@@ -52,6 +52,7 @@ from ..model import effects as room
 from ..model.plant import EFFECT_SLOTS, thrust_law
 from ..model.bench import KERNEL_KEYS, NATIVE_FREE_KEYS, inside_fit
 from ..numerics import safe
+from ..numerics.parallel import fan_out
 from ..numerics.adequacy import judging_floors
 from ..numerics.design import angle_noise_rad
 from ..numerics.refine import BLOCK_S, substeps
@@ -560,8 +561,7 @@ class Fitter:
         g = np.array(sorted(v for v in grid if v > 0), dtype=float)
         i0 = min(max(int(np.argmin(np.abs(np.log(g / value0)))), 1), g.size - 1)
         ratio = float(g[i0] / g[i0 - 1]) if g.size > 1 else 1.25  # the search grid's local spacing
-        for k in range(-PROFILE_NEIGHBOURS, PROFILE_NEIGHBOURS + 1):
-            at(value0 * ratio ** k)
+        fan_out(at, [value0 * ratio ** k for k in range(-PROFILE_NEIGHBOURS, PROFILE_NEIGHBOURS + 1)])
         cost = lambda v: tried[v][0] if tried[v] is not None else math.inf  # noqa: E731
         for _ in range(PROFILE_EXTEND):  # the best at an end: the equation error's value was off, go on
             vs = sorted(tried)
@@ -571,16 +571,14 @@ class Fitter:
             at(vs[0] / ratio if j == 0 else vs[-1] * ratio)
         if scan and cost(min(tried, key=cost)) > PROFILE_SCAN_OVER_FLOOR * 2.0 * self.n:  # far from the noise
             ratio = min(ratio, PROFILE_SCAN_RATIO)
-            for v in sorted(self._screen(model, values, base.estimate, (key,), g[0], g[-1], ratio,
-                                         base.start_states, lags))[:PROFILE_SCAN_KEEP]:
-                at(v[1])
+            fan_out(at, [v[1] for v in sorted(self._screen(model, values, base.estimate, (key,), g[0], g[-1], ratio,
+                                                           base.start_states, lags))[:PROFILE_SCAN_KEEP]])
         if held is not None:
             at(held.value)
         for _ in range(PROFILE_BISECTIONS):
             ratio = math.sqrt(ratio)
             best = min(tried, key=cost)
-            at(best * ratio)
-            at(best / ratio)
+            fan_out(at, (best * ratio, best / ratio))
         vs = sorted(v for v in tried if tried[v] is not None)
         if not vs:
             return None
@@ -690,9 +688,11 @@ class Fitter:
         screened = sorted(self._screen(model, values, base.estimate, keys, lo, hi, ratio, base.start_states))
         if not screened:
             return None
+        fan_out(at, [v for _, v in screened[:PROFILE_SCAN_KEEP]])  # the fits min() asks for, on both cores
         best = min((v for _, v in screened[:PROFILE_SCAN_KEEP]), key=at)
         for _ in range(PROFILE_BISECTIONS):
             ratio = math.sqrt(ratio)
+            fan_out(at, (best * ratio, best / ratio))
             best = min((best, best * ratio, best / ratio), key=at)
         return (best, at(best)) if math.isfinite(at(best)) and at(best) < base.cost else None
 
@@ -715,16 +715,16 @@ class Fitter:
         """(cost after PROFILE_SCAN_ITERATIONS steps, value) for the input modifications ``keys``, all at one value,
         at values from lo to hi spaced by ``ratio`` (geometric); failed fits left out.  ``lags``: the model's
         second-order motors' lags fitted with J/B at each value (refitted_lags)."""
-        out = []
-        for v in np.geomspace(lo, hi, int(math.ceil(math.log(hi / lo) / math.log(ratio))) + 1):
+        def at(v: float) -> tuple[float, float] | None:
             try:
                 r = self._fit(model, values, theta0, None, {k: float(v) for k in keys}, PROFILE_SCAN_ITERATIONS,
                               start=start, levels=lags)
             except _FAILED:
-                continue
-            if math.isfinite(r.cost):
-                out.append((float(r.cost), float(v)))
-        return out
+                return None
+            return (float(r.cost), float(v)) if math.isfinite(r.cost) else None
+
+        vs = np.geomspace(lo, hi, int(math.ceil(math.log(hi / lo) / math.log(ratio))) + 1)
+        return [c for c in fan_out(at, vs) if c is not None]
 
 
 def refitted_lags(model: Model, key: str) -> tuple:
@@ -815,8 +815,7 @@ def step_interval(levels: np.ndarray, value: float, blocks_at, max_fits: int = 1
                 kept[j] = bool(rise <= CHI2_1_95 or (sd > 0 and rise / (sd * math.sqrt(nb)) <= tq))
         return kept[j]
 
-    edges = []
-    for sign in (-1, 1):  # steps 1, 2, 4, ... away until one is refused, then bisected
+    def edge(sign: int) -> int:  # steps 1, 2, 4, ... away until one is refused, then bisected
         good, bad, fits = 0, None, 0
         while fits < max_fits:
             off = max(2 * good, 1)
@@ -828,7 +827,9 @@ def step_interval(levels: np.ndarray, value: float, blocks_at, max_fits: int = 1
         while bad is not None and bad - good > 1 and fits < max_fits:
             mid, fits = (good + bad) // 2, fits + 1
             good, bad = (mid, bad) if keep(k + sign * mid) else (good, mid)
-        edges.append(k + sign * good)
+        return k + sign * good
+
+    edges = fan_out(edge, (-1, 1))  # the two sides' steps are disjoint: one core each
     return lower(edges[0]), upper(edges[1])
 
 

@@ -37,15 +37,13 @@ correlated errors, e.g. quantization).
 from __future__ import annotations
 
 import math
-import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
 from scipy.special import stdtrit
 
-from . import safe
+from . import parallel, safe
 from .kernel_args import readonly
 from ..model.plant import (FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, LAG1_SLOT, LAG2_SLOT, N_SLOTS, PARAM_ORDER,
                            SENSOR_OFFSET_SLOT, YAW_INERTIA_SLOT, centrifugal_pitch, coriolis_yaw, coulomb_sign,
@@ -200,13 +198,15 @@ def _lag_drive_rate(u, lag, t2):
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
-def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe):
+def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe, sens=True):
     """Paper eq. (1) with the motor lags, M_R's lag state and the effects in p's slots, and the exact forward
     sensitivities (layout above): for every unknown c, d/dt S_c = A(t) S_c + df/dtheta_c, with A the Jacobian
     of (alpha', alpha'', beta', beta'') in (alpha, alpha', beta, beta').  e1, e2: exogenous torques [N m] on
     pitch and yaw (effects declared by their torque from the measured states; 0 without).  ``fs``: the model
     vector's slots of freed values (DIRECT_SLOTS or exogenous), whose sensitivities follow at [_NS + 4 j:
-    _NS + 4 j + 4]; ``fe`` (len(fs), 2): the exogenous ones' per-unit torques now (0 for the others)."""
+    _NS + 4 j + 4]; ``fe`` (len(fs), 2): the exogenous ones' per-unit torques now (0 for the others).
+    ``sens`` False: the states alone (0..6 and the further lags), no sensitivity is written (a pass whose
+    predictions are all its caller needs)."""
     j1, b1, j2, b2 = p[0], p[1], p[2], p[3]
     eps = FRICTION_SMOOTH_RAD_S  # the Jacobian's derivative of coulomb_sign
     g1 = reversed_gain(x[4], p[25])  # thrust asymmetry of a reversed rotor (1 without)
@@ -237,6 +237,8 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe):
     d[6] = lag_rate(x[4], x[6], p[18])
     d[_LAG] = _lag_drive_rate(u1, x[_LAG], p[LAG1_SLOT])
     d[_LAG + 1] = _lag_drive_rate(u2, x[_LAG + 1], p[LAG2_SLOT])
+    if not sens:
+        return
     # the Jacobian A: pitch row (alpha'') and yaw row (beta''); alpha'' does not depend on beta, and beta'' depends
     # on alpha and alpha' only through the yaw inertia's terms
     a10 = (-p[8] * cg + p[9] * m1 * x[3] * sa) / j1
@@ -303,25 +305,31 @@ def _lag_start_rates(x, i, p, d):
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
-def _rk4(x, xt, k1, k2, k3, k4, v1, v2, e1, e2, p, signed, dur, max_sub, fs, fe):
+def _rk4(x, xt, k1, k2, k3, k4, v1, v2, e1, e2, p, signed, dur, max_sub, fs, fe, sens=True):
     """Advance x (with its sensitivities) by dur [s] with the voltages v1, v2 and exogenous torques e1, e2 held,
-    RK4 sub-steps <= max_sub; fs, fe: see _rhs."""
+    RK4 sub-steps <= max_sub; fs, fe, sens: see _rhs (sens False: only the states 0..6 and the further lags
+    move, by the same arithmetic)."""
     nsub = max(1, int(math.ceil(dur / max_sub - 1e-9)))
     hs = dur / nsub
-    ns = x.size
     for _ in range(nsub):
-        _rhs(x, v1, v2, e1, e2, p, signed, k1, fs, fe)
-        for i in range(ns):
-            xt[i] = x[i] + 0.5 * hs * k1[i]
-        _rhs(xt, v1, v2, e1, e2, p, signed, k2, fs, fe)
-        for i in range(ns):
-            xt[i] = x[i] + 0.5 * hs * k2[i]
-        _rhs(xt, v1, v2, e1, e2, p, signed, k3, fs, fe)
-        for i in range(ns):
-            xt[i] = x[i] + hs * k3[i]
-        _rhs(xt, v1, v2, e1, e2, p, signed, k4, fs, fe)
-        for i in range(ns):
-            x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        _rhs(x, v1, v2, e1, e2, p, signed, k1, fs, fe, sens)
+        _stage(xt, x, 0.5 * hs, k1, sens)
+        _rhs(xt, v1, v2, e1, e2, p, signed, k2, fs, fe, sens)
+        _stage(xt, x, 0.5 * hs, k2, sens)
+        _rhs(xt, v1, v2, e1, e2, p, signed, k3, fs, fe, sens)
+        _stage(xt, x, hs, k3, sens)
+        _rhs(xt, v1, v2, e1, e2, p, signed, k4, fs, fe, sens)
+        for i in range(x.size if sens else _LAG + 2):
+            if sens or i < 7 or i >= _LAG:
+                x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+
+
+@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
+def _stage(xt, x, a, k, sens):
+    """xt = x + a k, on every state or (sens False) on the states 0..6 and the further lags alone."""
+    for i in range(x.size if sens else _LAG + 2):
+        if sens or i < 7 or i >= _LAG:
+            xt[i] = x[i] + a * k[i]
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
@@ -413,7 +421,7 @@ _MOTOR_P = np.array([_P.index(k) for k in ("k1", "k2", "T11", "T10", "T21", "T20
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
 def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block, ext, fs, tq, quanta,
-                 grids, w0, w1, out, extra, costs, a_mat, b_vec, scores, b_grid, scores_grid):
+                 grids, sens, w0, w1, out, extra, costs, a_mat, b_vec, scores, b_grid, scores_grid):
     """Windows w0..w1-1 of one pass: predictions (out), each window's weighted cost (costs), normal equations
     (a_mat, b_vec) and its blocks' scores, written into the caller's arrays (disjoint slices: windows can run
     in threads).  Each window starts from its fitted angles and rates (starts) and the motor states of
@@ -460,6 +468,16 @@ def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub,
             ra = (y[k, 0] - out[k, 0]) * inv_sig[0]
             rb = (y[k, 1] - x[2]) * inv_sig[1]
             cost += ra * ra + rb * rb
+            if not sens:  # predictions and cost only: the normal equations stay as they are (zeros)
+                if k == e - 1:
+                    break
+                cuts, v1, v2 = _pieces(k, u1, u2, h, dsw)
+                e1, e2 = (ext[k, 0], ext[k, 1]) if has_ext else (0.0, 0.0)
+                for j in range(3):
+                    dur = cuts[j + 1] - cuts[j]
+                    if dur > 0.0:
+                        _rk4(x, xt, k1, k2, k3, k4, v1[j], v2[j], e1, e2, p, signed, dur, max_sub, fs, fe, False)
+                continue
             for c in range(NU):
                 ja[c] = x[_S0 + 4 * c] * inv_sig[0]
                 jb[c] = x[_S0 + 4 * c + 2] * inv_sig[1]
@@ -506,15 +524,10 @@ def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub,
                 a_mat[w, i, j] = a_mat[w, j, i]
 
 
-#: logs shorter than this many samples run their windows in one thread (a thread's start costs more)
-THREAD_MIN_SAMPLES = 50_000
-
-
-def _threads() -> int:
-    try:
-        return max(1, min(len(os.sched_getaffinity(0)), 4))
-    except AttributeError:  # not on Linux
-        return max(1, min(os.cpu_count() or 1, 4))
+#: logs shorter than this many samples run their windows in one thread.  The pool (numerics.parallel) lives as
+#: long as the process, so a pass pays a hand-off (~0.1 ms), not a thread's start: a 90 s log at 250 Hz (22 500
+#: samples, 21 ms a pass, thousands of passes in diagnose) had run on one core under the earlier 50 000
+THREAD_MIN_SAMPLES = 4_000
 
 
 def motor_response(free, m0):
@@ -531,7 +544,7 @@ def motor_response(free, m0):
 
 
 def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub, win, block, out, extra,
-                      motor_free=None, ext=None, fs=None, tq=None, rounding=None):
+                      motor_free=None, ext=None, fs=None, tq=None, rounding=None, sens=True):
     """One pass over the log: predictions (out), weighted cost, per-window normal equations in the
     NU unknowns (J1, B1, J2, B2, tau1(0), tau2(0), zeta(0), alpha0, alpha'0, beta0, beta'0), then one per
     slot in ``fs`` (freed model values, DIRECT_SLOTS or exogenous: exact forward sensitivities; ``tq`` (n, 2, m)
@@ -541,12 +554,13 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
     previous voltage holds); zeros when every voltage acts from its own stamp.
 
     ``m0``: the motors' start states tau1(0), tau2(0), zeta(0), lag1(0), lag2(0) (motor_response).  The motor
-    states at each window's start come first (motor_starts); the windows are then independent and
-    run on up to _threads() cores, each window computed the same way whatever the split, so the numbers do not
-    depend on the machine.  ``motor_free``: motor_starts from zero start states for this p (computed when
+    states at each window's start come first (motor_starts); the windows are then independent and run on up to
+    parallel.cores() cores (one inside parallel.fan_out), each window computed the same way whatever the split,
+    so the numbers do not depend on the machine.  ``motor_free``: motor_starts from zero start states for this p (computed when
     None).  ``ext`` (n, 2): exogenous torques [N m] held over each sample interval (None: none).  ``rounding``:
     (quanta (2,) [rad], grids (r, 2) [rad]) for windows_pass, whose b_grid and scores_grid are then returned
-    after the scores."""
+    after the scores.  ``sens`` False: the predictions and the cost alone (the normal equations and scores come
+    back zero), at a fraction of the pass (no sensitivity is integrated)."""
     u1, u2 = readonly(u1), readonly(u2)  # one compiled windows_pass and motor_starts (kernel_args)
     n = u1.size
     nw = starts.shape[0]
@@ -565,18 +579,17 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
         motor_free = motor_starts(u1, u2, p, h, dsw, max_sub, win, nw, np.zeros(5))
     mstart = motor_response(motor_free, m0)
     args = (u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub, win, block,
-            np.zeros((0, 2)) if ext is None else ext, fs, tq, quanta, grids)
+            np.zeros((0, 2)) if ext is None else ext, fs, tq, quanta, grids, bool(sens))
     tail = (out, extra, costs, a_mat, b_vec, scores, b_grid, scores_grid)
-    groups = min(_threads(), nw) if n >= THREAD_MIN_SAMPLES else 1
+    groups = min(parallel.cores(), nw) if n >= THREAD_MIN_SAMPLES and not parallel.in_worker() else 1
     if groups <= 1:
         windows_pass(*args, 0, nw, *tail)
     else:
         cut = [round(g * nw / groups) for g in range(groups + 1)]
-        with ThreadPoolExecutor(groups - 1) as pool:
-            jobs = [pool.submit(windows_pass, *args, cut[g], cut[g + 1], *tail) for g in range(1, groups)]
-            windows_pass(*args, cut[0], cut[1], *tail)
-            for j in jobs:
-                j.result()
+        jobs = [parallel.pool(groups - 1).submit(windows_pass, *args, cut[g], cut[g + 1], *tail) for g in range(1, groups)]
+        windows_pass(*args, cut[0], cut[1], *tail)
+        for j in jobs:
+            j.result()
     if rounding is not None:
         return float(costs.sum()), a_mat, b_vec, scores, b_grid, scores_grid
     return float(costs.sum()), a_mat, b_vec, scores
@@ -762,7 +775,7 @@ class _Problem:
             return None
         return np.ascontiguousarray(self.torques @ pv[_NP:])
 
-    def _pass(self, pv, th, st, out, max_sub, extra, exact=(), rounding=None):
+    def _pass(self, pv, th, st, out, max_sub, extra, exact=(), rounding=None, sens=True):
         ext = np.zeros((self.y.shape[0], 2, 0)) if extra is None else extra
         u1, u2 = self.inputs(th)
         # the motor states depend on the motors' values and voltages alone
@@ -772,7 +785,7 @@ class _Problem:
                                                  st.shape[0], np.zeros(5))
         return gauss_newton_pass(u1, u2, self.y, self.inv_sig, st, self.motor0(th), pv, self.signed, self.h,
                                  self.dsw, max_sub, self.win, self.block, out, ext, self.motor_cache[key],
-                                 self.exogenous(pv), np.array(exact, dtype=np.int64), self.torques, rounding)
+                                 self.exogenous(pv), np.array(exact, dtype=np.int64), self.torques, rounding, sens)
 
     def columns(self, th, st, pred, idx, max_sub=None):
         """(n, 2, len(idx)) forward-difference sensitivities of alpha, beta to the model values at ``idx``."""
@@ -785,30 +798,37 @@ class _Problem:
                 j = NG + self.free_idx.index(i)
                 step = 1e-6 * max(abs(th_c[j]), 1e-3)
                 th_c[j] += step
-                self._pass(self.vector(th_c), th_c, st, tmp, max_sub, None)
+                self._pass(self.vector(th_c), th_c, st, tmp, max_sub, None, sens=False)
             else:
                 pv = self.vector(th)
                 step = 1e-6 * max(abs(pv[i]), 1e-3)
                 pv[i] += step
-                self._pass(pv, th, st, tmp, max_sub, None)
+                self._pass(pv, th, st, tmp, max_sub, None, sens=False)
             cols[:, :, c] = (tmp - pred) / step
         return cols
 
-    def evaluate(self, th, st, out, max_sub=None, more=(), cost_only=False, rounding=None):
+    def evaluate(self, th, st, out, max_sub=None, more=(), cost_only=False, rounding=None, known=None):
         """Cost, normal equations and scores at th, st; predictions in ``out``.  The unknowns in the order J/B,
         start states, the freed values (free_idx's order), the model values at ``more`` (a score test's
         candidates), then each window's start.  ``cost_only``: the cost and predictions are all the caller
         needs (a line search's trial): no pass for the differenced columns, whose entries are then missing.
-        ``rounding``: gauss_newton_pass's; its right-hand sides and scores per grid follow, in the same order."""
+        ``rounding``: gauss_newton_pass's; its right-hand sides and scores per grid follow, in the same order.
+        ``known``: this point's predictions from a cost_only call at the same th, st and max_sub (a line search's
+        accepted trial): the differenced columns start from them instead of a pass of their own (the same pass,
+        so the same numbers; a differenced fit's iteration had spent a quarter of its passes on it)."""
         max_sub = self.max_sub if max_sub is None else max_sub
         idx = list(self.free_idx) + list(more)
         exact = [i for i in idx if _exact(i)]
         diff = [i for i in idx if not _exact(i)]
         pv = self.vector(th)
         if diff:
-            res = self._pass(pv, th, st, out, max_sub, None)  # the predictions the differences start from
-            if cost_only:
-                return res
+            if known is not None and not cost_only:
+                out[:] = known
+            else:
+                # the predictions the differences start from (and a line search's cost): no sensitivities
+                res = self._pass(pv, th, st, out, max_sub, None, sens=False)
+                if cost_only:
+                    return res
             res = self._pass(pv, th, st, out, max_sub, self.columns(th, st, out, diff, max_sub), exact, rounding)
         else:
             res = self._pass(pv, th, st, out, max_sub, None, exact, rounding)
@@ -971,8 +991,8 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
             converged = bool(np.all(np.abs(step[:4]) <= np.maximum(1e-6 * theta[:4], 0.1 * se[:4])))
             break
         theta, starts, res = accepted
-        if prob.differenced:  # the differenced columns need their own passes
-            cost, a, b, scores = prob.evaluate(theta, starts, out)
+        if prob.differenced:  # the differenced columns need their own passes, from the trial's predictions
+            cost, a, b, scores = prob.evaluate(theta, starts, out, known=trial)
         else:  # the trial pass was the full pass at the accepted point: keep it
             (cost, a, b, scores), out = res, trial
     s_mat, s_rhs, per_window = schur(a, b, ng)

@@ -1,0 +1,63 @@
+"""Both cores for independent fits: a process-wide thread pool and a map over it.
+
+The refinement's kernels (numerics/refine.windows_pass) are numba functions compiled with ``nogil=True``: two
+fits in two threads run on two cores.  A fit splits its own windows across threads only when nothing above it
+does (``in_worker``): a log of one 40 s window (most diagnose logs) cannot split at all, whereas the values of a
+profile, the points of a screen and the candidates of a round are independent fits that can.  Results are
+returned in the order of the items and each fit is computed the same way in any thread, so the numbers do not
+depend on the machine or the scheduling.  Standard library only.
+"""
+from __future__ import annotations
+
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from typing import Callable, Iterable, TypeVar
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+_LOCAL = threading.local()
+_POOLS: dict = {}  # (pid, workers) -> ThreadPoolExecutor: a forked child makes its own (threads are not inherited)
+_LOCK = threading.Lock()
+
+
+def cores() -> int:
+    """The processors this process may run on (at most 4)."""
+    try:
+        return max(1, min(len(os.sched_getaffinity(0)), 4))
+    except AttributeError:  # not on Linux
+        return max(1, min(os.cpu_count() or 1, 4))
+
+
+def pool(workers: int) -> ThreadPoolExecutor:
+    """The process's pool of ``workers`` threads, made on first use."""
+    key = (os.getpid(), workers)
+    with _LOCK:
+        if key not in _POOLS:
+            _POOLS[key] = ThreadPoolExecutor(workers, thread_name_prefix=f"trms-{workers}")
+        return _POOLS[key]
+
+
+def in_worker() -> bool:
+    """True inside fan_out's work: the fit's windows then stay in this thread (the cores are taken)."""
+    return getattr(_LOCAL, "busy", False)
+
+
+def fan_out(fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
+    """[fn(x) for x in items], the items spread over the cores; in order.  Serial inside another fan_out (no
+    nesting: a worker waiting for work queued behind it would wait for ever) and with one core or one item.
+    ``fn`` must not touch shared state other than caches whose entries it writes whole (dict assignment)."""
+    items = list(items)
+    n = cores()
+    if len(items) < 2 or n < 2 or in_worker():
+        return [fn(x) for x in items]
+
+    def job(x):
+        _LOCAL.busy = True
+        try:
+            return fn(x)
+        finally:
+            _LOCAL.busy = False
+
+    return list(pool(n).map(job, items))
