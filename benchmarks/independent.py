@@ -129,10 +129,9 @@ def _judge(d, truth: dict) -> dict:
             "found": [f"{k} {v:.4g}" for k, (v, _) in found.items()]}
 
 
-def run(case: dict) -> dict:
-    import trms_ident as ti
+def draw_log(case: dict) -> tuple[dict, dict, tuple]:
+    """(the plant's keywords, the truth, the log's columns t, u1, u2, alpha, beta) of bench ``case``."""
     from tests.plants.textbook import simulate_log
-    from trms_ident.log import validated
 
     rng = np.random.default_rng([case["seed"], case["i"]])
     for _ in range(20):
@@ -147,7 +146,15 @@ def run(case: dict) -> dict:
         t, u1, u2, alpha, beta = simulate_log(**kw)
         if not _runs_away(u1, alpha):
             break
-    log = validated(t, u1, u2, alpha, beta)
+    return kw, truth, (t, u1, u2, alpha, beta)
+
+
+def run(case: dict) -> dict:
+    import trms_ident as ti
+    from trms_ident.log import validated
+
+    kw, truth, columns = draw_log(case)
+    log = validated(*columns)
     t0 = time.perf_counter()
     try:
         d = ti.diagnose(log)
