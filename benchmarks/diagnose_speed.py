@@ -42,9 +42,11 @@ def diagnose_in(tree: Path, log: Path, out: Path) -> list[str]:
 
 
 def said(path: Path) -> tuple:
-    """What a diagnosis says (verdict, findings with their values and alternatives), for the same-answer check."""
+    """What a diagnosis says, as the terminal says it: the verdict and each finding's effect, axis, value to 4
+    significant digits and alternatives (a refit's last digits, ~1e-7, are not a different diagnosis)."""
     d = json.loads(path.read_text(encoding="utf-8"))
-    return (d.get("verdict"), json.dumps(d.get("findings"), sort_keys=True, default=str))
+    return (d.get("verdict"), tuple((f.get("effect"), f.get("axis"), f"{f['parameter']['value']:.4g}",
+                                     tuple(f.get("alternatives") or ())) for f in d.get("findings") or ()))
 
 
 def picked(seed: int, n: int) -> list[dict]:
