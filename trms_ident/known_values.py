@@ -37,6 +37,7 @@ import numpy as np
 from scipy.special import ndtr  # the normal CDF: scipy.stats costs 0.26 s of import on every estimate
 
 from .numerics.adequacy import RMS_OVER_NOISE
+from .numerics.parallel import fan_out
 from .numerics.stats import Z95
 from .numerics.refine import Refined, known_value_scores, suspect_known_values
 from .params import BY_NAME, ESTIMATED, KNOWN, not_credible
@@ -140,9 +141,9 @@ def search(fit: Fit, params: dict, noise: dict, samples: int, candidates: tuple 
         else:
             precision["at"] = AT_FIT
     base_ratio = over_noise(base, noise)
-    fits = []
-    for name in list(scores)[:TOP]:
-        fits.append(_refit(fit, name, params, noise, scores[name], table_jb, tuple(free)))
+    # the TOP refits are independent: on both cores (numerics.parallel), in the scores' order
+    fits = fan_out(lambda name: _refit(fit, name, params, noise, scores[name], table_jb, tuple(free)),
+                   list(scores)[:TOP])
     fits = [f for f in fits if f is not None]
     fits.sort(key=lambda f: (not f.explains, f.cost))
     explaining = [f for f in fits if f.explains]
