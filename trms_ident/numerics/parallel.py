@@ -22,6 +22,17 @@ _POOLS: dict = {}  # (pid, workers) -> ThreadPoolExecutor: a forked child makes 
 _LOCK = threading.Lock()
 
 
+def _after_fork() -> None:
+    """A forked child (batch's worker processes) has none of the parent's threads: its own pools and lock."""
+    global _LOCK
+    _LOCK = threading.Lock()
+    _POOLS.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork)
+
+
 def cores() -> int:
     """The processors this process may run on (at most 4)."""
     try:
@@ -32,7 +43,7 @@ def cores() -> int:
 
 def pool(workers: int) -> ThreadPoolExecutor:
     """The process's pool of ``workers`` threads, made on first use."""
-    key = (os.getpid(), workers)
+    key = (os.getpid(), workers)  # the pid too: a child made otherwise than by fork must not use them either
     with _LOCK:
         if key not in _POOLS:
             _POOLS[key] = ThreadPoolExecutor(workers, thread_name_prefix=f"trms-{workers}")
