@@ -29,11 +29,14 @@ from ratios import SCIPY_PIPELINE, timed  # noqa: E402
 PY = sys.executable
 
 
-def estimate_in(tree: Path, log: Path, out: Path) -> list[str]:
-    """estimate LOG from the package in ``tree`` (its own PYTHONPATH, set by the caller's env)."""
+def run_in(tree: Path, *argv: str) -> list[str]:
+    """`trms-ident ARGV` from the package in ``tree`` (first on sys.path), as a fresh interpreter's command."""
     return [PY, "-c", f"import sys; sys.path.insert(0, {str(tree)!r}); import runpy; "
-            "sys.argv = ['trms-ident', 'estimate', sys.argv[1], '-o', sys.argv[2], '--no-report']; "
-            "runpy.run_module('trms_ident', run_name='__main__')", str(log), str(out)]
+            "sys.argv = ['trms-ident'] + sys.argv[1:]; runpy.run_module('trms_ident', run_name='__main__')", *argv]
+
+
+def estimate_in(tree: Path, log: Path, out: Path) -> list[str]:
+    return run_in(tree, "estimate", str(log), "-o", str(out), "--no-report")
 
 
 def main() -> None:

@@ -29,16 +29,13 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from independent import KINDS, cases, draw_log  # noqa: E402
+from against_base import run_in  # noqa: E402
 from ratios import timed  # noqa: E402
 
-PY = sys.executable
 
 
 def diagnose_in(tree: Path, log: Path, out: Path) -> list[str]:
-    """`trms-ident diagnose LOG --json OUT` from the package in ``tree``."""
-    return [PY, "-c", f"import sys; sys.path.insert(0, {str(tree)!r}); import runpy; "
-            "sys.argv = ['trms-ident', 'diagnose', sys.argv[1], '--json', sys.argv[2]]; "
-            "runpy.run_module('trms_ident', run_name='__main__')", str(log), str(out)]
+    return run_in(tree, "diagnose", str(log), "--json", str(out))
 
 
 def said(path: Path) -> tuple:
