@@ -556,11 +556,11 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
     ``m0``: the motors' start states tau1(0), tau2(0), zeta(0), lag1(0), lag2(0) (motor_response).  The motor
     states at each window's start come first (motor_starts); the windows are then independent and run on up to
     parallel.cores() cores (one inside parallel.fan_out), each window computed the same way whatever the split,
-    so the numbers do not depend on the machine.  ``motor_free``: motor_starts from zero start states for this p (computed when
-    None).  ``ext`` (n, 2): exogenous torques [N m] held over each sample interval (None: none).  ``rounding``:
-    (quanta (2,) [rad], grids (r, 2) [rad]) for windows_pass, whose b_grid and scores_grid are then returned
-    after the scores.  ``sens`` False: the predictions and the cost alone (the normal equations and scores come
-    back zero), at a fraction of the pass (no sensitivity is integrated)."""
+    so the numbers do not depend on the machine.  ``motor_free``: motor_starts from zero start states for this p
+    (computed when None).  ``ext`` (n, 2): exogenous torques [N m] held over each sample interval (None: none).
+    ``rounding``: (quanta (2,) [rad], grids (r, 2) [rad]) for windows_pass, whose b_grid and scores_grid are then
+    returned after the scores.  ``sens`` False: the predictions and the cost alone (the normal equations and scores
+    come back zero), at a fraction of the pass (no sensitivity is integrated)."""
     u1, u2 = readonly(u1), readonly(u2)  # one compiled windows_pass and motor_starts (kernel_args)
     n = u1.size
     nw = starts.shape[0]
@@ -586,7 +586,8 @@ def gauss_newton_pass(u1, u2, y, inv_sig, starts, m0, p, signed, h, dsw, max_sub
         windows_pass(*args, 0, nw, *tail)
     else:
         cut = [round(g * nw / groups) for g in range(groups + 1)]
-        jobs = [parallel.pool(groups - 1).submit(windows_pass, *args, cut[g], cut[g + 1], *tail) for g in range(1, groups)]
+        pool = parallel.pool(groups - 1)
+        jobs = [pool.submit(windows_pass, *args, cut[g], cut[g + 1], *tail) for g in range(1, groups)]
         windows_pass(*args, cut[0], cut[1], *tail)
         for j in jobs:
             j.result()
