@@ -371,14 +371,15 @@ def _fitted_first(results, fitter, current, values, theta0, log, p, scan: bool =
     if fitter.base(current, values, theta0) is None:
         return
 
-    def one(r) -> None:
-        c = r["c"]
-        if oe.profiled(c.key):
-            fitter.profile(current, values, theta0, c.key, value_grid(c, log, p), r["value"], scan)
-        else:
-            fitter.candidate(current, values, theta0, c.key)
+    fan_out(lambda r: _oe_answer(r["c"], r["value"], fitter, current, values, theta0, log, p, scan), results)
 
-    fan_out(one, results)
+
+def _oe_answer(c, value0, fitter, current, values, theta0, log, p, scan: bool = True):
+    """Candidate c's output-error fit on top of ``current`` (the Fitter keeps it): an input modification's profile
+    over its value from ``value0``, any other candidate fitted free; None when it fails."""
+    if oe.profiled(c.key):
+        return fitter.profile(current, values, theta0, c.key, value_grid(c, log, p), value0, scan)
+    return fitter.candidate(current, values, theta0, c.key)
 
 
 def oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested, torque_floor: bool = True,
@@ -387,10 +388,7 @@ def oe_fit(c, value0, fitter, current, values, theta0, log, p, n_tests, tested, 
     value, from the equation error's ``value0``); the fit (or None) and what keeps it from passing, in words
     (oe.shortfall, with or without the torque-share floor, and the value's plausibility; empty: it passes).
     Recorded in ``tested``.  ``scan``: as oe.Fitter.profile's."""
-    if oe.profiled(c.key):
-        f = fitter.profile(current, values, theta0, c.key, value_grid(c, log, p), value0, scan)
-    else:
-        f = fitter.candidate(current, values, theta0, c.key)
+    f = _oe_answer(c, value0, fitter, current, values, theta0, log, p, scan)
     if f is None:
         return None, ["the output-error fit failed"]
     why = oe.shortfall(f, n_tests, FAMILY_ALPHA, torque_floor)
