@@ -18,7 +18,7 @@ T = TypeVar("T")
 R = TypeVar("R")
 
 _LOCAL = threading.local()
-_POOLS: dict = {}  # (pid, workers) -> ThreadPoolExecutor: a forked child makes its own (threads are not inherited)
+_POOLS: dict = {}  # workers -> ThreadPoolExecutor; emptied in a forked child (_after_fork)
 _LOCK = threading.Lock()
 
 
@@ -43,11 +43,10 @@ def cores() -> int:
 
 def pool(workers: int) -> ThreadPoolExecutor:
     """The process's pool of ``workers`` threads, made on first use."""
-    key = (os.getpid(), workers)  # the pid too: a child made otherwise than by fork must not use them either
     with _LOCK:
-        if key not in _POOLS:
-            _POOLS[key] = ThreadPoolExecutor(workers, thread_name_prefix=f"trms-{workers}")
-        return _POOLS[key]
+        if workers not in _POOLS:
+            _POOLS[workers] = ThreadPoolExecutor(workers, thread_name_prefix=f"trms-{workers}")
+        return _POOLS[workers]
 
 
 def in_worker() -> bool:

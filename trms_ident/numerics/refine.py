@@ -468,44 +468,35 @@ def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub,
             ra = (y[k, 0] - out[k, 0]) * inv_sig[0]
             rb = (y[k, 1] - x[2]) * inv_sig[1]
             cost += ra * ra + rb * rb
-            if not sens:  # predictions and cost only: the normal equations stay as they are (zeros)
-                if k == e - 1:
-                    break
-                cuts, v1, v2 = _pieces(k, u1, u2, h, dsw)
-                e1, e2 = (ext[k, 0], ext[k, 1]) if has_ext else (0.0, 0.0)
-                for j in range(3):
-                    dur = cuts[j + 1] - cuts[j]
-                    if dur > 0.0:
-                        _rk4(x, xt, k1, k2, k3, k4, v1[j], v2[j], e1, e2, p, signed, dur, max_sub, fs, fe, False)
-                continue
-            for c in range(NU):
-                ja[c] = x[_S0 + 4 * c] * inv_sig[0]
-                jb[c] = x[_S0 + 4 * c + 2] * inv_sig[1]
-            for c in range(nf):
-                ja[NU + c] = (x[_NS + 4 * c] + (1.0 if fs[c] == SENSOR_OFFSET_SLOT else 0.0)) * inv_sig[0]
-                jb[NU + c] = x[_NS + 4 * c + 2] * inv_sig[1]
-            for c in range(m):
-                ja[NU + nf + c] = extra[k, 0, c] * inv_sig[0]
-                jb[NU + nf + c] = extra[k, 1, c] * inv_sig[1]
-            q = min(k // block, nb - 1)
-            for i in range(nt):
-                g = ja[i] * ra + jb[i] * rb
-                b_vec[w, i] += g
-                scores[q, i] += g
-                for j in range(i, nt):
-                    a_mat[w, i, j] += ja[i] * ja[j] + jb[i] * jb[j]
-            for r in range(ngr):  # the residual each encoder grid would leave: the prediction's rounding error
-                ea, eb = 0.0, 0.0
-                if quanta[0] > 0.0:
-                    v = out[k, 0] - grids[r, 0]
-                    ea = (quanta[0] * math.floor(v / quanta[0] + 0.5) - v) * inv_sig[0]
-                if quanta[1] > 0.0:
-                    v = out[k, 1] - grids[r, 1]
-                    eb = (quanta[1] * math.floor(v / quanta[1] + 0.5) - v) * inv_sig[1]
+            if sens:  # the normal equations (sens False: predictions and cost only, they stay zero)
+                for c in range(NU):
+                    ja[c] = x[_S0 + 4 * c] * inv_sig[0]
+                    jb[c] = x[_S0 + 4 * c + 2] * inv_sig[1]
+                for c in range(nf):
+                    ja[NU + c] = (x[_NS + 4 * c] + (1.0 if fs[c] == SENSOR_OFFSET_SLOT else 0.0)) * inv_sig[0]
+                    jb[NU + c] = x[_NS + 4 * c + 2] * inv_sig[1]
+                for c in range(m):
+                    ja[NU + nf + c] = extra[k, 0, c] * inv_sig[0]
+                    jb[NU + nf + c] = extra[k, 1, c] * inv_sig[1]
+                q = min(k // block, nb - 1)
                 for i in range(nt):
-                    g = ja[i] * ea + jb[i] * eb
-                    b_grid[w, r, i] += g
-                    scores_grid[r, q, i] += g
+                    g = ja[i] * ra + jb[i] * rb
+                    b_vec[w, i] += g
+                    scores[q, i] += g
+                    for j in range(i, nt):
+                        a_mat[w, i, j] += ja[i] * ja[j] + jb[i] * jb[j]
+                for r in range(ngr):  # the residual each encoder grid would leave: the prediction's rounding error
+                    ea, eb = 0.0, 0.0
+                    if quanta[0] > 0.0:
+                        v = out[k, 0] - grids[r, 0]
+                        ea = (quanta[0] * math.floor(v / quanta[0] + 0.5) - v) * inv_sig[0]
+                    if quanta[1] > 0.0:
+                        v = out[k, 1] - grids[r, 1]
+                        eb = (quanta[1] * math.floor(v / quanta[1] + 0.5) - v) * inv_sig[1]
+                    for i in range(nt):
+                        g = ja[i] * ea + jb[i] * eb
+                        b_grid[w, r, i] += g
+                        scores_grid[r, q, i] += g
             if k == e - 1:
                 break
             # hold the voltages over the actual interval, each switching at its own time
@@ -517,7 +508,7 @@ def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub,
             for j in range(3):
                 dur = cuts[j + 1] - cuts[j]
                 if dur > 0.0:
-                    _rk4(x, xt, k1, k2, k3, k4, v1[j], v2[j], e1, e2, p, signed, dur, max_sub, fs, fe)
+                    _rk4(x, xt, k1, k2, k3, k4, v1[j], v2[j], e1, e2, p, signed, dur, max_sub, fs, fe, sens)
         costs[w] = cost
         for i in range(nt):
             for j in range(i):
