@@ -36,7 +36,7 @@ from typing import Callable
 import numpy as np
 from scipy.special import ndtr  # the normal CDF: scipy.stats costs 0.26 s of import on every estimate
 
-from .numerics.adequacy import RMS_OVER_NOISE
+from .numerics.adequacy import NUMERICAL_FLOOR_RAD, RMS_OVER_NOISE
 from .numerics.parallel import fan_out
 from .numerics.stats import Z95
 from .numerics.refine import Refined, known_value_scores, suspect_known_values
@@ -108,8 +108,9 @@ Fit = Callable[..., Refined]
 
 
 def over_noise(r: Refined, noise: dict) -> dict:
-    """Each angle's error RMS after the fit over its noise floor (inf when the floor is zero)."""
-    return {ax: r.rms_rad[ax] / noise[ax] if noise[ax] > 0 else math.inf for ax in ("alpha", "beta")}
+    """Each angle's error RMS after the fit over its noise floor, never below the integrator's precision
+    (numerics.adequacy.NUMERICAL_FLOOR_RAD: a noise-free log is not judged against a floor no fit can reach)."""
+    return {ax: r.rms_rad[ax] / max(noise[ax], NUMERICAL_FLOOR_RAD) for ax in ("alpha", "beta")}
 
 
 def _within(ratio: dict) -> bool:
