@@ -93,8 +93,8 @@ def test_the_terms_array_forms_are_the_compiled_terms():
         assert np.array_equal(arr, [P.thrust(t, 0.0135, 0.0924, signed) for t in tau])
     np.testing.assert_array_equal(P.thrust_law(tau, 0.02, 0.09, "signed"), 0.02 * tau * np.abs(tau) + 0.09 * tau)
     np.testing.assert_array_equal(P.thrust_law(tau, 0.02, 0.09, "quadratic"), 0.02 * tau * tau + 0.09 * tau)
-    arr = P.pitch_torque.py_func(tau, np.sin(s), np.cos(s), s, 0.32, 0.05)
-    np.testing.assert_array_equal(arr, [P.pitch_torque(a, math.sin(b), math.cos(b), b, 0.32, 0.05)
+    arr = P.pitch_torque.py_func(tau, tau, np.sin(s), np.cos(s), s, 0.32, 0.05)
+    np.testing.assert_array_equal(arr, [P.pitch_torque(a, a, math.sin(b), math.cos(b), b, 0.32, 0.05)
                                         for a, b in zip(tau, s)])
     # thrust_slope is the thrust's derivative
     h = 1e-6
@@ -111,7 +111,9 @@ def test_model_vector_layout():
     assert [pv[P.slot(k)] for k in P.PARAM_ORDER] == [p[k] for k in P.PARAM_ORDER]
     assert pv[P.GRAVITY_OFFSET_SLOT] == 0.03 and pv[P.slot("cable_stiffness:yaw")] == 0.01
     assert P.slot("gain", ("gain",)) == P.N_SLOTS and pv[P.N_SLOTS] == 0.0
-    assert sorted([*P.EFFECT_SLOTS.values(), *P.LAG_SLOTS.values()]) == list(range(P.GRAVITY_OFFSET_SLOT, P.N_SLOTS))
+    assert sorted([*P.EFFECT_SLOTS.values(), *P.LAG_SLOTS.values(), *P.STRUCTURE_SLOTS.values()]) == \
+        list(range(P.GRAVITY_OFFSET_SLOT, P.N_SLOTS))
+    assert all(pv[i] == 0.0 for i in P.STRUCTURE_SLOTS.values())  # eq. (1)'s structure: no stop, no voltage drive
     with pytest.raises(ValueError, match="nosuch"):
         P.slot("nosuch")
 

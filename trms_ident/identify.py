@@ -67,13 +67,14 @@ def resolve_filters(log: Log, settings: Settings) -> tuple[Settings, FilterDesig
     return replace(settings, filter_a_rad_s=design.a_rad_s, filter_b_rad_s=b), design
 
 
-def on_uniform_grid(log: Log, params: dict) -> tuple[Log, tuple | None]:
+def on_uniform_grid(log: Log, params: dict, structure: dict | None = None) -> tuple[Log, tuple | None]:
     """DREM's filters run on a uniform grid.  A jittered log is evaluated on the grid of its mean step:
     angles by cubic-spline interpolation (continuous signals), the motor and M_R states exactly, with every
-    voltage held over its real interval (numerics/hold.py).  Uniform logs pass unchanged (motor None)."""
+    voltage held over its real interval (numerics/hold.py; M_R driven by u1 itself where the bench's ``structure``
+    says so).  Uniform logs pass unchanged (motor None)."""
     if log.held_at_stamps:
         return log, None
-    from .numerics.hold import motor_states_on_grid, reaction_moment
+    from .numerics.hold import motor_states_on_grid
 
     if log.uniform:
         grid = log.t_s
@@ -86,10 +87,26 @@ def on_uniform_grid(log: Log, params: dict) -> tuple[Log, tuple | None]:
         ang = CubicSpline(log.t_s, np.column_stack([log.alpha_rad, log.beta_rad]))(grid)
     sw = log.t_s[:, None] + log.switch_offsets_s()
     m = motor_states_on_grid(sw[:, 0], log.u1_v, log.u2_v, grid, params, t2_s=sw[:, 1])
-    motor = (m[:, 0], m[:, 1], reaction_moment(m[:, 0], m[:, 2], params))
-    held = np.searchsorted(log.t_s, grid, side="right") - 1  # for plots only: the voltage in force
+    motor = (m[:, 0], m[:, 1], reaction_moment_on_grid(sw[:, 0], log.u1_v, log.u2_v, grid, params, structure, m))
+    held = np.searchsorted(log.t_s, grid, side="right") - 1  # the voltage in force (plots; a voltage gyroscope)
     return replace(log, t_s=grid, u1_v=log.u1_v[held], u2_v=log.u2_v[held], alpha_rad=ang[:, 0],
                    beta_rad=ang[:, 1], u_switch_s=None), motor
+
+
+def reaction_moment_on_grid(t_s: np.ndarray, u1_v: np.ndarray, u2_v: np.ndarray, grid_s: np.ndarray, params: dict,
+                            structure: dict | None, motor: np.ndarray | None = None) -> np.ndarray:
+    """M_R [N m] at the grid times with every voltage held from its stamp ``t_s`` (numerics/hold.py): eq. (1)'s,
+    driven by tau1, or (the bench's ``structure``: model/structure.py) driven by the voltage u1 itself, whose direct
+    term takes the voltage in force at each grid time.  ``motor``: motor_states_on_grid's result under eq. (1)
+    when the caller has it."""
+    from .model.structure import reaction_voltage
+    from .numerics.hold import motor_states_on_grid, reaction_moment
+
+    rv = reaction_voltage(structure)
+    if motor is None or rv:
+        motor = motor_states_on_grid(t_s, u1_v, u2_v, grid_s, params, reaction_voltage=rv)
+    drive = u1_v[np.maximum(np.searchsorted(t_s, grid_s, side="right") - 1, 0)] if rv else motor[:, 0]
+    return reaction_moment(drive, motor[:, 2], params)
 
 
 def under_model(log: Log, params: dict, effects: dict, kernel: bool = False, free: tuple = ()
@@ -119,8 +136,10 @@ def under_model(log: Log, params: dict, effects: dict, kernel: bool = False, fre
 def model_name(settings: Settings) -> str:
     """'eq. (1)', or 'eq. (1) + a second-order tail motor (T2 = 0.463 s)' under a bench file's effects."""
     from .model.bench import BenchEffect, describe
+    from .model.structure import phrases
 
-    return describe(tuple(BenchEffect(k, float(v)) for k, v in settings.effects.items()))
+    return describe(tuple(BenchEffect(k, float(v)) for k, v in settings.effects.items())) + "".join(
+        f" + {p}" for p in phrases(settings.structure))
 
 
 def refined_free(settings: Settings) -> tuple:
@@ -133,13 +152,15 @@ def refined_free(settings: Settings) -> tuple:
 
 def model_kw(settings: Settings, values: dict | None = None) -> dict:
     """refine's ``effects``: the bench's torque effects at their values (``values``: freed ones' estimates in
-    their place) and the modifications the kernel integrates (model.bench.KERNEL_KEYS, and the saturations freed:
-    NATIVE_FREE_KEYS, on voltages from under_model(..., kernel=True, free=settings.free)); empty under eq. (1)
-    alone."""
+    their place), the modifications the kernel integrates (model.bench.KERNEL_KEYS, and the saturations freed:
+    NATIVE_FREE_KEYS, on voltages from under_model(..., kernel=True, free=settings.free)) and the bench's structure
+    (model.structure.slot_values); empty under eq. (1) alone."""
     from .model.bench import TORQUE_KEYS, inside_fit
+    from .model.structure import slot_values
 
     inside = TORQUE_KEYS + inside_fit(settings.free)
     effects = {k: (values or {}).get(k, v) for k, v in settings.effects.items() if k in inside}
+    effects.update(slot_values(settings.structure))
     return {"effects": effects} if effects else {}
 
 
@@ -173,7 +194,7 @@ def identify(log: Log, settings: Settings | None = None, halves: bool = True, st
     drem_log = (under_model(given, given_params, settings.effects)[0]
                 if _lagged(settings) else log)
     _long_enough(log, params)
-    grid_log, motor = on_uniform_grid(drem_log, params)
+    grid_log, motor = on_uniform_grid(drem_log, params, settings.structure)
     settings, design = resolve_filters(grid_log, settings)
     dt = log.sample_time_s
     f_gain, h_gain = settings.filter_gains()
@@ -184,7 +205,9 @@ def identify(log: Log, settings: Settings | None = None, halves: bool = True, st
     summaries = drem_summaries(grid_log.u1_v, grid_log.u2_v, grid_log.alpha_rad, grid_log.beta_rad, dt, params,
                                settings.thrust_law, settings.filter_a_rad_s, settings.filter_b_rad_s, f_gain, h_gain,
                                motor, block=block, gamma=gamma, rate_per_s=math.log(100.0) / settings.settle_time_s,
-                               step=step)
+                               step=step, structure=settings.structure,
+                               skip=stop_samples(grid_log, settings.structure, settings.filter_a_rad_s,
+                                                 settings.filter_b_rad_s))
     # known bias bounds added to the interval: errors in variables (designed filters only) and the bilinear
     # transform's relative magnitude error at the fastest filter pole, (w dt)^2 / 12
     warp = (max(settings.filter_a_rad_s, settings.filter_b_rad_s) * dt) ** 2 / 12.0
@@ -218,6 +241,38 @@ def identify(log: Log, settings: Settings | None = None, halves: bool = True, st
         _halves_check(given, settings, check)
     return Result(grid_log.t_s[::step], traces, step, drem_final, offline, intervals, refined, note, headline,
                   head_intervals, estimates, axes, params, settings, design, dt, check, simulated)
+
+
+#: how long after an angle leaves its end stop DREM's regressions still carry the stop's contact torque, in the
+#: slower filter's time constants 1/a: the double pole's impulse response t e^(-a t) falls below 1e-4 of its peak
+#: after about 12/a
+STOP_SETTLE_TIME_CONSTANTS = 12.0
+
+
+def stop_samples(log: Log, structure: dict, a_rad_s: float, b_rad_s: float) -> dict | None:
+    """{axis: (n,) bool}: the samples DREM leaves out of an axis' regression: where its angle rests on an end stop
+    of the bench's structure (model/structure.py: within a few encoder steps of it, or 1e-4 rad), and the samples
+    after it while the filters still carry the stop's contact torque (eq. 1 has none: the stop holds the angle,
+    not the torques).  None when the structure has no stops, or the angles never reach them."""
+    from .model.structure import stops
+
+    out = {}
+    settle = int(math.ceil(STOP_SETTLE_TIME_CONSTANTS / min(a_rad_s, b_rad_s) / log.sample_time_s))
+    for axis, x in (("pitch", log.alpha_rad), ("yaw", log.beta_rad)):
+        s = stops(structure, axis)
+        if s is None:
+            continue
+        tol = max(3.0 * quantization_step(x), 1e-4)
+        at = (x <= s[0] + tol) | (x >= s[1] - tol)
+        if not at.any():
+            continue
+        # each contact reaches the next `settle` samples: a running maximum over them
+        idx = np.flatnonzero(at)
+        reach = np.zeros(x.size + 1, dtype=np.int64)
+        np.add.at(reach, idx, 1)
+        np.add.at(reach, np.minimum(idx + settle + 1, x.size), -1)
+        out[axis] = np.cumsum(reach[:-1]) > 0
+    return out or None
 
 
 #: the halves check's family-wise level: the chance that J/B the halves both determine are said to differ when the

@@ -122,11 +122,13 @@ def merge(overrides: Mapping[str, float] | None, *, source: str = "overrides") -
 
 
 def to_toml(known: dict[str, float], identified: dict[str, float], header: list[str], effects: tuple = (),
-            sources: dict | None = None, intervals: dict | None = None) -> str:
+            sources: dict | None = None, intervals: dict | None = None, structure: dict | None = None) -> str:
     """A parameter file: comment lines, [parameters] (known values, each with where it came from when
     ``sources`` says, and as ``{ value = ..., ci95 = [low, high] }`` when ``intervals`` holds its 95 % interval:
-    an estimated value), [effects] (model.bench.BenchEffect each) and [identified] (J/B), with units."""
+    an estimated value), [structure] (model/structure.py's canonical dict), [effects] (model.bench.BenchEffect
+    each) and [identified] (J/B), with units."""
     from .model.bench import to_toml_lines
+    from .model.structure import to_toml_lines as structure_lines
 
     sources, intervals = sources or {}, intervals or {}
 
@@ -139,6 +141,7 @@ def to_toml(known: dict[str, float], identified: dict[str, float], header: list[
     lines = [f"# {h}" for h in header] + ["", "[parameters]"]
     lines += [f"{k} = {entry(k, v)}  # {UNITS[k]}" + (f"; {sources[k]}" if k in sources else "")
               for k, v in known.items()]
+    lines += structure_lines(structure)
     lines += to_toml_lines(tuple(effects))
     lines += ["", "# estimated; `simulate --params` uses them as the true values, `estimate --params` ignores them",
               "[identified]"]
@@ -199,7 +202,8 @@ def load_parameter_file(path: str | Path, allow_estimated: bool = False) -> dict
     table = raw.get("parameters", raw)
     if not isinstance(table, dict):
         raise ParameterFileError(f"{path}: [parameters] must be a table of name = value")
-    overrides = {k: v for k, v in table.items() if k not in ("parameters", "identified", "units", "effects")}
+    overrides = {k: v for k, v in table.items()
+                 if k not in ("parameters", "identified", "units", "effects", "structure")}
     overrides = {k: _value_of(path, k, v) for k, v in overrides.items()}
     identified = raw.get("identified", {})  # an exported model's J/B: true values for the simulator only
     if allow_estimated and isinstance(identified, dict):
@@ -210,7 +214,8 @@ def load_parameter_file(path: str | Path, allow_estimated: bool = False) -> dict
             f"{path}: {', '.join(given)} given, but J1, B1, J2, B2 are the unknowns trms-ident estimates; expected "
             "known values only (remove them; `simulate --params` accepts them as the true values)")
     merge(overrides, source=str(path))  # validate now, with the file's name in the message
-    _effects_of(path, raw)  # and the effects, so that every command refuses a bad entry alike
+    _effects_of(path, raw)  # and the effects and structure, so that every command refuses a bad entry alike
+    _structure_of(path, raw)
     return overrides
 
 
@@ -249,12 +254,13 @@ def known_value_intervals(path: str | Path | None) -> dict:
 
 def bench_settings(path: str | Path | None) -> dict:
     """What a parameter file sets of the estimate's Settings: overrides (known values), inputs_unit, effects and
-    effect_sources (its [effects]); empty for None."""
+    effect_sources (its [effects]), structure (its [structure]); empty for None."""
     if not path:
         return {}
     overrides = load_parameter_file(path)  # checks the whole file, [effects] too
     effects = parameter_file_effects(path)
     return {"overrides": overrides, "inputs_unit": parameter_file_inputs_unit(path),
+            "structure": parameter_file_structure(path),
             "effects": {e.key: e.value for e in effects}, "effect_sources": {e.key: e.source for e in effects},
             "held_ci95": {**{e.key: tuple(e.ci95) for e in effects if e.ci95 is not None},
                             **known_value_intervals(path)}}
@@ -265,6 +271,40 @@ def parameter_file_effects(path: str | Path) -> tuple:
     BenchEffect each, in the file's order; empty when it has none).  Read after :func:`load_parameter_file`."""
     path = resolve_parameter_file(path)
     return _effects_of(path, tomllib.loads(path.read_text(encoding="utf-8")))
+
+
+def parameter_file_structure(path: str | Path) -> dict:
+    """The bench's structure a parameter file's ``[structure]`` table states (model/structure.py's canonical dict;
+    empty: eq. (1)'s).  Read after :func:`load_parameter_file`."""
+    path = resolve_parameter_file(path)
+    return _structure_of(path, tomllib.loads(path.read_text(encoding="utf-8")))
+
+
+def refuse_structure(path: str | Path | None, command: str) -> None:
+    """A command that does not model a bench's ``[structure]`` yet refuses a bench file stating one (SettingsError),
+    rather than run eq. (1) with values that mean something else under it (a voltage-driven Kg is per input unit)."""
+    if not path:
+        return
+    from .errors import SettingsError
+    from .model.structure import phrases
+
+    structure = parameter_file_structure(path)
+    if structure:
+        raise SettingsError(f"{path}: states a [structure] ({'; '.join(phrases(structure))}), which {command} does not "
+                            "model yet (estimate, batch and estimate --joint do); for " + command + " against eq. (1) "
+                            "give a bench file without [structure] (the CE150's: --params humusoft_ce150_eq1)")
+
+
+def _structure_of(path: Path, raw: dict) -> dict:
+    from .model.structure import StructureError, parse_structure
+
+    try:
+        return parse_structure(raw.get("structure"))
+    except StructureError as exc:
+        text = str(exc)
+        key = text.split()[1].rstrip(":") if text.startswith("[structure] ") else None
+        line = _line_of(path, key) if key else _line_of(path, "[structure]")
+        raise ParameterFileError(f"{path}" + (f", line {line}" if line else "") + f": {text}") from None
 
 
 def _effects_of(path: Path, raw: dict) -> tuple:

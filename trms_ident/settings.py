@@ -36,6 +36,9 @@ class Settings:
     #: the bench's effects and structures beyond eq. (1) ([effects] of --params, model/bench.py): key -> value
     effects: dict = field(default_factory=dict)
     effect_sources: dict = field(default_factory=dict)  # key -> where its value came from ("" when not said)
+    #: the bench's structure where it is not eq. (1)'s ([structure] of --params, model/structure.py: what drives the
+    #: gyroscope and M_R, the end stops): its canonical dict, empty under eq. (1)
+    structure: dict = field(default_factory=dict)
     #: effect key or known value's name -> the file's 95 % interval (low, high) of a value estimated elsewhere (its
     #: ci95): held at its value, it widens J/B's intervals by what it moves them (model_profile.py)
     held_ci95: dict = field(default_factory=dict)
@@ -71,6 +74,12 @@ class Settings:
             if name not in KNOWN:
                 raise SettingsError(f"--free {name}: expected known values among {', '.join(KNOWN)}, or an effect "
                                     "of the bench file's [effects]")
+        from .model.structure import StructureError, parse_structure
+
+        try:
+            parse_structure({k: (list(v) if k.endswith("_rad") else v) for k, v in self.structure.items()})
+        except StructureError as exc:
+            raise SettingsError(f"structure: {exc}") from None
         for key, value in self.effects.items():  # as a bench file's [effects] entries are checked
             try:
                 parse_effect(key, value)

@@ -32,7 +32,7 @@ def _rhs(pitch, x, v, tau_m, other, s2, scw, ext, th, fx):
     m = reversed_gain(tau_m, fx[5]) * thrust(tau_m, th[2], th[3], th[6] > 0)  # eq. (1), with thrust asymmetry
     fric = friction(coulomb_sign(v), v, fx[0], fx[1]) + ext
     if pitch:
-        acc = pitch_torque(m, math.sin(x + fx[3]), math.cos(x), other, th[4], th[5]) + fric  # eq. (1), pitch
+        acc = pitch_torque(m, m, math.sin(x + fx[3]), math.cos(x), other, th[4], th[5]) + fric  # eq. (1), pitch
         acc += centrifugal_pitch(fx[6], math.sin(x), math.cos(x), other)  # J'(alpha) beta'^2 / 2
         return (acc - th[1] * v) / th[0]
     acc = yaw_torque(m, other) - fx[2] * x + fric + coriolis_yaw(fx[6], 1.0, scw, 1.0, v)  # eq. (1), yaw

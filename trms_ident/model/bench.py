@@ -217,12 +217,16 @@ def simulator_specs(effects: dict) -> list[dict]:
     return [{"effect": k.split(":")[0], "axis": k.split(":")[1], "value": float(v)} for k, v in effects.items()]
 
 
-def model_doc(effects: dict, sources: dict, freed: dict) -> dict:
+def model_doc(effects: dict, sources: dict, freed: dict, structure: dict | None = None) -> dict:
     """result.json's "model": which model the estimate was made under.  ``effects`` key -> value (Settings),
-    ``sources`` key -> where from, ``freed`` the refinement's freed values (an effect's estimate and ci95)."""
+    ``sources`` key -> where from, ``freed`` the refinement's freed values (an effect's estimate and ci95),
+    ``structure`` the bench's (model/structure.py)."""
+    from .structure import phrases
+
     items = tuple(BenchEffect(k, float(freed[k]["estimate"]) if k in freed else float(v), sources.get(k, ""))
                   for k, v in effects.items())
-    return {"equation": describe(items),
+    return {"equation": describe(items) + "".join(f" + {p}" for p in phrases(structure)),
+            "structure": dict(structure or {}),
             "effects": {e.key: {"parameter": e.candidate.parameter, "unit": e.candidate.unit, "value": e.value,
                                 "from": e.source or None, "estimated": e.key in freed,
                                 "ci95": freed[e.key]["ci95"] if e.key in freed else None,

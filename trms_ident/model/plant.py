@@ -51,8 +51,17 @@ SENSOR_OFFSET_SLOT = EFFECT_SLOTS["sensor_offset:pitch"]
 LAG_SLOTS = {"motor_second_lag:pitch": max(EFFECT_SLOTS.values()) + 1,
              "motor_second_lag:yaw": max(EFFECT_SLOTS.values()) + 2}
 LAG1_SLOT, LAG2_SLOT = LAG_SLOTS["motor_second_lag:pitch"], LAG_SLOTS["motor_second_lag:yaw"]
+#: then the bench's structure where it is not eq. (1)'s (model/structure.py; 0 = eq. 1): the gyroscopic torque
+#: driven by the voltage u1 instead of the thrust M1 (1), M_R's lead-lag driven by u1 instead of tau1 (1), and the
+#: end stops of each angle [rad] (low, high; active when low < high: 0, 0 is none)
+STRUCTURE_SLOTS = {"structure:gyroscope_voltage": LAG2_SLOT + 1, "structure:reaction_voltage": LAG2_SLOT + 2,
+                   "structure:pitch_stop_low": LAG2_SLOT + 3, "structure:pitch_stop_high": LAG2_SLOT + 4,
+                   "structure:yaw_stop_low": LAG2_SLOT + 5, "structure:yaw_stop_high": LAG2_SLOT + 6}
+GYRO_VOLTAGE_SLOT = STRUCTURE_SLOTS["structure:gyroscope_voltage"]
+REACTION_VOLTAGE_SLOT = STRUCTURE_SLOTS["structure:reaction_voltage"]
+STOP_SLOT = STRUCTURE_SLOTS["structure:pitch_stop_low"]  # pitch low, high, yaw low, high from here
 #: the model vector's length without exogenous torques (their parameters follow from here on)
-N_SLOTS = LAG2_SLOT + 1
+N_SLOTS = STOP_SLOT + 4
 #: Coulomb friction's sign is smoothed as tanh(omega / FRICTION_SMOOTH_RAD_S) [rad/s] (RK4 needs a smooth right
 #: side; the diagnosis' prediction model uses the same)
 FRICTION_SMOOTH_RAD_S = 1e-3
@@ -97,10 +106,11 @@ def reaction_moment(tau1, zeta, kc, t0, tp):
 
 
 @njit(**_TERM)
-def pitch_torque(m1, sin_g, cos_a, dbeta, mg, kg):
-    """Pitch torques of eq. (1) but J1 alpha'' + B1 alpha' [N m]: M1 - Mg sin(alpha + delta) - Kg M1 beta' cos alpha.
-    sin_g = sin(alpha + delta), cos_a = cos(alpha)."""
-    return m1 - mg * sin_g - kg * m1 * dbeta * cos_a
+def pitch_torque(m1, gd, sin_g, cos_a, dbeta, mg, kg):
+    """Pitch torques of eq. (1) but J1 alpha'' + B1 alpha' [N m]: M1 - Mg sin(alpha + delta) - Kg gd beta' cos alpha,
+    with gd the gyroscope's drive: M1 in eq. (1), the voltage u1 where the bench's structure says so (the CE150's
+    K_gyro u1 phi' cos psi: model/structure.py).  sin_g = sin(alpha + delta), cos_a = cos(alpha)."""
+    return m1 - mg * sin_g - kg * gd * dbeta * cos_a
 
 
 @njit(**_TERM)
@@ -165,6 +175,8 @@ def slot(name: str, exogenous: tuple[str, ...] = ()) -> int:
         return EFFECT_SLOTS[name]
     if name in LAG_SLOTS:
         return LAG_SLOTS[name]
+    if name in STRUCTURE_SLOTS:
+        return STRUCTURE_SLOTS[name]
     if name in exogenous:
         return N_SLOTS + exogenous.index(name)
     if name in PARAM_ORDER:
@@ -173,8 +185,8 @@ def slot(name: str, exogenous: tuple[str, ...] = ()) -> int:
                      f"({', '.join(PARAM_ORDER)}), an effect ({', '.join(EFFECT_SLOTS)}) or an exogenous torque")
 
 
-def steady_motor_states(u1_0: float, u2_0: float, params: dict) -> np.ndarray:
-    """tau1, tau2, zeta at the steady state of held voltages u1_0, u2_0 [V] (eq. 1): a first guess of the start
-    states, never assumed (the refinement estimates them)."""
+def steady_motor_states(u1_0: float, u2_0: float, params: dict, reaction_voltage: bool = False) -> np.ndarray:
+    """tau1, tau2, zeta at the steady state of held voltages u1_0, u2_0 [V] (eq. 1; zeta follows u1 itself under a
+    voltage-driven reaction): a first guess of the start states, never assumed (the refinement estimates them)."""
     t1 = params["k1"] / params["T10"] * u1_0
-    return np.array([t1, params["k2"] / params["T20"] * u2_0, t1])
+    return np.array([t1, params["k2"] / params["T20"] * u2_0, u1_0 if reaction_voltage else t1])

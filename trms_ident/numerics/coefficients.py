@@ -66,6 +66,16 @@ def zoh_reaction(kc: float, k1: float, t0: float, tp: float, t11: float, t10: fl
     return np.array([0.0, b1, b2]), np.array([1.0, a1, a2])
 
 
+def zoh_lead_lag(kc: float, t0: float, tp: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """ZOH of kc (t0 s + 1)/(tp s + 1) on a held input: M_R driven by the voltage u1 itself (the bench's structure,
+    model/structure.py).  State form: tp zeta' = u - zeta, y = kc (t0/tp u + (1 - t0/tp) zeta); with
+    e = exp(-dt/tp), zeta[k+1] = e zeta[k] + (1 - e) u[k], so y[k] = kc (r u[k] + (1 - r) zeta[k]), r = t0/tp:
+    Y/U = kc (r + ((1 - r)(1 - e) - r e) z^-1) / (1 - e z^-1), its steady-state gain kc."""
+    e = math.exp(-dt / tp)
+    r = t0 / tp
+    return np.array([kc * r, kc * ((1.0 - r) * (1.0 - e) - r * e), 0.0]), np.array([1.0, -e, 0.0])
+
+
 @njit(cache=True, nogil=True)
 def _dd_int(p: float, dt: float) -> float:
     """Limit of (i1 - i2)/(p2 - p1) as p2 -> p1 = p: int_0^dt s e^{-p s} ds."""

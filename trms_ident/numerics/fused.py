@@ -17,7 +17,8 @@ import numpy as np
 from numba import njit
 
 from ..model.plant import pitch_torque, reaction_moment, thrust, yaw_torque
-from .coefficients import bilinear_second_order, zoh_first_order, zoh_reaction
+from ..model.structure import gyroscope_voltage, reaction_voltage
+from .coefficients import bilinear_second_order, zoh_first_order, zoh_lead_lag, zoh_reaction
 from .drem import gradient_step
 from .kernel_args import readonly
 
@@ -55,8 +56,10 @@ def _angle_part(k, x, b, a, z):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _sample(k, pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, z):
-    """Sample k of one axis' mixed regression: (phi, eps_J, eps_B); the filters' states z advance one step."""
+def _sample(k, pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, gv, z):
+    """Sample k of one axis' mixed regression: (phi, eps_J, eps_B); the filters' states z advance one step.
+    u1: the main motor's voltage (pitch: the gyroscope's drive when ``gv``, the bench's structure) or, on the yaw,
+    M_R's input (the voltage, or M_R itself on a jittered log's grid: the filter passes it through)."""
     n = x.size
     first = k == 0
     if first:
@@ -71,7 +74,7 @@ def _sample(k, pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, 
             db = (3.0 * beta[k] - 4.0 * beta[k - 1] + beta[k - 2]) / (2.0 * dt)
         else:
             db = (beta[k + 1] - beta[k - 1]) / (2.0 * dt)
-        y = pitch_torque(m, math.sin(x[k]), math.cos(x[k]), db, mg, kg)  # eq. (1), pitch
+        y = pitch_torque(m, u1[k] if gv else m, math.sin(x[k]), math.cos(x[k]), db, mg, kg)  # eq. (1), pitch
     else:
         if first:
             _init(b, a, MR, u1[0], z)
@@ -88,35 +91,49 @@ def _sample(k, pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, 
 
 
 @njit(cache=True, nogil=True)
-def _axis(pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, phi, eps):
+def _axis(pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, gv, phi, eps):
     z = np.zeros((8, 2))
     for k in range(x.size):
-        phi[k], eps[k, 0], eps[k, 1] = _sample(k, pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, z)
+        phi[k], eps[k, 0], eps[k, 1] = _sample(k, pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, gv,
+                                               z)
 
 
 @njit(cache=True, nogil=True)
-def _axis_summary(pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, block, sums, totals,
-                  gamma, rate, floor_fraction, out, step):
+def _axis_summary(pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, gv, block, sums, totals,
+                  gamma, rate, floor_fraction, out, step, skip):
     """The axis' DREM results without holding phi and eps: two passes over the samples.
 
     Pass 1, the angle's filters alone: phi's mean square (eq. 8's gain floor needs it before the first step).
     Pass 2: totals = (sum phi^2, sum phi eps_J, sum phi eps_B), the same sums per block of ``block`` samples
     (rows of ``sums``; the samples after the last whole block count in the totals only), and eq. (8) for both
     parameters (drem.gradient_estimator's recursion), every ``step``-th value into ``out``.  Returns the final
-    estimates."""
+    estimates.  ``skip`` (n,) True where a sample is left out of the sums and of eq. (8) (an angle at an end stop,
+    and the samples its contact torque reaches through the filters), or empty: none."""
     n = x.size
+    some = skip.size > 0
     z = np.zeros((8, 2))
     energy = 0.0
+    used = 0
     for k in range(n):
         m1, m2, hm1, hm2 = _angle_part(k, x, b, a, z)
+        if some and skip[k]:
+            continue
         ph = m1 * hm2 - m2 * hm1  # eq. (7)
         energy += ph * ph
-    floor = floor_fraction * energy / max(n, 1)
+        used += 1
+    floor = floor_fraction * energy / max(used, 1)
     z[:, :] = 0.0
     q = np.zeros(2)
     nb = sums.shape[0]
+    seen = 0
     for k in range(n):
-        ph, e0, e1 = _sample(k, pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, z)
+        ph, e0, e1 = _sample(k, pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, gv, z)
+        if some and skip[k]:
+            if k % step == 0:
+                out[k // step, 0] = q[0]
+                out[k // step, 1] = q[1]
+            continue
+        seen += 1
         totals[0] += ph * ph
         totals[1] += ph * e0
         totals[2] += ph * e1
@@ -125,7 +142,7 @@ def _axis_summary(pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, k
             sums[i, 0] += ph * ph
             sums[i, 1] += ph * e0
             sums[i, 2] += ph * e1
-        norm = max(totals[0] / (k + 1), floor)
+        norm = max(totals[0] / seen, floor)
         gradient_step(q, 0, e0, ph, gamma[0], norm, rate, dt)  # eq. (8)
         gradient_step(q, 1, e1, ph, gamma[1], norm, rate, dt)
         if k % step == 0:
@@ -134,13 +151,15 @@ def _axis_summary(pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, k
     return q
 
 
-def _coefficients(pitch: bool, p: dict, dt: float, a_rad_s: float, b_rad_s: float, f_gain: float, h_gain: float):
+def _coefficients(pitch: bool, p: dict, dt: float, a_rad_s: float, b_rad_s: float, f_gain: float, h_gain: float,
+                  structure: dict | None = None):
     b = np.zeros((8, 3))
     a = np.zeros((8, 3))
     a[:, 0] = 1.0
     k, t1, t0 = (p["k1"], p["T11"], p["T10"]) if pitch else (p["k2"], p["T21"], p["T20"])
     b[TAU], a[TAU] = zoh_first_order(k, t1, t0, dt)
-    b[MR], a[MR] = zoh_reaction(p["kc"], p["k1"], p["T0"], p["Tp"], p["T11"], p["T10"], dt)
+    b[MR], a[MR] = (zoh_lead_lag(p["kc"], p["T0"], p["Tp"], dt) if reaction_voltage(structure) else
+                    zoh_reaction(p["kc"], p["k1"], p["T0"], p["Tp"], p["T11"], p["T10"], dt))
     for slot, order in ((F0, 0), (F2, 2), (F1, 1)):
         b[slot], a[slot] = bilinear_second_order(a_rad_s, f_gain, order, dt)
     for slot in (HG, HM1, HM2):
@@ -149,24 +168,26 @@ def _coefficients(pitch: bool, p: dict, dt: float, a_rad_s: float, b_rad_s: floa
 
 
 def _axis_inputs(axis: str, u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str, a_rad_s: float,
-                 b_rad_s: float, f_gain: float, h_gain: float, motor) -> tuple:
-    """The leading arguments of the axis kernels (_axis, _axis_summary) for "pitch" or "yaw"."""
+                 b_rad_s: float, f_gain: float, h_gain: float, motor, structure: dict | None = None) -> tuple:
+    """The leading arguments of the axis kernels (_axis, _axis_summary) for "pitch" or "yaw".  ``structure``: the
+    bench's (model/structure.py; None: eq. 1)."""
     pitch = axis == "pitch"
-    b, a = _coefficients(pitch, p, dt_s, a_rad_s, b_rad_s, f_gain, h_gain)
+    b, a = _coefficients(pitch, p, dt_s, a_rad_s, b_rad_s, f_gain, h_gain, structure)
     drive, reaction = (u1_v if pitch else u2_v), u1_v
     if motor is not None:
         for slot in (TAU, MR):
             b[slot], a[slot] = (1.0, 0.0, 0.0), (1.0, 0.0, 0.0)
-        drive, reaction = motor[0 if pitch else 1], motor[2]
+        drive, reaction = motor[0 if pitch else 1], (u1_v if pitch else motor[2])
     th_a, th_b = (p["a1"], p["b1"]) if pitch else (p["a2"], p["b2"])
     drive, reaction, angle, beta = map(readonly, (drive, reaction, alpha_rad if pitch else beta_rad, beta_rad))
     return (pitch, drive, reaction, angle, beta, dt_s, b, a, th_a, th_b,
-            law == "signed", p["Mg"], p["Kg"])
+            law == "signed", p["Mg"], p["Kg"], gyroscope_voltage(structure))
 
 
 def mixed_regressions(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str,
                       a_rad_s: float, b_rad_s: float, f_gain: float, h_gain: float,
-                      motor: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> dict:
+                      motor: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None, structure: dict | None = None
+                      ) -> dict:
     """{axis: (phi, eps (n, 2))} for "pitch" and "yaw", both axes computed in parallel.
 
     ``motor``: tau1, tau2 and M_R [N m] already on the samples (jittered logs: numerics/hold.py); the
@@ -177,7 +198,7 @@ def mixed_regressions(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law
     def run(axis: str):
         phi, eps = np.empty(n), np.empty((n, 2))
         _axis(*_axis_inputs(axis, u1_v, u2_v, alpha_rad, beta_rad, dt_s, p, law, a_rad_s, b_rad_s, f_gain, h_gain,
-                            motor), phi, eps)
+                            motor, structure), phi, eps)
         out[axis] = (phi, eps)
 
     with ThreadPoolExecutor(max_workers=2) as pool:
@@ -198,10 +219,13 @@ class AxisSummary:
 
 def drem_summaries(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str, a_rad_s: float, b_rad_s: float,
                    f_gain: float, h_gain: float, motor, *, block: int, gamma: dict, rate_per_s: float,
-                   step: int, floor_fraction: float = 0.02) -> dict[str, AxisSummary]:
+                   step: int, floor_fraction: float = 0.02, structure: dict | None = None,
+                   skip: dict | None = None) -> dict[str, AxisSummary]:
     """{axis: AxisSummary}: the same numbers as mixed_regressions followed by drem.gradient_estimator and
     stats.confidence_interval (tested), in memory independent of the log's length (an hour at 1 kHz held
-    phi and eps as 174 MB).  ``gamma``: {axis: (gamma_J, gamma_B)}, None for the normalized gain."""
+    phi and eps as 174 MB).  ``gamma``: {axis: (gamma_J, gamma_B)}, None for the normalized gain.  ``structure``:
+    the bench's (model/structure.py).  ``skip``: {axis: (n,) bool}, the samples left out of that axis' sums
+    (stop_samples), or None."""
     n = alpha_rad.size
     out = {}
 
@@ -209,9 +233,11 @@ def drem_summaries(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: s
         sums, totals = np.zeros((n // block, 3)), np.zeros(3)
         trace = np.empty(((n + step - 1) // step, 2))
         gam = np.array([-1.0 if g is None else float(g) for g in gamma[axis]])
+        left = (skip or {}).get(axis)
         final = _axis_summary(*_axis_inputs(axis, u1_v, u2_v, alpha_rad, beta_rad, dt_s, p, law, a_rad_s, b_rad_s,
-                                            f_gain, h_gain, motor),
-                              block, sums, totals, gam, float(rate_per_s), float(floor_fraction), trace, int(step))
+                                            f_gain, h_gain, motor, structure),
+                              block, sums, totals, gam, float(rate_per_s), float(floor_fraction), trace, int(step),
+                              readonly(np.zeros(0, dtype=np.bool_) if left is None else np.asarray(left, dtype=np.bool_)))
         out[axis] = AxisSummary(float(totals[0]), totals[1:].copy(), sums, trace, final)
 
     with ThreadPoolExecutor(max_workers=2) as pool:
@@ -252,16 +278,20 @@ def warm_up() -> None:
 
 
 @njit(cache=True, nogil=True)
-def _motor_states(u1, u2, c1, c2, kc, t0, tp, x0, out):
+def _motor_states(u1, u2, c1, c2, kc, t0, tp, rv, x0, out):
     """Rows 0, 1, 4 of ``out`` (tau1, tau2, M_R) from given start states x0 = (tau1, tau2, zeta), the voltages
     held over each sample: c1 = zoh_motor_lag_states of the main motor and the reaction lag (e1, e2, phi21, g1,
-    g2), c2 = (e, g) of the tail motor.  eq. (1): M_R = kc (T0/Tp tau1 + (1 - T0/Tp) zeta)."""
+    g2), c2 = (e, g) of the tail motor.  eq. (1): M_R = kc (T0/Tp tau1 + (1 - T0/Tp) zeta); ``rv`` (the bench's
+    structure): kc (T0/Tp u1 + (1 - T0/Tp) zeta), zeta the lag of u1 itself."""
     t1, t2, z = x0[0], x0[1], x0[2]
     for k in range(u1.size):
         out[0, k] = t1
         out[1, k] = t2
-        out[4, k] = reaction_moment(t1, z, kc, t0, tp)
-        t1, z = c1[0] * t1 + c1[3] * u1[k], c1[2] * t1 + c1[1] * z + c1[4] * u1[k]
+        out[4, k] = reaction_moment(u1[k] if rv else t1, z, kc, t0, tp)
+        if rv:
+            t1, z = c1[0] * t1 + c1[3] * u1[k], c1[1] * z + (1.0 - c1[1]) * u1[k]
+        else:
+            t1, z = c1[0] * t1 + c1[3] * u1[k], c1[2] * t1 + c1[1] * z + c1[4] * u1[k]
         t2 = c2[0] * t2 + c2[1] * u2[k]
 
 
@@ -272,7 +302,7 @@ ROWS = {"all": ROWS_ALL, "motors": ROWS_MOTORS, "targets": ROWS_TARGETS}
 
 
 @njit(cache=True, nogil=True)
-def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed, mg, kg, delta, given, rows,
+def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed, mg, kg, gv, delta, given, rows,
                    out):
     """One pass of regressors.plant_signals (eq. 1): out rows tau1, tau2, M1, M2, M_R, beta', y_p, y_y.
     ``rows``: ROWS_ALL, ROWS_MOTORS (tau1, tau2, M_R, beta'; sin_a, cos_a not read) or ROWS_TARGETS (y_p, y_y);
@@ -314,29 +344,33 @@ def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed,
                 out[2, k] = m1
                 out[3, k] = m2
             s_ad = sin_a[k] if delta == 0.0 else sin_a[k] * cd + cos_a[k] * sd  # sin(alpha + delta)
-            out[6, k] = pitch_torque(m1, s_ad, cos_a[k], db, mg, kg)  # eq. (1), pitch
+            out[6, k] = pitch_torque(m1, u1[k] if gv else m1, s_ad, cos_a[k], db, mg, kg)  # eq. (1), pitch
             out[7, k] = yaw_torque(m2, mr)  # eq. (1), yaw
 
 
 def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str, gravity_offset_rad: float = 0.0,
-                  trig: tuple | None = None, start: dict | None = None, rows: str = "all"):
+                  trig: tuple | None = None, start: dict | None = None, rows: str = "all", structure: dict | None = None):
     """regressors.plant_signals in one compiled pass (the same ZOH coefficients, the same steady start);
     equal to the reference to round-off (tested).  For the diagnosis, which rebuilds these signals for
     every candidate and grid point; ``trig``: (sin alpha, cos alpha) when the caller keeps them; ``start``: the
     motor and reaction-lag states at the first sample (tau1_0, tau2_0, zeta_0, as the refinement estimates
     them) instead of the steady state of the first voltage (a log that begins mid-run).  ``rows="motors"``: the
     motor states, M_R and beta' only (the other fields None); ``rows="targets"``: y_pitch_nm, y_yaw_nm only (a
-    candidate's regression targets; a quarter of the memory traffic)."""
+    candidate's regression targets; a quarter of the memory traffic).  ``structure``: the bench's (model/structure.py;
+    None: eq. 1)."""
     from .filters import discretize
     from .regressors import PlantSignals
 
     b = np.zeros((3, 3))
     a = np.zeros((3, 3))
+    rv = reaction_voltage(structure)
     for i, f in enumerate((discretize([p["k1"]], [p["T11"], p["T10"]], dt_s, "zoh"),
                            discretize([p["k2"]], [p["T21"], p["T20"]], dt_s, "zoh"),
                            discretize(p["kc"] * p["k1"] * np.array([p["T0"], 1.0]),
                                       np.polymul([p["Tp"], 1.0], [p["T11"], p["T10"]]), dt_s, "zoh"))):
         b[i, :f.b.size], a[i, :f.a.size] = f.b, f.a
+    if rv:  # M_R driven by u1 itself (the bench's structure), not through the main motor
+        b[2], a[2] = zoh_lead_lag(p["kc"], p["T0"], p["Tp"], dt_s)
     out = np.empty((8, alpha_rad.size))
     if start is not None:
         from .coefficients import zoh_first_order, zoh_motor_lag_states
@@ -344,7 +378,7 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
         c1 = np.array(zoh_motor_lag_states(p["k1"], p["Tp"], p["T11"], p["T10"], dt_s))
         bb, aa = zoh_first_order(p["k2"], p["T21"], p["T20"], dt_s)
         _motor_states(readonly(u1_v), readonly(u2_v), c1,
-                      np.array([-aa[1], bb[1]]), p["kc"], p["T0"], p["Tp"],
+                      np.array([-aa[1], bb[1]]), p["kc"], p["T0"], p["Tp"], rv,
                       np.array([start["tau1_0"], start["tau2_0"], start["zeta_0"]], dtype=float), out)
     mode = ROWS[rows]
     if mode == ROWS_MOTORS:
@@ -354,7 +388,7 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
     _plant_signals(readonly(u1_v), readonly(u2_v),
                    readonly(sin_a), readonly(cos_a), readonly(beta_rad),
                    float(dt_s), b, a, p["a1"], p["b1"], p["a2"], p["b2"], law == "signed", p["Mg"], p["Kg"],
-                   float(gravity_offset_rad), start is not None, mode, out)
+                   gyroscope_voltage(structure), float(gravity_offset_rad), start is not None, mode, out)
     if mode == ROWS_MOTORS:
         return PlantSignals(out[0], out[1], None, None, out[4], out[5], None, None)
     if mode == ROWS_TARGETS:

@@ -45,8 +45,8 @@ from scipy.special import stdtrit
 
 from . import parallel, safe
 from .kernel_args import readonly
-from ..model.plant import (FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, LAG1_SLOT, LAG2_SLOT, N_SLOTS, PARAM_ORDER,
-                           SENSOR_OFFSET_SLOT, YAW_INERTIA_SLOT, centrifugal_pitch, coriolis_yaw, coulomb_sign,
+from ..model.plant import (FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, GYRO_VOLTAGE_SLOT, LAG1_SLOT, LAG2_SLOT,
+                           N_SLOTS, PARAM_ORDER, REACTION_VOLTAGE_SLOT, SENSOR_OFFSET_SLOT, STOP_SLOT, YAW_INERTIA_SLOT, centrifugal_pitch, coriolis_yaw, coulomb_sign,
                            friction, lag_rate, model_vector, motor_rate, pitch_torque, reaction_moment, reversed_gain,
                            slot, steady_motor_states, thrust, thrust_slope, yaw_inertia, yaw_torque)
 
@@ -133,13 +133,15 @@ class Refined:
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
-def _direct(slot, x, p, signed, g1, g2, m1, sg, cg, sa, ca, th1, th2, f3, fe1, fe2):
+def _direct(slot, x, p, signed, g1, g2, m1, gd, rd, sg, cg, sa, ca, th1, th2, f3, fe1, fe2):
     """The torques' derivatives [N m per unit] on pitch and yaw (eq. 1) in the model value at ``slot`` with the
     state held: the direct term of that value's forward sensitivity (the caller divides by J1 and by the yaw
     inertia).  Every slot but the motors' (k1, k2, T11, T10, T21, T20, Tp: they act through the motor states,
     DIRECT_SLOTS leaves them out).  f3: beta'' now.  fe1, fe2: an exogenous torque's per-unit torques at this
-    instant (slots from _NP on).  The encoder offset has none: it acts on the logged angle (windows_pass)."""
-    gyro = 1.0 - p[9] * x[3] * ca  # d(pitch torque)/d M1: the thrust and its gyroscopic coupling
+    instant (slots from _NP on).  The encoder offset has none: it acts on the logged angle (windows_pass).  gd, rd:
+    the gyroscope's and M_R's drives (M1 and tau1 in eq. 1, the voltage u1 under the bench's structure)."""
+    # d(pitch torque)/d M1: the thrust and its gyroscopic coupling (none when the voltage drives the gyroscope)
+    gyro = 1.0 if p[GYRO_VOLTAGE_SLOT] != 0.0 else 1.0 - p[9] * x[3] * ca
     if slot == 4:  # a1: d thrust / d a = tau^2 (or tau|tau|)
         return g1 * thrust(x[4], 1.0, 0.0, signed) * gyro, 0.0
     if slot == 5:  # b1
@@ -151,11 +153,11 @@ def _direct(slot, x, p, signed, g1, g2, m1, sg, cg, sa, ca, th1, th2, f3, fe1, f
     if slot == 8:  # Mg
         return -sg, 0.0
     if slot == 9:  # Kg
-        return -m1 * x[3] * ca, 0.0
+        return -gd * x[3] * ca, 0.0
     if slot == 16:  # kc: M_R is linear in kc
-        return 0.0, -reaction_moment(x[4], x[6], 1.0, p[17], p[18])
+        return 0.0, -reaction_moment(rd, x[6], 1.0, p[17], p[18])
     if slot == 17:  # T0
-        return 0.0, -p[16] * (x[4] - x[6]) / p[18]
+        return 0.0, -p[16] * (rd - x[6]) / p[18]
     if slot == GRAVITY_OFFSET_SLOT:  # centre-of-mass offset delta in Mg sin(alpha + delta)
         return -p[8] * cg, 0.0
     if slot == 20:  # Coulomb friction, pitch
@@ -178,8 +180,9 @@ def _direct(slot, x, p, signed, g1, g2, m1, sg, cg, sa, ca, th1, th2, f3, fe1, f
     if slot == SENSOR_OFFSET_SLOT:
         return 0.0, 0.0
     if slot == -3:  # lag1(0): through tau1, M1 and M_R's direct and lagged paths, as tau1(0)
+        through_tau1 = 0.0 if p[REACTION_VOLTAGE_SLOT] != 0.0 else p[17] / p[18] * x[_LS + 1]
         return (g1 * thrust_slope(x[4], p[4], p[5], signed) * gyro * x[_LS + 1],
-                -p[16] * (p[17] / p[18] * x[_LS + 1] + (1.0 - p[17] / p[18]) * x[_LS + 2]))
+                -p[16] * (through_tau1 + (1.0 - p[17] / p[18]) * x[_LS + 2]))
     if slot == -4:  # lag2(0): through tau2 and M2
         return 0.0, g2 * thrust_slope(x[5], p[6], p[7], signed) * x[_LS + 4]
     return fe1, fe2  # an exogenous torque's parameter
@@ -213,7 +216,11 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe, sens=True):
     g2 = reversed_gain(x[5], p[26])
     m1 = g1 * thrust(x[4], p[4], p[5], signed)
     m2 = g2 * thrust(x[5], p[6], p[7], signed)
-    mr = reaction_moment(x[4], x[6], p[16], p[17], p[18])
+    # the drives of the gyroscope and of M_R: M1 and tau1 (eq. 1), or the voltage u1 (the bench's structure)
+    gv, rv = p[GYRO_VOLTAGE_SLOT] != 0.0, p[REACTION_VOLTAGE_SLOT] != 0.0
+    gd = u1 if gv else m1
+    rd = u1 if rv else x[4]
+    mr = reaction_moment(rd, x[6], p[16], p[17], p[18])
     sa, ca = math.sin(x[0]), math.cos(x[0])
     # gravity Mg sin(alpha + delta): delta, a centre-of-mass offset (0 in the seed model)
     dg = p[GRAVITY_OFFSET_SLOT]
@@ -223,7 +230,7 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe, sens=True):
     fr2 = friction(th2, x[3], p[21], p[23])
     dj = p[YAW_INERTIA_SLOT]  # a yaw inertia J2 - dJ sin^2(alpha) (0 in the seed model)
     j2e = yaw_inertia(j2, dj, sa)
-    f1 = (pitch_torque(m1, sg, ca, x[3], p[8], p[9]) - b1 * x[1] + fr1 + e1) / j1  # eq. (1), pitch
+    f1 = (pitch_torque(m1, gd, sg, ca, x[3], p[8], p[9]) - b1 * x[1] + fr1 + e1) / j1  # eq. (1), pitch
     f3 = (yaw_torque(m2, mr) - b2 * x[3] - p[24] * x[2] + fr2 + e2) / j2e  # eq. (1), yaw (a cable: -k beta)
     if dj != 0.0:
         f1 += centrifugal_pitch(dj, sa, ca, x[3]) / j1
@@ -234,16 +241,16 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe, sens=True):
     d[3] = f3
     d[4] = motor_rate(_drive(u1, x[_LAG], p[LAG1_SLOT]), x[4], p[10], p[12], p[13])
     d[5] = motor_rate(_drive(u2, x[_LAG + 1], p[LAG2_SLOT]), x[5], p[11], p[14], p[15])
-    d[6] = lag_rate(x[4], x[6], p[18])
+    d[6] = lag_rate(rd, x[6], p[18])
     d[_LAG] = _lag_drive_rate(u1, x[_LAG], p[LAG1_SLOT])
     d[_LAG + 1] = _lag_drive_rate(u2, x[_LAG + 1], p[LAG2_SLOT])
     if not sens:
         return
     # the Jacobian A: pitch row (alpha'') and yaw row (beta''); alpha'' does not depend on beta, and beta'' depends
     # on alpha and alpha' only through the yaw inertia's terms
-    a10 = (-p[8] * cg + p[9] * m1 * x[3] * sa) / j1
+    a10 = (-p[8] * cg + p[9] * gd * x[3] * sa) / j1
     a11 = (-b1 - p[20] * (1.0 - th1 * th1) / eps - 2.0 * p[22] * abs(x[1])) / j1
-    a13 = -p[9] * m1 * ca / j1
+    a13 = -p[9] * gd * ca / j1
     b12 = -p[24] / j2e
     b13 = (-b2 - p[21] * (1.0 - th2 * th2) / eps - 2.0 * p[23] * abs(x[3])) / j2e
     b10 = b11 = 0.0
@@ -257,8 +264,8 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe, sens=True):
         b13 += dsc2 * x[1] / j2e
     # direct terms: J/B, then the start states through the thrusts and M_R
     p1, p2 = p[13] / p[12], p[15] / p[14]
-    df1_t1 = g1 * thrust_slope(x[4], p[4], p[5], signed) * (1.0 - p[9] * x[3] * ca) / j1
-    df3_t1 = -p[16] * p[17] / p[18] / j2e
+    df1_t1 = g1 * thrust_slope(x[4], p[4], p[5], signed) * (1.0 if gv else 1.0 - p[9] * x[3] * ca) / j1
+    df3_t1 = 0.0 if rv else -p[16] * p[17] / p[18] / j2e
     df3_z = -p[16] * (1.0 - p[17] / p[18]) / j2e
     df3_t2 = g2 * thrust_slope(x[5], p[6], p[7], signed) / j2e
     for c in range(NU):
@@ -269,7 +276,7 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe, sens=True):
         d[i + 3] = b10 * x[i] + b11 * x[i + 1] + b12 * x[i + 2] + b13 * x[i + 3]
     for c in range(fs.size):  # freed model values: the same A, their own direct terms
         i = _NS + 4 * c
-        q1, q3 = _direct(fs[c], x, p, signed, g1, g2, m1, sg, cg, sa, ca, th1, th2, f3, fe[c, 0], fe[c, 1])
+        q1, q3 = _direct(fs[c], x, p, signed, g1, g2, m1, gd, rd, sg, cg, sa, ca, th1, th2, f3, fe[c, 0], fe[c, 1])
         d[i] = x[i + 1]
         d[i + 1] = a10 * x[i] + a11 * x[i + 1] + a13 * x[i + 3] + q1 / j1
         d[i + 2] = x[i + 3]
@@ -286,7 +293,7 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe, sens=True):
     # the motors' sensitivities decay with the motors' own poles
     d[_MS] = -p1 * st1
     d[_MS + 1] = -p2 * st2
-    d[_MS + 2] = (st1 - sz1) / p[18]
+    d[_MS + 2] = ((0.0 if rv else st1) - sz1) / p[18]
     d[_MS + 3] = -sz0 / p[18]
     _lag_start_rates(x, _LS, p, d)
 
@@ -299,7 +306,7 @@ def _lag_start_rates(x, i, p, d):
     l2 = x[i + 3] if p[LAG2_SLOT] > 0.0 else 0.0
     d[i] = -l1 / p[LAG1_SLOT] if p[LAG1_SLOT] > 0.0 else 0.0
     d[i + 1] = (p[10] * l1 - p[13] * x[i + 1]) / p[12]
-    d[i + 2] = (x[i + 1] - x[i + 2]) / p[18]
+    d[i + 2] = ((0.0 if p[REACTION_VOLTAGE_SLOT] != 0.0 else x[i + 1]) - x[i + 2]) / p[18]
     d[i + 3] = -l2 / p[LAG2_SLOT] if p[LAG2_SLOT] > 0.0 else 0.0
     d[i + 4] = (p[11] * l2 - p[15] * x[i + 4]) / p[14]
 
@@ -322,6 +329,27 @@ def _rk4(x, xt, k1, k2, k3, k4, v1, v2, e1, e2, p, signed, dur, max_sub, fs, fe,
         for i in range(x.size if sens else _LAG + 2):
             if sens or i < 7 or i >= _LAG:
                 x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        for a in range(2):  # the end stops of the bench's structure (none when low >= high)
+            if p[STOP_SLOT + 2 * a] < p[STOP_SLOT + 2 * a + 1]:
+                _stop(x, 2 * a, p[STOP_SLOT + 2 * a], p[STOP_SLOT + 2 * a + 1], sens, fs.size)
+
+
+@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
+def _stop(x, i, lo, hi, sens, nf):
+    """An angle (x[i], its rate x[i + 1]) at an end stop [rad] (model/structure.py), as Simulink's Second-Order
+    Integrator with position limits holds it: past the stop and still moving into it, the angle is set to the stop
+    and its rate to zero, so a sub-step that would push it further leaves it there and one whose acceleration points
+    away lets it go.  Held there, the angle depends on no unknown: its and its rate's sensitivities are zero."""
+    if (x[i] <= lo and x[i + 1] <= 0.0) or (x[i] >= hi and x[i + 1] >= 0.0):
+        x[i] = lo if x[i] <= lo else hi
+        x[i + 1] = 0.0
+        if sens:
+            for c in range(NU):
+                x[_S0 + 4 * c + i] = 0.0
+                x[_S0 + 4 * c + i + 1] = 0.0
+            for c in range(nf):
+                x[_NS + 4 * c + i] = 0.0
+                x[_NS + 4 * c + i + 1] = 0.0
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
@@ -351,10 +379,11 @@ def _motor_rhs(x, u1, u2, p, d):
     x[0..13] (the same formulas as _rhs; they depend on no J/B or angle)."""
     d[0] = motor_rate(_drive(u1, x[7], p[LAG1_SLOT]), x[0], p[10], p[12], p[13])
     d[1] = motor_rate(_drive(u2, x[8], p[LAG2_SLOT]), x[1], p[11], p[14], p[15])
-    d[2] = lag_rate(x[0], x[2], p[18])
+    rv = p[REACTION_VOLTAGE_SLOT] != 0.0  # M_R's lag driven by u1 itself (the bench's structure), not by tau1
+    d[2] = lag_rate(u1 if rv else x[0], x[2], p[18])
     d[3] = -p[13] / p[12] * x[3]
     d[4] = -p[15] / p[14] * x[4]
-    d[5] = (x[3] - x[5]) / p[18]
+    d[5] = ((0.0 if rv else x[3]) - x[5]) / p[18]
     d[6] = -x[6] / p[18]
     d[7] = _lag_drive_rate(u1, x[7], p[LAG1_SLOT])
     d[8] = _lag_drive_rate(u2, x[8], p[LAG2_SLOT])
@@ -416,7 +445,8 @@ def motor_starts(u1, u2, p, h, dsw, max_sub, win, nw, m0):
 _MOTOR = (4, 5, 6, _MS, _MS + 1, _MS + 2, _MS + 3, _LAG, _LAG + 1, _LS, _LS + 1, _LS + 2, _LS + 3, _LS + 4)
 #: the model values the motor states depend on (k1, k2, T11, T10, T21, T20, Tp, the further lags): keys of the
 #: motor cache
-_MOTOR_P = np.array([_P.index(k) for k in ("k1", "k2", "T11", "T10", "T21", "T20", "Tp")] + [LAG1_SLOT, LAG2_SLOT])
+_MOTOR_P = np.array([_P.index(k) for k in ("k1", "k2", "T11", "T10", "T21", "T20", "Tp")] +
+                    [LAG1_SLOT, LAG2_SLOT, REACTION_VOLTAGE_SLOT])
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
@@ -876,7 +906,7 @@ def setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s=WIND
     if any(k in INPUT_SLOTS and not g > 0 for k, g in zip(free, given)):
         raise ValueError("a freed input saturation or shifted dead zone needs a positive starting value [V] in "
                          "effects")
-    motor0 = steady_motor_states(u1[0], u2[0], params)
+    motor0 = steady_motor_states(u1[0], u2[0], params, bool(effects.get("structure:reaction_voltage")))
     # a second-order motor's further lag starts where the first voltage's steady state has it unless told
     lag0 = [float(u1[0]), float(u2[0])]
     if start_states0:

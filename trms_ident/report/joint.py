@@ -46,7 +46,7 @@ def joint_doc(result: JointResult, logs: list[Log]) -> dict:
             "sentence": result.sentence,
             "test": result.test,
             "adequate": result.adequate,
-            "model": model_doc(result.settings.effects, result.settings.effect_sources, {}),
+            "model": model_doc(result.settings.effects, result.settings.effect_sources, {}, result.settings.structure),
             "logs": per_log,
             "fit": {"method": "output error over all pooled logs at once (numerics/joint.py): J/B shared, each log's "
                               "start states, windows and noise weights its own; then one efficient step of the "

@@ -70,7 +70,7 @@ def summarize(result: Result, log: Log, truth: dict | None = None, truth_source:
         "units": {k: UNITS[k] for k in ESTIMATED},
         "headline": result.headline,
         "headline_meaning": HEADLINE_MEANING[result.headline],
-        "model": model_doc(s.effects, s.effect_sources, result.refined.freed if result.refined else {}),
+        "model": model_doc(s.effects, s.effect_sources, result.refined.freed if result.refined else {}, s.structure),
         "refinement": result.refine_note,
         "drem_final": result.drem_final,
         "traces_every_nth_sample": result.trace_step,
