@@ -110,11 +110,18 @@ def test_simulate_bad_options(tmp_path):
     assert res.exit_code == EXIT_USAGE and "unknown reference 'ramp'" in res.output
     res = runner.invoke(app, ["simulate", "--effect", "coulomb_friction", "-o", str(tmp_path / "x.csv")])
     assert res.exit_code == EXIT_USAGE and "expected NAME=VALUE" in res.output
-    # the CE150's values with Table 1's PID: the loop is unstable, and no log of it is written
-    res = runner.invoke(app, ["simulate", "--params", "humusoft_ce150", "--duration", "20", "-o", str(tmp_path / "x.csv")])
+    # the CE150's values mapped onto eq. (1) with Table 1's PID: the loop is unstable, and no log of it is written
+    res = runner.invoke(app, ["simulate", "--params", "humusoft_ce150_eq1", "--duration", "20", "-o",
+                              str(tmp_path / "x.csv")])
     assert res.exit_code == EXIT_USAGE and "the simulated closed loop is unstable with these parameters: at t = " in \
         res.output and "the PID of eq. (9) is tuned for Table 1's bench" in res.output
     assert not (tmp_path / "x.csv").exists() and not (tmp_path / "x.truth.json").exists()
+    # the CE150 with its own structure: the simulator (eq. 1) does not model it, and says so rather than simulate
+    # another model under its values
+    res = runner.invoke(app, ["simulate", "--params", "humusoft_ce150", "--duration", "20", "-o", str(tmp_path / "x.csv")])
+    assert res.exit_code == EXIT_USAGE and "states a [structure] (the gyroscopic torque driven by the voltage u1" in \
+        res.output and "which simulate does not model yet" in res.output
+    assert not (tmp_path / "x.csv").exists()
 
 
 def test_python_dash_m_subprocess(square_csv, tmp_path):

@@ -249,13 +249,14 @@ def diagnose(log, *, params: dict | str | Path | None = None, thrust_law: str = 
     made it (identify's Result: diagnose's seed-model check is that estimate's, not made again)."""
     from .diagnosis.run import diagnose as run
     from .errors import SettingsError
-    from .params import THRUST_LAWS, load_parameter_file, parameter_file_inputs_unit
+    from .params import THRUST_LAWS, load_parameter_file, parameter_file_inputs_unit, refuse_structure
 
     if thrust_law not in THRUST_LAWS:
         raise SettingsError(f"thrust law must be one of {tuple(THRUST_LAWS)}, got {thrust_law!r}")
     data = _as_log(log, read)
     if isinstance(params, (str, Path)):
         path, params = params, load_parameter_file(params)
+        refuse_structure(path, "diagnose")
         data = with_inputs_unit(data, parameter_file_inputs_unit(path))
     d = run(data, dict(params or {}), thrust_law, filter_a_rad_s, progress=progress, seed=seed)
     if progress is not None:

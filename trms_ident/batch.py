@@ -133,6 +133,12 @@ def _diagnosed(log, out: Path, settings: Settings, options: dict, estimated=None
 
     seedlike = replace(settings, inputs_unit=None) == Settings(thrust_law=settings.thrust_law,
                                                                 overrides=dict(settings.overrides))
+    if settings.structure:  # params.refuse_structure's reason, in the row: the estimate stands
+        from .model.structure import phrases
+
+        return {"verdict": "not diagnosed", "findings": [], "file": None,
+                "error": f"the bench states a [structure] ({'; '.join(phrases(settings.structure))}), which diagnose "
+                         "does not model yet"}
     try:
         d = diagnose(log, params=dict(settings.overrides), thrust_law=settings.thrust_law,
                      seed=estimated if seedlike else None)

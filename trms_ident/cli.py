@@ -31,7 +31,7 @@ from .errors import (EXIT_ALL_FAILED, EXIT_INADEQUATE, EXIT_INTERNAL, EXIT_INTER
                      EXIT_SOME_FAILED, EXIT_UNDECIDED, JoinedRunsError, SettingsError, TrmsError)
 from .settings import GAIN_CONVENTIONS, HEADLINES, Settings
 from .params import (ESTIMATED, THRUST_LAWS, UNITS, bench_names, bench_settings, load_parameter_file,
-                     parameter_file_inputs_unit, unit_of)
+                     parameter_file_inputs_unit, refuse_structure, unit_of)
 
 app = typer.Typer(
     name="trms-ident",
@@ -527,6 +527,7 @@ def diagnose(
     if thrust_law not in THRUST_LAWS:
         raise SettingsError(f"thrust law must be one of {tuple(THRUST_LAWS)}, got {thrust_law!r}")
     overrides = load_parameter_file(params) if params else {}
+    refuse_structure(params, "diagnose")
     progress = stage_reporter(str(log))
     progress and progress("reading")
     data = read_log(log, angle_unit=angle_unit, signals=signal, time_source=time_source, time_unit=time_unit,
@@ -568,6 +569,13 @@ def parse_effect(text: str) -> dict:
         return spec
     except ValueError:
         raise SettingsError(f"--effect {text!r}: expected NAME=VALUE or NAME:AXIS=VALUE") from None
+
+
+def _simulated_bench(params: Path | None) -> dict:
+    """The simulator's values from a parameter file (J/B too: its true values); refused when the file states a
+    [structure] the simulator (eq. 1) does not model."""
+    refuse_structure(params, "simulate")
+    return load_parameter_file(params, allow_estimated=True) if params else {}
 
 
 def _sim_effects(params: Path | None, given: list[str] | None) -> list[dict]:
@@ -643,7 +651,7 @@ def simulate(
         quantization = 2 * math.pi / 2 ** encoder_bits
     options = dict(duration_s=duration, sample_rate_hz=rate, seed=seed, noise_std_rad=noise,
                    quantization_rad=quantization, thrust_law=thrust_law, u_limit_v=u_limit,
-                   overrides=load_parameter_file(params, allow_estimated=True) if params else {},
+                   overrides=_simulated_bench(params),
                    effects=_sim_effects(params, effect), jitter=jitter, start_s=start,
                    voltage_offset=voltage_offset)
     if table is not None:
@@ -996,8 +1004,12 @@ def export(
         header.append(f"not identifiable from that log, left out: {', '.join(missing)}")
     if freed:
         header.append(f"estimated with --free: {', '.join(freed)}")
+    from .model.structure import parse_structure
+
+    # the bench's structure the estimate was made under (Settings.structure, recorded verbatim) goes with the values
+    structure = parse_structure(doc.get("settings", {}).get("structure") or {})
     path = output or result.with_name("model.toml")
-    write_text(path, to_toml(known, estimates, header))
+    write_text(path, to_toml(known, estimates, header, structure=structure))
     if check["adequate"] is False:
         say("warning: the model did NOT fit that log; these values are those of a model that does not fit")
     elif check["adequate"] is None:

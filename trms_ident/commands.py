@@ -211,7 +211,7 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
     from .io.atomic import write_text
     from .io.reference import write_reference
     from .model.bench import BenchEffect, describe
-    from .params import ESTIMATED, load_parameter_file, merge, parameter_file_effects
+    from .params import ESTIMATED, load_parameter_file, merge, parameter_file_effects, refuse_structure
     from .report.design import design_doc, render
 
     if discriminate is not None and from_result is not None:
@@ -248,6 +248,7 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
                                     "give --encoder-bits or --noise-std")
             noise, sd = {k: float(v) for k, v in floors.items()}, None
     else:
+        refuse_structure(params, "design")
         overrides = load_parameter_file(params, allow_estimated=True) if params else {}
         bench = {e.key: e.value for e in parameter_file_effects(params)} if params else {}
     told = None

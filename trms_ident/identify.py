@@ -202,12 +202,19 @@ def identify(log: Log, settings: Settings | None = None, halves: bool = True, st
     step = max(1, math.ceil(len(log) / MAX_TRACE_POINTS))
     gamma = {axis: tuple(settings.gamma.get(name) if settings.gamma else None for name in AXES[axis]) for axis in AXES}
     # eqs. (1), (3), (5)-(8) in compiled passes per axis, the axes in parallel; phi and eps are summed, not kept
+    skip = stop_samples(grid_log, settings.structure, settings.filter_a_rad_s, settings.filter_b_rad_s)
+    for axis, left in (skip or {}).items():
+        if left.all():
+            from .model.structure import phrases
+
+            raise IdentificationError(
+                f"{log.source}: the {axis} angle sits at or near its end stops ({'; '.join(phrases(settings.structure))}"
+                f") on every sample, so no sample tells {', '.join(AXES[axis])}; check the angles' unit (--angle-unit) "
+                "and the stops of the bench file's [structure]")
     summaries = drem_summaries(grid_log.u1_v, grid_log.u2_v, grid_log.alpha_rad, grid_log.beta_rad, dt, params,
                                settings.thrust_law, settings.filter_a_rad_s, settings.filter_b_rad_s, f_gain, h_gain,
                                motor, block=block, gamma=gamma, rate_per_s=math.log(100.0) / settings.settle_time_s,
-                               step=step, structure=settings.structure,
-                               skip=stop_samples(grid_log, settings.structure, settings.filter_a_rad_s,
-                                                 settings.filter_b_rad_s))
+                               step=step, structure=settings.structure, skip=skip)
     # known bias bounds added to the interval: errors in variables (designed filters only) and the bilinear
     # transform's relative magnitude error at the fastest filter pole, (w dt)^2 / 12
     warp = (max(settings.filter_a_rad_s, settings.filter_b_rad_s) * dt) ** 2 / 12.0
