@@ -256,23 +256,33 @@ def identify(log: Log, settings: Settings | None = None, halves: bool = True, st
 STOP_SETTLE_TIME_CONSTANTS = 12.0
 
 
+def at_stops(log: Log, structure: dict) -> dict:
+    """{axis: (n,) bool}: where the angle rests on an end stop of the bench's structure (model/structure.py): within
+    three encoder steps of it, four times its noise level, or 1e-4 rad; only the axes with stops that reach them."""
+    from .model.structure import stops
+
+    out = {}
+    for axis, x in (("pitch", log.alpha_rad), ("yaw", log.beta_rad)):
+        s = stops(structure, axis)
+        if s is None:
+            continue
+        t = None if log.uniform else log.t_s
+        tol = max(3.0 * quantization_step(x), 4.0 * angle_noise_rad(x, t), 1e-4)
+        at = (x <= s[0] + tol) | (x >= s[1] - tol)
+        if at.any():
+            out[axis] = at
+    return out
+
+
 def stop_samples(log: Log, structure: dict, a_rad_s: float, b_rad_s: float) -> dict | None:
     """{axis: (n,) bool}: the samples DREM leaves out of an axis' regression: where its angle rests on an end stop
     of the bench's structure (model/structure.py: within a few encoder steps of it, or 1e-4 rad), and the samples
     after it while the filters still carry the stop's contact torque (eq. 1 has none: the stop holds the angle,
     not the torques).  None when the structure has no stops, or the angles never reach them."""
-    from .model.structure import stops
-
     out = {}
     settle = int(math.ceil(STOP_SETTLE_TIME_CONSTANTS / min(a_rad_s, b_rad_s) / log.sample_time_s))
-    for axis, x in (("pitch", log.alpha_rad), ("yaw", log.beta_rad)):
-        s = stops(structure, axis)
-        if s is None:
-            continue
-        tol = max(3.0 * quantization_step(x), 1e-4)
-        at = (x <= s[0] + tol) | (x >= s[1] - tol)
-        if not at.any():
-            continue
+    for axis, at in at_stops(log, structure).items():
+        x = log.alpha_rad if axis == "pitch" else log.beta_rad
         # each contact reaches the next `settle` samples: a running maximum over them
         idx = np.flatnonzero(at)
         reach = np.zeros(x.size + 1, dtype=np.int64)

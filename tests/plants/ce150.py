@@ -70,7 +70,8 @@ def _stop(x, i, lo, hi, acc):
 
 
 @njit(cache=True)
-def _step(x, u1, u2, q, h, stops, k1, k2, k3, k4, xt):
+def _rk4(x, u1, u2, q, h, k1, k2, k3, k4, xt):
+    """x advanced by h [s] with the inputs held, classical RK4, no position limit."""
     _deriv(x, u1, u2, q, k1)
     xt[:] = x + 0.5 * h * k1
     _deriv(xt, u1, u2, q, k2)
@@ -79,6 +80,42 @@ def _step(x, u1, u2, q, h, stops, k1, k2, k3, k4, xt):
     xt[:] = x + h * k3
     _deriv(xt, u1, u2, q, k4)
     x += h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+
+
+@njit(cache=True)
+def _step(x, u1, u2, q, h, stops, k1, k2, k3, k4, xt):
+    """One step of h [s] with the position limits as Simulink's solver meets them, zero-crossing detection on: an
+    angle that would pass its stop within the step is advanced to the moment it reaches it (bisection in time),
+    set there with zero rate, and the rest of the step integrated from there; one resting on its stop stays while
+    the acceleration points out of the range (_stop)."""
+    left = h
+    for _ in range(4):  # a few stop events within one step at most
+        y = x.copy()
+        _rk4(y, u1, u2, q, left, k1, k2, k3, k4, xt)
+        first, at, edge = left, -1, 0.0
+        for i in (0, 2):
+            lo, hi = stops[i], stops[i + 1]
+            if (x[i] > lo and y[i] < lo) or (x[i] < hi and y[i] > hi):
+                e = lo if y[i] < lo else hi
+                a, b = 0.0, left
+                for _ in range(60):  # the crossing's time to round-off
+                    m = 0.5 * (a + b)
+                    z = x.copy()
+                    _rk4(z, u1, u2, q, m, k1, k2, k3, k4, xt)
+                    if (z[i] - e) * (x[i] - e) > 0.0:
+                        a = m
+                    else:
+                        b = m
+                if b < first:
+                    first, at, edge = b, i, e
+        if at < 0:
+            x[:] = y
+            break
+        _rk4(x, u1, u2, q, first, k1, k2, k3, k4, xt)
+        x[at], x[at + 1] = edge, 0.0
+        left -= first
+        if left <= 0.0:
+            break
     _deriv(x, u1, u2, q, k1)
     _stop(x, 0, stops[0], stops[1], k1[1])
     _stop(x, 2, stops[2], stops[3], k1[3])
