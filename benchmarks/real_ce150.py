@@ -12,7 +12,8 @@ Data100_*.mat (100 Hz, no time vector, angles in degrees, inputs in machine unit
 and are reported as such).  Two of them sit in ../shared/real_logs/ce150/ and are in the tests; the others are a
 blind set nothing here was tuned on.  The published identification of the same bench (that repository's
 parameter file) is the yardstick: I = 0.00437 kg m^2, B_psi = 0.00184 N m s/rad (elevation), I_phi = 0.00414,
-B_phi = 0.00869 (azimuth); `--params humusoft_ce150` is it, mapped onto eq. (1).
+B_phi = 0.00869 (azimuth); `--params humusoft_ce150_eq1` is it, mapped onto eq. (1) itself (the CE150 with its own
+structure, `--params humusoft_ce150`, is benchmarks/ce150_structure.py's; diagnose searches under eq. (1)'s).
 
 Per recording: the simulation fit of each axis (model_check) with Table 1's values and with the CE150's, the
 estimates with the CE150's (None: not identifiable from the log, with the reason), which are not credible, and
@@ -34,6 +35,8 @@ import trms_ident as ti  # noqa: E402
 from trms_ident.params import load_parameter_file  # noqa: E402
 
 PUBLISHED = load_parameter_file("humusoft_ce150", allow_estimated=True)
+#: the CE150's values mapped onto eq. (1), the bench file diagnose takes
+BENCH = "humusoft_ce150_eq1"
 IN_TESTS = {"Data100_ea_a0", "Data100_ea_e675_aN130toP130"}
 READ = {"rate_hz": 100.0, "angle_unit": "deg"}
 
@@ -89,14 +92,14 @@ def main() -> None:
             skipped.append(f"{path.name} (holds {', '.join(sorted(names))}: no u1)")
             continue
         table = ti.estimate(path, **READ)
-        ce = ti.estimate(path, params="humusoft_ce150", **READ)
+        ce = ti.estimate(path, params=BENCH, **READ)
         row = {"name": path.stem, "blind": path.stem not in IN_TESTS,
                "fit_table": {a: table.model_check["axes"][a]["fit_percent"] for a in ("pitch", "yaw")},
                "fit_ce150": {a: ce.model_check["axes"][a]["fit_percent"] for a in ("pitch", "yaw")},
                "estimates": ce.estimates, "not_credible": ce.doc["not_credible"], "adequate": ce.adequate,
                "floors": {a: _floor(v) for a, v in ce.model_check["axes"].items()}}
         if args.diagnose:
-            d = ti.diagnose(path, params="humusoft_ce150", **READ)
+            d = ti.diagnose(path, params=BENCH, **READ)
             row["verdict"] = d.verdict
             row["findings"] = [f"{f.effect} on {f.axis} ({f.parameter['value']:.3g})" for f in d.findings]
             row["corrections"] = [f"{c.axis}: {c.sentence}" for c in d.corrections]
@@ -113,7 +116,7 @@ def main() -> None:
              f"`python benchmarks/real_ce150.py FOLDER{' --diagnose' if args.diagnose else ''}` on the Data100_*.mat "
              "recordings of a Humusoft CE150 (public repository JurCag/NN_for_FF_Compensation, MeasuredDatasets; "
              "blind: not in the tests). Simulation fit of each axis (model_check) with Table 1's known values and "
-             "with `--params humusoft_ce150`; the estimates with the latter (n.i.: not identifiable from the log). "
+             "with `--params humusoft_ce150_eq1`; the estimates with the latter (n.i.: not identifiable from the log). "
              f"Published: J1 {PUBLISHED['J1']}, B1 {PUBLISHED['B1']}, J2 {PUBLISHED['J2']}, B2 {PUBLISHED['B2']}.",
              "",
              "| recording | blind | pitch fit Table 1 -> CE150 [%] | yaw fit Table 1 -> CE150 [%] | J1 | B1 | J2 | B2 "
@@ -156,12 +159,12 @@ def joint(files: list[Path]) -> None:
     recording's own, and whether they agree."""
     t0 = time.perf_counter()
     usable = [p for p in files if {"u1", "u2", "psi", "phi"} <= {w[0] for w in scipy.io.whosmat(p)}]
-    j = ti.estimate_joint(usable, params="humusoft_ce150", **READ)
+    j = ti.estimate_joint(usable, params=BENCH, **READ)
     doc = j.doc["joint"]
     lines = ["## Real CE150 recordings, jointly", "",
              f"`python benchmarks/real_ce150.py FOLDER --joint`: the {len(usable)} Data100_*.mat recordings that hold "
              "u1 (the same public repository), estimated as runs of one bench with `estimate --joint --params "
-             "humusoft_ce150` (n.i.: not identifiable). Published (the bench's own identification, another model): "
+             "humusoft_ce150_eq1` (n.i.: not identifiable). Published (the bench's own identification, another model): "
              f"J1 {PUBLISHED['J1']}, B1 {PUBLISHED['B1']}, J2 {PUBLISHED['J2']}, B2 {PUBLISHED['B2']}.", "",
              "| recording | in the pool | J1 | B1 | J2 | B2 | pooled model on it |", "|---|---|---|---|---|---|---|"]
     verdict = {True: "fits", False: "does not fit", None: "not decided"}
@@ -214,8 +217,8 @@ def diagnosed_model(files: list[Path]) -> None:
     rows, docs = [], {}
     tmp = Path(tempfile.mkdtemp())
     for path in usable:
-        seed = ti.estimate(path, params="humusoft_ce150", **READ)
-        d = ti.diagnose(path, params="humusoft_ce150", **READ)
+        seed = ti.estimate(path, params=BENCH, **READ)
+        d = ti.diagnose(path, params=BENCH, **READ)
         w = d.with_findings or {}
         doc = to_doc(d, read_log(path, **READ))
         (tmp / f"{path.stem}.json").write_text(to_json(doc))
@@ -253,7 +256,7 @@ def diagnosed_model(files: list[Path]) -> None:
                          f"{', '.join(only_pool) or 'none'}. Left out: {', '.join(j['outliers']) or 'none'}.")
     lines = ["## Real CE150 recordings, under the diagnosed model", "",
              "`python benchmarks/real_ce150.py FOLDER --diagnosed-model`: the Data100_*.mat recordings holding u1 "
-             "(public repository JurCag/NN_for_FF_Compensation), each estimated with `--params humusoft_ce150` under "
+             "(public repository JurCag/NN_for_FF_Compensation), each estimated with `--params humusoft_ce150_eq1` under "
              "eq. (1) (the seed model) and under the model its `diagnose` found (the estimate `export` then "
              "`estimate --params` gives: diagnose's \"under the findings' model\"), J/B with 95 % intervals (n.i.: "
              "not identifiable), each model's adequacy verdict, and the held-out simulation fit before -> after the "
