@@ -272,6 +272,8 @@ def _published_values(tmp_path, name: str, axis: str, table1: dict) -> None:
     assert doc["model"]["equation"].endswith("+ pitch end stops at 45 and 135 deg + yaw end stops at -130 and 130 deg")
     if axis == "pitch":
         assert doc["model_check"]["adequate"] is True
+        # noise-free: its intervals measure what the fit leaves below the integrator's precision, and say so
+        assert doc["ci95_meaning"].startswith("95 % intervals from what the fit leaves, below the integrator's")
         assert doc["estimates"]["B1"] == pytest.approx(0.00184, rel=0.02)
         assert doc["estimates"]["J1"] == pytest.approx(0.00437, rel=0.02)
         assert doc["not_credible"] == {}

@@ -104,11 +104,12 @@ def _refined_cell(refined: dict | None, k: str) -> str:
 
 
 def _model_line(doc: dict) -> str:
-    """The model the estimate was made under, when the bench file adds effects to eq. (1)."""
+    """The model the estimate was made under, when the bench file adds effects to eq. (1) or states a structure."""
     m = doc.get("model") or {}
-    if not m.get("effects"):
+    tables = [t for t, k in (("[effects]", "effects"), ("[structure]", "structure")) if m.get(k)]
+    if not tables:
         return ""
-    return f'<p><b>Model:</b> {html.escape(m["equation"])} (the bench file\'s [effects]).</p>'
+    return f'<p><b>Model:</b> {html.escape(m["equation"])} (the bench file\'s {" and ".join(tables)}).</p>'
 
 
 def _effect_table(doc: dict) -> str:
