@@ -200,3 +200,38 @@ def test_a_yaw_wrapped_by_its_logger_is_not_a_join(bench):
     assert np.any(np.abs(np.diff(wrapped)) > 6.0)  # the wrap happens in this run
     log = validated(r.t_s, r.u1_v, r.u2_v, r.alpha_rad, wrapped, angle_unit="rad", source="wrapped")
     assert len(log) == r.t_s.size
+
+
+def test_a_pooled_fit_that_overflows_from_the_logs_estimates_starts_again_from_the_table(bench, monkeypatch):
+    """The CE150's recordings under eq. (1) pooled from their own estimates (J2 0.0018-0.07) overflowed before
+    the first step and ended in an internal error; the pool starts again from the table's J/B, and where that fails
+    too it says so in one line naming the logs."""
+    import trms_ident.joint as joint_module
+    from trms_ident.errors import IdentificationError
+    from trms_ident.params import defaults
+
+    real = joint_module.refine_joint
+    starts = []
+
+    def overflow_first(runs, params, law, theta0, **kw):
+        starts.append(dict(theta0))
+        if len(starts) == 1:
+            raise np.linalg.LinAlgError("the normal equations are not finite (the model overflowed on this log)")
+        return real(runs, params, law, theta0, **kw)
+
+    logs = [_log(bench[0], "a"), _log(bench[1], "b")]
+    monkeypatch.setattr(joint_module, "refine_joint", overflow_first)
+    res = identify_joint(logs)
+    table = defaults()
+    assert starts[1] == {k: table[k] for k in TRUE} and starts[0] != starts[1]
+    assert res.fit.converged
+    for k, v in TRUE.items():
+        assert res.fit.estimate[k] == pytest.approx(v, rel=0.02)
+
+    def always(*args, **kw):
+        raise np.linalg.LinAlgError("the normal equations are not finite")
+
+    monkeypatch.setattr(joint_module, "refine_joint", always)
+    with pytest.raises(IdentificationError, match="the pooled fit of a, b failed from the logs' own estimates and "
+                                                  "from the table's J/B"):
+        identify_joint(logs)

@@ -181,7 +181,19 @@ def _pooled(logs: list[Log], verdicts: list[LogVerdict], pool: list[int], params
                         tm["t_s"], tm["switch_delay_s"], starts0,
                         1.0 / max(noise_inflation(r if res.headline == "refined" else None), 1e-6),
                         _own_cov(verdicts[i], res)))
-    return refine_joint(runs, params, settings.thrust_law, start, effects=model_kw(settings).get("effects"))
+    effects = model_kw(settings).get("effects")
+    failed = None
+    # from where the logs agree, then from the table's J/B: a start among far-apart logs' estimates (the CE150's
+    # recordings under eq. (1): J2 0.0018-0.07) can overflow the pooled simulation before its first step
+    for theta0 in (start, {k: params[k] for k in ESTIMATED}):
+        try:
+            with np.errstate(all="ignore"):  # an overflow is a failed start, said below, not a warning
+                return refine_joint(runs, params, settings.thrust_law, theta0, effects=effects)
+        except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as exc:
+            failed = exc
+    raise IdentificationError(f"the pooled fit of {', '.join(verdicts[i].name for i in pool)} failed from the logs' "
+                              f"own estimates and from the table's J/B ({failed}): the model cannot be simulated on "
+                              "these logs together; estimate them one by one")
 
 
 def _own_cov(v: LogVerdict, res: Result) -> np.ndarray | None:
