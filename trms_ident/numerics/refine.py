@@ -46,7 +46,8 @@ from scipy.special import stdtrit
 from . import parallel, safe
 from .kernel_args import readonly
 from ..model.plant import (FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, GYRO_VOLTAGE_SLOT, LAG1_SLOT, LAG2_SLOT,
-                           N_SLOTS, PARAM_ORDER, REACTION_VOLTAGE_SLOT, SENSOR_OFFSET_SLOT, STOP_SLOT, YAW_INERTIA_SLOT, centrifugal_pitch, coriolis_yaw, coulomb_sign,
+                           N_SLOTS, PARAM_ORDER, REACTION_VOLTAGE_SLOT, SENSOR_OFFSET_SLOT, STOP_SLOT,
+                           YAW_INERTIA_SLOT, centrifugal_pitch, coriolis_yaw, coulomb_sign,
                            friction, lag_rate, model_vector, motor_rate, pitch_torque, reaction_moment, reversed_gain,
                            slot, steady_motor_states, thrust, thrust_slope, yaw_inertia, yaw_torque)
 
@@ -140,8 +141,10 @@ def _direct(slot, x, p, signed, g1, g2, m1, gd, rd, sg, cg, sa, ca, th1, th2, f3
     DIRECT_SLOTS leaves them out).  f3: beta'' now.  fe1, fe2: an exogenous torque's per-unit torques at this
     instant (slots from _NP on).  The encoder offset has none: it acts on the logged angle (windows_pass).  gd, rd:
     the gyroscope's and M_R's drives (M1 and tau1 in eq. 1, the voltage u1 under the bench's structure)."""
-    # d(pitch torque)/d M1: the thrust and its gyroscopic coupling (none when the voltage drives the gyroscope)
-    gyro = 1.0 if p[GYRO_VOLTAGE_SLOT] != 0.0 else 1.0 - p[9] * x[3] * ca
+    # d(pitch torque)/d M1: the thrust and its gyroscopic coupling (none when the voltage drives the gyroscope: the
+    # slot holds 1; blended, not branched, as everywhere in these kernels: a test of a slot inside them made the
+    # refinement with freed values 50 % slower)
+    gyro = 1.0 - (1.0 - p[GYRO_VOLTAGE_SLOT]) * p[9] * x[3] * ca
     if slot == 4:  # a1: d thrust / d a = tau^2 (or tau|tau|)
         return g1 * thrust(x[4], 1.0, 0.0, signed) * gyro, 0.0
     if slot == 5:  # b1
@@ -180,7 +183,7 @@ def _direct(slot, x, p, signed, g1, g2, m1, gd, rd, sg, cg, sa, ca, th1, th2, f3
     if slot == SENSOR_OFFSET_SLOT:
         return 0.0, 0.0
     if slot == -3:  # lag1(0): through tau1, M1 and M_R's direct and lagged paths, as tau1(0)
-        through_tau1 = 0.0 if p[REACTION_VOLTAGE_SLOT] != 0.0 else p[17] / p[18] * x[_LS + 1]
+        through_tau1 = (1.0 - p[REACTION_VOLTAGE_SLOT]) * p[17] / p[18] * x[_LS + 1]
         return (g1 * thrust_slope(x[4], p[4], p[5], signed) * gyro * x[_LS + 1],
                 -p[16] * (through_tau1 + (1.0 - p[17] / p[18]) * x[_LS + 2]))
     if slot == -4:  # lag2(0): through tau2 and M2
@@ -217,9 +220,10 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe, sens=True):
     m1 = g1 * thrust(x[4], p[4], p[5], signed)
     m2 = g2 * thrust(x[5], p[6], p[7], signed)
     # the drives of the gyroscope and of M_R: M1 and tau1 (eq. 1), or the voltage u1 (the bench's structure)
-    gv, rv = p[GYRO_VOLTAGE_SLOT] != 0.0, p[REACTION_VOLTAGE_SLOT] != 0.0
-    gd = u1 if gv else m1
-    rd = u1 if rv else x[4]
+    # (the slots hold 0 or 1: blended, not branched, so that the compiler vectorises these kernels as before)
+    gv, rv = p[GYRO_VOLTAGE_SLOT], p[REACTION_VOLTAGE_SLOT]
+    gd = m1 + gv * (u1 - m1)
+    rd = x[4] + rv * (u1 - x[4])
     mr = reaction_moment(rd, x[6], p[16], p[17], p[18])
     sa, ca = math.sin(x[0]), math.cos(x[0])
     # gravity Mg sin(alpha + delta): delta, a centre-of-mass offset (0 in the seed model)
@@ -264,8 +268,8 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe, sens=True):
         b13 += dsc2 * x[1] / j2e
     # direct terms: J/B, then the start states through the thrusts and M_R
     p1, p2 = p[13] / p[12], p[15] / p[14]
-    df1_t1 = g1 * thrust_slope(x[4], p[4], p[5], signed) * (1.0 if gv else 1.0 - p[9] * x[3] * ca) / j1
-    df3_t1 = 0.0 if rv else -p[16] * p[17] / p[18] / j2e
+    df1_t1 = g1 * thrust_slope(x[4], p[4], p[5], signed) * (1.0 - (1.0 - gv) * p[9] * x[3] * ca) / j1
+    df3_t1 = -(1.0 - rv) * p[16] * p[17] / p[18] / j2e
     df3_z = -p[16] * (1.0 - p[17] / p[18]) / j2e
     df3_t2 = g2 * thrust_slope(x[5], p[6], p[7], signed) / j2e
     for c in range(NU):
@@ -293,7 +297,7 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe, sens=True):
     # the motors' sensitivities decay with the motors' own poles
     d[_MS] = -p1 * st1
     d[_MS + 1] = -p2 * st2
-    d[_MS + 2] = ((0.0 if rv else st1) - sz1) / p[18]
+    d[_MS + 2] = ((1.0 - rv) * st1 - sz1) / p[18]
     d[_MS + 3] = -sz0 / p[18]
     _lag_start_rates(x, _LS, p, d)
 
@@ -306,7 +310,9 @@ def _lag_start_rates(x, i, p, d):
     l2 = x[i + 3] if p[LAG2_SLOT] > 0.0 else 0.0
     d[i] = -l1 / p[LAG1_SLOT] if p[LAG1_SLOT] > 0.0 else 0.0
     d[i + 1] = (p[10] * l1 - p[13] * x[i + 1]) / p[12]
-    d[i + 2] = ((0.0 if p[REACTION_VOLTAGE_SLOT] != 0.0 else x[i + 1]) - x[i + 2]) / p[18]
+    # M_R's lag follows tau1's sensitivity in eq. (1), none under a voltage-driven reaction (the slot holds 1):
+    # blended, not branched (as _motor_rhs)
+    d[i + 2] = ((1.0 - p[REACTION_VOLTAGE_SLOT]) * x[i + 1] - x[i + 2]) / p[18]
     d[i + 3] = -l2 / p[LAG2_SLOT] if p[LAG2_SLOT] > 0.0 else 0.0
     d[i + 4] = (p[11] * l2 - p[15] * x[i + 4]) / p[14]
 
@@ -318,6 +324,7 @@ def _rk4(x, xt, k1, k2, k3, k4, v1, v2, e1, e2, p, signed, dur, max_sub, fs, fe,
     move, by the same arithmetic)."""
     nsub = max(1, int(math.ceil(dur / max_sub - 1e-9)))
     hs = dur / nsub
+    stops = p[STOP_SLOT] < p[STOP_SLOT + 1] or p[STOP_SLOT + 2] < p[STOP_SLOT + 3]
     for _ in range(nsub):
         _rhs(x, v1, v2, e1, e2, p, signed, k1, fs, fe, sens)
         _stage(xt, x, 0.5 * hs, k1, sens)
@@ -329,23 +336,31 @@ def _rk4(x, xt, k1, k2, k3, k4, v1, v2, e1, e2, p, signed, dur, max_sub, fs, fe,
         for i in range(x.size if sens else _LAG + 2):
             if sens or i < 7 or i >= _LAG:
                 x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-        for a in range(2):  # the end stops of the bench's structure (none when low >= high)
-            lo, hi = p[STOP_SLOT + 2 * a], p[STOP_SLOT + 2 * a + 1]
-            j = 2 * a
-            if lo < hi and ((x[j] <= lo and x[j + 1] <= 0.0) or (x[j] >= hi and x[j + 1] >= 0.0)):
-                # where the sub-step began: the angle then, and so when within it the stop was reached
-                before = x[j] - hs / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
-                edge = lo if x[j] <= lo else hi
-                left = hs  # the time at the stop within this sub-step: all of it when it rested there already
-                if (edge == lo and before > lo) or (edge == hi and before < hi):
-                    left = hs * (edge - x[j]) / (before - x[j])  # linear in time between the two angles
-                _stop(x, j, edge, sens, fs.size)
-                # and what the torques do there for the rest of the sub-step: pointing away, they lift it off
-                _rhs(x, v1, v2, e1, e2, p, signed, k1, fs, fe, False)
-                acc = k1[j + 1]
-                if (edge == lo and acc > 0.0) or (edge == hi and acc < 0.0):
-                    x[j] = edge + 0.5 * acc * left * left
-                    x[j + 1] = acc * left
+        if stops:  # the end stops of the bench's structure, out of the hot path (a call only when there are some)
+            _at_stops(x, k1, k2, k3, k4, hs, v1, v2, e1, e2, p, signed, fs, fe, sens)
+
+
+@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
+def _at_stops(x, k1, k2, k3, k4, hs, v1, v2, e1, e2, p, signed, fs, fe, sens):
+    """After an RK4 sub-step of hs [s] (its stages k1..k4): each angle past an end stop and still moving into it
+    (none when low >= high) is held at the stop, from the moment within the sub-step it reached it (linear between
+    the sub-step's ends) or all of it when it rested there already, and let go where the torques point away."""
+    for a in range(2):
+        lo, hi = p[STOP_SLOT + 2 * a], p[STOP_SLOT + 2 * a + 1]
+        j = 2 * a
+        if lo < hi and ((x[j] <= lo and x[j + 1] <= 0.0) or (x[j] >= hi and x[j + 1] >= 0.0)):
+            before = x[j] - hs / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])  # the angle the sub-step began at
+            edge = lo if x[j] <= lo else hi
+            left = hs  # the time at the stop within this sub-step
+            if (edge == lo and before > lo) or (edge == hi and before < hi):
+                left = hs * (edge - x[j]) / (before - x[j])
+            _stop(x, j, edge, sens, fs.size)
+            # what the torques do there for the rest of the sub-step: pointing away, they lift it off
+            _rhs(x, v1, v2, e1, e2, p, signed, k1, fs, fe, False)
+            acc = k1[j + 1]
+            if (edge == lo and acc > 0.0) or (edge == hi and acc < 0.0):
+                x[j] = edge + 0.5 * acc * left * left
+                x[j + 1] = acc * left
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
@@ -392,11 +407,13 @@ def _motor_rhs(x, u1, u2, p, d):
     x[0..13] (the same formulas as _rhs; they depend on no J/B or angle)."""
     d[0] = motor_rate(_drive(u1, x[7], p[LAG1_SLOT]), x[0], p[10], p[12], p[13])
     d[1] = motor_rate(_drive(u2, x[8], p[LAG2_SLOT]), x[1], p[11], p[14], p[15])
-    rv = p[REACTION_VOLTAGE_SLOT] != 0.0  # M_R's lag driven by u1 itself (the bench's structure), not by tau1
-    d[2] = lag_rate(u1 if rv else x[0], x[2], p[18])
+    # M_R's lag driven by tau1 (eq. 1) or by u1 itself (the bench's structure: the slot holds 1), blended without a
+    # branch: a test of the slot in these loops made motor_starts three times slower (no longer vectorised)
+    rv = p[REACTION_VOLTAGE_SLOT]
+    d[2] = lag_rate(x[0] + rv * (u1 - x[0]), x[2], p[18])
     d[3] = -p[13] / p[12] * x[3]
     d[4] = -p[15] / p[14] * x[4]
-    d[5] = ((0.0 if rv else x[3]) - x[5]) / p[18]
+    d[5] = ((1.0 - rv) * x[3] - x[5]) / p[18]
     d[6] = -x[6] / p[18]
     d[7] = _lag_drive_rate(u1, x[7], p[LAG1_SLOT])
     d[8] = _lag_drive_rate(u2, x[8], p[LAG2_SLOT])
