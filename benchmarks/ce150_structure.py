@@ -156,10 +156,10 @@ def main() -> None:
         "## CE150 under its own structure",
         "",
         f"`python benchmarks/ce150_structure.py --seed {args.seed} --n {args.n}"
-        + "".join(f" --folder {f}" for f in (args.folder or [])) + "`: `estimate --params humusoft_ce150` (second-order "
-        "motors, the gyroscope and the reaction driven by u1, end stops: docs/parameters.md) against the published "
-        "values I 0.00437, B_psi 0.00184, I_phi 0.00414, B_phi 0.00869 (the error in brackets; \"not covered\": "
-        "the 95 % interval misses it; n.i.: not identifiable).",
+        + "".join(f" --folder {f}" for f in (args.folder or [])) + "`: `estimate --params humusoft_ce150` "
+        "(second-order motors, the gyroscope and the reaction driven by u1, end stops: docs/parameters.md) against "
+        "the published values I 0.00437, B_psi 0.00184, I_phi 0.00414, B_phi 0.00869 (the error in brackets; "
+        "\"not covered\": the 95 % interval misses it; n.i.: not identifiable).",
         "",
         f"Recordings (simulations of the published model by its authors): {_summary(rec_stats)}.",
         "",

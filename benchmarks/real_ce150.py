@@ -256,7 +256,8 @@ def diagnosed_model(files: list[Path]) -> None:
                          f"{', '.join(only_pool) or 'none'}. Left out: {', '.join(j['outliers']) or 'none'}.")
     lines = ["## Real CE150 recordings, under the diagnosed model", "",
              "`python benchmarks/real_ce150.py FOLDER --diagnosed-model`: the Data100_*.mat recordings holding u1 "
-             "(public repository JurCag/NN_for_FF_Compensation), each estimated with `--params humusoft_ce150_eq1` under "
+             "(public repository JurCag/NN_for_FF_Compensation), each estimated with `--params humusoft_ce150_eq1` "
+             "under "
              "eq. (1) (the seed model) and under the model its `diagnose` found (the estimate `export` then "
              "`estimate --params` gives: diagnose's \"under the findings' model\"), J/B with 95 % intervals (n.i.: "
              "not identifiable), each model's adequacy verdict, and the held-out simulation fit before -> after the "

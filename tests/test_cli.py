@@ -118,7 +118,8 @@ def test_simulate_bad_options(tmp_path):
     assert not (tmp_path / "x.csv").exists() and not (tmp_path / "x.truth.json").exists()
     # the CE150 with its own structure: the simulator (eq. 1) does not model it, and says so rather than simulate
     # another model under its values
-    res = runner.invoke(app, ["simulate", "--params", "humusoft_ce150", "--duration", "20", "-o", str(tmp_path / "x.csv")])
+    res = runner.invoke(app, ["simulate", "--params", "humusoft_ce150", "--duration", "20", "-o",
+                              str(tmp_path / "x.csv")])
     assert res.exit_code == EXIT_USAGE and "states a [structure] (the gyroscopic torque driven by the voltage u1" in \
         res.output and "which simulate does not model yet" in res.output
     assert not (tmp_path / "x.csv").exists()

@@ -229,9 +229,9 @@ def test_diagnose_on_real_ce150_recordings_under_table_1_is_honest(tmp_path, nam
 
 
 def test_a_recording_without_a_noise_floor_is_checked_half_against_half(tmp_path):
-    """Under the model diagnose finds for the elevation ramp (the CE150's published values mapped onto eq. (1) and a
-    second-order tail motor) the smoothed recording is simulated as well as a black box does, and its noise floor cannot be
-    measured: that alone would leave the verdict undecided, with intervals that measure nothing but the noise
+    """Under the model diagnose finds for the elevation ramp (the CE150's published values mapped onto eq. (1) and
+    a second-order tail motor) the smoothed recording is simulated as well as a black box does, and its noise floor
+    cannot be measured: that alone would leave the verdict undecided, with intervals that measure nothing but the noise
     (J2 under this model differs 4x between three ramps of the same bench, each with a +-1 % interval).  The
     halves check estimates each half alone: J1 is 0.0057 on the first and 0.0036 on the second, further apart
     than their intervals allow, so the model is said not to fit, and --strict exits 10."""

@@ -177,6 +177,8 @@ def test_export_of_an_estimate_made_under_a_structure_writes_it_back(tmp_path):
     res = runner.invoke(app, ["export", str(tmp_path / "o" / "result.json"), "-o", str(tmp_path / "m.toml")])
     assert res.exit_code == 0, res.output
     assert parameter_file_structure(tmp_path / "m.toml") == parameter_file_structure("humusoft_ce150")
+    # and its effects: the second-order motors (export of a result.json wrote none before)
+    assert bench_settings(tmp_path / "m.toml")["effects"] == bench_settings("humusoft_ce150")["effects"]
     res = runner.invoke(app, ["estimate", str(path), "--params", "humusoft_ce150", "-o", str(tmp_path / "r"),
                               "--angle-unit", "rad"])
     assert res.exit_code == 0, res.output

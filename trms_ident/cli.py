@@ -1004,12 +1004,22 @@ def export(
         header.append(f"not identifiable from that log, left out: {', '.join(missing)}")
     if freed:
         header.append(f"estimated with --free: {', '.join(freed)}")
+    from .model.bench import BenchEffectError, parse_effect
     from .model.structure import parse_structure
 
-    # the bench's structure the estimate was made under (Settings.structure, recorded verbatim) goes with the values
+    # the model the estimate was made under goes with the values: its structure (Settings.structure, recorded
+    # verbatim) and its effects (result.json's model: a freed one at its estimate, with its interval)
     structure = parse_structure(doc.get("settings", {}).get("structure") or {})
+    effects = []
+    for k, e in ((doc.get("model") or {}).get("effects") or {}).items():
+        try:
+            spec = {e["parameter"]: e["value"], **({"from": e["from"]} if e.get("from") else {}),
+                    **({"ci95": list(e["ci95"])} if e.get("ci95") else {})}
+            effects.append(parse_effect(k, spec))
+        except BenchEffectError as exc:  # a freed value estimated outside the effect's plausible range
+            say(f"warning: {exc}; left out of {output or result.with_name('model.toml')}")
     path = output or result.with_name("model.toml")
-    write_text(path, to_toml(known, estimates, header, structure=structure))
+    write_text(path, to_toml(known, estimates, header, tuple(effects), structure=structure))
     if check["adequate"] is False:
         say("warning: the model did NOT fit that log; these values are those of a model that does not fit")
     elif check["adequate"] is None:

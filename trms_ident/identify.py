@@ -208,9 +208,10 @@ def identify(log: Log, settings: Settings | None = None, halves: bool = True, st
             from .model.structure import phrases
 
             raise IdentificationError(
-                f"{log.source}: the {axis} angle sits at or near its end stops ({'; '.join(phrases(settings.structure))}"
-                f") on every sample, so no sample tells {', '.join(AXES[axis])}; check the angles' unit (--angle-unit) "
-                "and the stops of the bench file's [structure]")
+                f"{log.source}: the {axis} angle sits at or near its end stops "
+                f"({'; '.join(phrases(settings.structure))}) on every sample, so no sample tells "
+                f"{', '.join(AXES[axis])}; check the angles' unit (--angle-unit) and the stops of the bench file's "
+                "[structure]")
     summaries = drem_summaries(grid_log.u1_v, grid_log.u2_v, grid_log.alpha_rad, grid_log.beta_rad, dt, params,
                                settings.thrust_law, settings.filter_a_rad_s, settings.filter_b_rad_s, f_gain, h_gain,
                                motor, block=block, gamma=gamma, rate_per_s=math.log(100.0) / settings.settle_time_s,

@@ -237,7 +237,8 @@ def drem_summaries(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: s
         final = _axis_summary(*_axis_inputs(axis, u1_v, u2_v, alpha_rad, beta_rad, dt_s, p, law, a_rad_s, b_rad_s,
                                             f_gain, h_gain, motor, structure),
                               block, sums, totals, gam, float(rate_per_s), float(floor_fraction), trace, int(step),
-                              readonly(np.zeros(0, dtype=np.bool_) if left is None else np.asarray(left, dtype=np.bool_)))
+                              readonly(np.zeros(0, dtype=np.bool_) if left is None else
+                                       np.asarray(left, dtype=np.bool_)))
         out[axis] = AxisSummary(float(totals[0]), totals[1:].copy(), sums, trace, final)
 
     with ThreadPoolExecutor(max_workers=2) as pool:
@@ -349,7 +350,8 @@ def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed,
 
 
 def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str, gravity_offset_rad: float = 0.0,
-                  trig: tuple | None = None, start: dict | None = None, rows: str = "all", structure: dict | None = None):
+                  trig: tuple | None = None, start: dict | None = None, rows: str = "all",
+                  structure: dict | None = None):
     """regressors.plant_signals in one compiled pass (the same ZOH coefficients, the same steady start);
     equal to the reference to round-off (tested).  For the diagnosis, which rebuilds these signals for
     every candidate and grid point; ``trig``: (sin alpha, cos alpha) when the caller keeps them; ``start``: the
