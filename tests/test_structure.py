@@ -202,3 +202,15 @@ def test_a_log_with_its_arm_resting_on_and_hopping_off_its_stop_converges_at_the
     assert r.headline == "refined" and r.refined.converged and r.model_check["adequate"] is True
     for k, v in CE150.items():
         assert r.estimates[k] == pytest.approx(v, rel=0.002), k
+
+
+def test_drems_interval_counts_only_the_blocks_a_stop_leaves_samples_in():
+    """The arm rests on its stop for its first second: DREM's pitch regression leaves those samples out, and its
+    batch-means interval counts the blocks that hold any (a block of zero scores would narrow it); the yaw, which
+    has no stop here, keeps every block."""
+    t, u1, u2, a, b = ce150.simulate_log(40.0, 100.0, seed=7, ref="steps", encoder_bits=12)
+    log = validated(t, u1, u2, a, b, source="ce150 steps", angle_unit="rad")
+    r = identify(log, Settings(**{**bench_settings("humusoft_ce150"), "refine": "off"}), halves=False)
+    assert r.headline == "offline"
+    pitch, yaw = r.offline_intervals["J1"].blocks, r.offline_intervals["J2"].blocks
+    assert yaw > pitch > 0

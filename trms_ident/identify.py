@@ -226,10 +226,12 @@ def identify(log: Log, settings: Settings | None = None, halves: bool = True, st
                 f"{log.source}: the {axis} axis is not excited: det M is zero over the whole log "
                 f"(constant input and angle?); {', '.join(AXES[axis])} cannot be identified")
         bias = (design.predicted_bias[axis] if design else 0.0) + warp
+        # blocks whose every sample sat at a stop hold nothing: counted, their zero scores would narrow the interval
+        blocks = sm.block_sums[sm.block_sums[:, 0] > 0] if axis in (skip or {}) else sm.block_sums
         for i, name in enumerate(AXES[axis]):
             traces[name], drem_final[name] = sm.trace[:, i], float(sm.final[i])  # eq. (8)
-            intervals[name] = interval_from_sums(sm.energy, float(sm.cross[i]), sm.block_sums[:, 0],
-                                                 sm.block_sums[:, 1 + i], bias_bound=bias)
+            intervals[name] = interval_from_sums(sm.energy, float(sm.cross[i]), blocks[:, 0], blocks[:, 1 + i],
+                                                 bias_bound=bias)
             offline[name] = intervals[name].estimate
         axes[axis] = AxisResult(axis, sm.energy * dt)
 
@@ -277,7 +279,7 @@ def at_stops(log: Log, structure: dict) -> dict:
 
 def stop_samples(log: Log, structure: dict, a_rad_s: float, b_rad_s: float) -> dict | None:
     """{axis: (n,) bool}: the samples DREM leaves out of an axis' regression: where its angle rests on an end stop
-    of the bench's structure (model/structure.py: within a few encoder steps of it, or 1e-4 rad), and the samples
+    of the bench's structure (at_stops: within a few encoder steps or noise levels of it), and the samples
     after it while the filters still carry the stop's contact torque (eq. 1 has none: the stop holds the angle,
     not the torques).  None when the structure has no stops, or the angles never reach them."""
     out = {}
