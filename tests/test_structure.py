@@ -174,6 +174,10 @@ def test_export_of_an_estimate_made_under_a_structure_writes_it_back(tmp_path):
                               str(tmp_path / "o"), "--angle-unit", "rad"])
     assert res.exit_code == 0, res.output
     assert "pitch end stops at 45 and 135 deg" in res.stderr  # the model line names the structure
+    # design does not model a structure: it refuses the estimate made under one rather than plan for eq. (1)
+    res = runner.invoke(app, ["design", "--from", str(tmp_path / "o" / "result.json"), "-o",
+                              str(tmp_path / "d.csv")])
+    assert res.exit_code == 2 and "estimated under a bench's [structure]" in res.output
     res = runner.invoke(app, ["export", str(tmp_path / "o" / "result.json"), "-o", str(tmp_path / "m.toml")])
     assert res.exit_code == 0, res.output
     assert parameter_file_structure(tmp_path / "m.toml") == parameter_file_structure("humusoft_ce150")

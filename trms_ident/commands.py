@@ -233,6 +233,9 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
     noise = {"alpha": sd, "beta": sd}
     if from_result is not None:  # the bench as estimate found it: known values, J/B, the noise it measured
         doc_in, known, _, estimates = read_result(Path(from_result))
+        if (doc_in.get("settings") or {}).get("structure"):  # as refuse_structure does for a bench file
+            raise SettingsError(f"--from {from_result}: estimated under a bench's [structure] "
+                                f"({(doc_in.get('model') or {}).get('equation', '')}), which design does not model yet")
         missing = [k for k in ESTIMATED if estimates.get(k) is None]
         if missing:
             raise LogFormatError(f"{from_result}: {', '.join(missing)} not identified there; give the bench with "
