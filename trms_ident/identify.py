@@ -85,8 +85,11 @@ def on_uniform_grid(log: Log, params: dict, structure: dict | None = None) -> tu
         grid = log.t_s[0] + np.arange(len(log)) * log.sample_time_s
         grid[-1] = min(grid[-1], log.t_s[-1])
         ang = CubicSpline(log.t_s, np.column_stack([log.alpha_rad, log.beta_rad]))(grid)
+    from .model.structure import reaction_voltage
+
     sw = log.t_s[:, None] + log.switch_offsets_s()
-    m = motor_states_on_grid(sw[:, 0], log.u1_v, log.u2_v, grid, params, t2_s=sw[:, 1])
+    m = motor_states_on_grid(sw[:, 0], log.u1_v, log.u2_v, grid, params, t2_s=sw[:, 1],
+                             reaction_voltage=reaction_voltage(structure))
     motor = (m[:, 0], m[:, 1], reaction_moment_on_grid(sw[:, 0], log.u1_v, log.u2_v, grid, params, structure, m))
     held = np.searchsorted(log.t_s, grid, side="right") - 1  # the voltage in force (plots; a voltage gyroscope)
     return replace(log, t_s=grid, u1_v=log.u1_v[held], u2_v=log.u2_v[held], alpha_rad=ang[:, 0],
@@ -97,13 +100,13 @@ def reaction_moment_on_grid(t_s: np.ndarray, u1_v: np.ndarray, u2_v: np.ndarray,
                             structure: dict | None, motor: np.ndarray | None = None) -> np.ndarray:
     """M_R [N m] at the grid times with every voltage held from its stamp ``t_s`` (numerics/hold.py): eq. (1)'s,
     driven by tau1, or (the bench's ``structure``: model/structure.py) driven by the voltage u1 itself, whose direct
-    term takes the voltage in force at each grid time.  ``motor``: motor_states_on_grid's result under eq. (1)
-    when the caller has it."""
+    term takes the voltage in force at each grid time.  ``motor``: motor_states_on_grid's result under the same
+    structure when the caller has it."""
     from .model.structure import reaction_voltage
     from .numerics.hold import motor_states_on_grid, reaction_moment
 
     rv = reaction_voltage(structure)
-    if motor is None or rv:
+    if motor is None:
         motor = motor_states_on_grid(t_s, u1_v, u2_v, grid_s, params, reaction_voltage=rv)
     drive = u1_v[np.maximum(np.searchsorted(t_s, grid_s, side="right") - 1, 0)] if rv else motor[:, 0]
     return reaction_moment(drive, motor[:, 2], params)

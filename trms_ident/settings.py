@@ -77,7 +77,7 @@ class Settings:
         from .model.structure import StructureError, parse_structure
 
         try:
-            parse_structure({k: (list(v) if k.endswith("_rad") else v) for k, v in self.structure.items()})
+            parse_structure(self.structure)  # its canonical form reads as a [structure] table
         except StructureError as exc:
             raise SettingsError(f"structure: {exc}") from None
         for key, value in self.effects.items():  # as a bench file's [effects] entries are checked

@@ -193,8 +193,7 @@ def model_check(y: np.ndarray, pred: np.ndarray, u: np.ndarray, noise_rad: dict,
                   and axes[AXIS_OF[ang]]["floor_used"] == "noise"]
     fits = ", ".join(f"{a} {v['fit_percent']:.2f} % (noise floor allows {v['noise_floor_fit_percent']:.2f} %)"
                      for a, v in axes.items())
-    if adequate and any(v["error_rms_rad"] < NUMERICAL_FLOOR_RAD and not v["noise_floor_measured"]
-                        for v in axes.values()):
+    if adequate and below_integrator(axes):
         sentence = (f"The model fits this log to the integrator's precision (angle errors below "
                     f"{NUMERICAL_FLOOR_RAD:g} rad; the angles carry no measurable noise, so the log is simulated or "
                     f"smoothed): simulation fit {fits}. The intervals measure what is left, the integration's and "
@@ -219,6 +218,12 @@ def model_check(y: np.ndarray, pred: np.ndarray, u: np.ndarray, noise_rad: dict,
                    "and the error ratios overstate the misfit; the simulation fit is the measure to read.")
     return {"adequate": adequate, "axes": axes, "simulation": scope, "sentence": sentence, "caution": caution,
             "undecided_because": UNMEASURABLE if adequate is None else None}
+
+
+def below_integrator(axes: dict) -> bool:
+    """Is an axis of model_check's ``axes`` fitted below the integrator's precision (NUMERICAL_FLOOR_RAD) on a log
+    whose noise floor cannot be measured: the fit judged against that precision, not a noise floor?"""
+    return any(a["error_rms_rad"] < NUMERICAL_FLOOR_RAD and not a["noise_floor_measured"] for a in axes.values())
 
 
 #: why a verdict is not decided (model_check's ``undecided_because``): the noise floor cannot be measured and the

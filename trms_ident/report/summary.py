@@ -47,16 +47,9 @@ HEADLINE_MEANING = {
 }
 
 
-def _exact(check: dict) -> bool:
-    """Was the fit judged against the integrator's precision (adequacy.NUMERICAL_FLOOR_RAD) rather than a noise floor
-    on some axis: a noise-free log fitted below 1e-7 rad?"""
-    from ..numerics.adequacy import NUMERICAL_FLOOR_RAD
-
-    return any(not a.get("noise_floor_measured", True) and a.get("error_rms_rad", 1.0) < NUMERICAL_FLOOR_RAD
-               for a in (check.get("axes") or {}).values())
-
-
 def summarize(result: Result, log: Log, truth: dict | None = None, truth_source: str | None = None) -> dict:
+    from ..numerics.adequacy import below_integrator
+
     s = result.settings
     table = defaults()
     check = result.model_check
@@ -66,7 +59,8 @@ def summarize(result: Result, log: Log, truth: dict | None = None, truth_source:
         "estimates": {k: result.estimates[k] for k in ESTIMATED},
         "ci95": {k: _pair(result.intervals[k]) for k in ESTIMATED},
         "ci95_meaning": {True: ("95 % intervals from what the fit leaves, below the integrator's precision: the log "
-                                "carries no measurable noise, and they are a lower bound" if _exact(check) else
+                                "carries no measurable noise, and they are a lower bound"
+                                if below_integrator(check.get("axes") or {}) else
                                 "95 % intervals from the noise in this log; the model fits it to the noise level"),
                          False: "95 % intervals CONDITIONAL on a model that does not fit this log (model_check): "
                                 "they measure the noise, not the model's error, and the true values may lie far "
