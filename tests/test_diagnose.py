@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 from trms_ident.cli import app
 from trms_ident.diagnosis import oe
 from trms_ident.diagnosis.model import delayed
-from trms_ident.diagnosis.predict import predict, predict_fitted_start
+from trms_ident.diagnosis.predict import N_FX, predict, predict_fitted_start
 from trms_ident.diagnosis.run import diagnose
 from trms_ident.diagnosis.select import Score, compare
 from trms_ident.io.csv_log import write_csv_log
@@ -147,7 +147,7 @@ def test_prediction_windows_start_from_the_state_that_fits_them():
     t = np.arange(n) * dt
     tau, other = 0.5 + 0.3 * np.sin(t), 0.02 * np.cos(0.5 * t)
     th = np.array([0.02, 0.1, 0.02, 0.09, 0.0, 0.0, 0.0])
-    fx = np.zeros(7)
+    fx = np.zeros(N_FX)
     zero = np.zeros(n)
     rng = np.random.default_rng(1)
     x_true_start = np.repeat(rng.normal(0, 1, n // horizon), horizon)

@@ -277,12 +277,6 @@ def _published_values(tmp_path, name: str, axis: str, table1: dict) -> None:
         assert doc["estimates"]["B1"] == pytest.approx(0.00184, rel=0.02)
         assert doc["estimates"]["J1"] == pytest.approx(0.00437, rel=0.02)
         assert doc["not_credible"] == {}
-        # diagnose searches under eq. (1)'s structure: it refuses a bench stating another (rather than read Kg, a
-        # coefficient of u1 there, as one of M1), and takes the CE150's values mapped onto eq. (1) instead
-        res = runner.invoke(app, ["diagnose", str(path), "--rate", "100", "--angle-unit", "deg", "--params",
-                                  "humusoft_ce150", "--json", "-"])
-        assert res.exit_code == 2 and "which diagnose does not model yet" in res.output
-        assert "--params humusoft_ce150_eq1" in res.output
         # diagnose with the bench's values on eq. (1) (issue #32, item 8): the smoothed angles carry no measurable
         # noise, so its verdict rests on the black-box floor estimate's check measured, never on a 1e-9 rad one,
         # and what it finds (measured: a second-order yaw motor, a further lag of 0.46 s) raises the held-out

@@ -249,14 +249,16 @@ def diagnose(log, *, params: dict | str | Path | None = None, thrust_law: str = 
     made it (identify's Result: diagnose's seed-model check is that estimate's, not made again)."""
     from .diagnosis.run import diagnose as run
     from .errors import SettingsError
-    from .params import THRUST_LAWS, load_parameter_file, parameter_file_inputs_unit, refuse_structure
+    from .model.structure import with_structure
+    from .params import THRUST_LAWS, load_parameter_file, parameter_file_inputs_unit, parameter_file_structure
 
     if thrust_law not in THRUST_LAWS:
         raise SettingsError(f"thrust law must be one of {tuple(THRUST_LAWS)}, got {thrust_law!r}")
     data = _as_log(log, read)
     if isinstance(params, (str, Path)):
+        # the bench: its known values and, under model.structure.BENCH_KEY, its structure (diagnose reads both)
         path, params = params, load_parameter_file(params)
-        refuse_structure(path, "diagnose")
+        params = with_structure(params, parameter_file_structure(path))
         data = with_inputs_unit(data, parameter_file_inputs_unit(path))
     d = run(data, dict(params or {}), thrust_law, filter_a_rad_s, progress=progress, seed=seed)
     if progress is not None:
@@ -279,6 +281,7 @@ def under_findings(log, d, overrides: dict, thrust_law: str) -> dict | None:
     from .model.bench import TORQUE_KEYS, from_findings
     from .model_profile import identify_with_profiles
     from .params import ESTIMATED
+    from .diagnosis.model import settings_of
     from .report.summary import interval_text
 
     if not d.findings:
@@ -289,8 +292,8 @@ def under_findings(log, d, overrides: dict, thrust_law: str) -> dict | None:
     # under the exported file; measured: a second-order pitch motor's T2 held without its interval left J2 and
     # B1 7-8 half-widths off on diagnosed_model.py's seed 23)
     held = {e.key: tuple(e.ci95) for e in found if e.ci95 is not None and e.key not in free}
-    settings = Settings(thrust_law=thrust_law, overrides={**overrides, **refits},
-                        effects={e.key: e.value for e in found}, free=free, held_ci95=held)
+    settings = settings_of({**overrides, **refits}, thrust_law, effects={e.key: e.value for e in found}, free=free,
+                           held_ci95=held)
     # the refinement starts from diagnose's own J/B with the findings and its motor start states: next to the
     # optimum (an hour at 1 kHz with a cable: three passes over the log instead of five from DREM's), the same
     # optimum (DREM's and the table's start follow when this one does not reach the noise level)

@@ -131,17 +131,14 @@ def _diagnosed(log, out: Path, settings: Settings, options: dict, estimated=None
     from .report.diagnosis import render, to_doc
     from .report.summary import to_json
 
-    seedlike = replace(settings, inputs_unit=None) == Settings(thrust_law=settings.thrust_law,
-                                                                overrides=dict(settings.overrides))
-    if settings.structure:  # params.refuse_structure's reason, in the row: the estimate stands
-        from .model.structure import phrases
+    from .model.structure import with_structure
 
-        return {"verdict": "not diagnosed", "findings": [], "file": None,
-                "error": f"the bench states a [structure] ({'; '.join(phrases(settings.structure))}), which diagnose "
-                         "does not model yet"}
-    try:
-        d = diagnose(log, params=dict(settings.overrides), thrust_law=settings.thrust_law,
-                     seed=estimated if seedlike else None)
+    seedlike = replace(settings, inputs_unit=None) == Settings(thrust_law=settings.thrust_law,
+                                                                overrides=dict(settings.overrides),
+                                                                structure=settings.structure)
+    try:  # the bench: its known values and its structure (model.structure.BENCH_KEY)
+        d = diagnose(log, params=with_structure(dict(settings.overrides), settings.structure),
+                     thrust_law=settings.thrust_law, seed=estimated if seedlike else None)
     except TrmsError as exc:  # a log too short to diagnose, ...: said in its row, the estimate stands
         return {"verdict": "not diagnosed", "findings": [], "file": None, "error": str(exc)}
     doc = to_doc(d, log)

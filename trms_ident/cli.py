@@ -31,7 +31,8 @@ from .errors import (EXIT_ALL_FAILED, EXIT_INADEQUATE, EXIT_INTERNAL, EXIT_INTER
                      EXIT_SOME_FAILED, EXIT_UNDECIDED, JoinedRunsError, SettingsError, TrmsError)
 from .settings import GAIN_CONVENTIONS, HEADLINES, Settings
 from .params import (ESTIMATED, THRUST_LAWS, UNITS, bench_names, bench_settings, load_parameter_file,
-                     parameter_file_inputs_unit, refuse_structure, unit_of)
+                     parameter_file_inputs_unit, parameter_file_structure, refuse_structure, unit_of)
+from .model.structure import with_structure
 
 app = typer.Typer(
     name="trms-ident",
@@ -527,7 +528,8 @@ def diagnose(
     if thrust_law not in THRUST_LAWS:
         raise SettingsError(f"thrust law must be one of {tuple(THRUST_LAWS)}, got {thrust_law!r}")
     overrides = load_parameter_file(params) if params else {}
-    refuse_structure(params, "diagnose")
+    if params:  # the bench: its known values and its structure (model.structure.BENCH_KEY)
+        overrides = with_structure(overrides, parameter_file_structure(params))
     progress = stage_reporter(str(log))
     progress and progress("reading")
     data = read_log(log, angle_unit=angle_unit, signals=signal, time_source=time_source, time_unit=time_unit,
@@ -541,7 +543,8 @@ def diagnose(
     given = [e.key for e in parameter_file_effects(params)] if params else []
     if given:
         say(f"note: {params} holds effects ({', '.join(given)}); diagnose starts from eq. (1) with its known values "
-            "and searches the whole library, those included (it does not yet take them as given)")
+            "(and its [structure], if any) and searches the whole library, those included (it does not yet take them "
+            "as given)")
     if progress:
         sys.stderr.write("\r\033[K")
     with progress_bar(str(log)) as advance:  # a bar on a terminal, nothing when stderr is piped
@@ -986,7 +989,7 @@ def export(
     if bench is not None:  # a diagnosis.json: the bench as diagnosed
         path = output or result.with_name("bench.toml")
         write_text(path, to_toml(bench["known"], bench["identified"], bench["header"], bench["effects"],
-                                 bench["sources"], bench["intervals"]))
+                                 bench["sources"], bench["intervals"], structure=bench["structure"]))
         for w in bench["warnings"]:
             say(f"warning: {w}")
         what = ", ".join(e.key for e in bench["effects"]) or "no effect"

@@ -123,8 +123,10 @@ def bench_from_diagnosis(path: Path) -> dict | None:
               "estimate, simulate and design read it with --params; the J/B below are diagnose's (simulate takes "
               "them as the true values, estimate ignores them)"]
     identified = {k: v for k, v in (jb or {}).items() if isinstance(v, (int, float)) and v > 0}
+    # the bench's structure diagnose searched under (its --params' [structure]; absent before 2026-12: eq. 1)
+    structure = (doc.get("settings") or {}).get("structure") or {}
     return {"known": known, "sources": sources, "effects": tuple(effects), "identified": identified,
-            "header": header, "warnings": warnings, "intervals": intervals}
+            "header": header, "warnings": warnings, "intervals": intervals, "structure": structure}
 
 
 def read_diagnosis(path: Path) -> tuple[dict, object, tuple, dict, dict]:

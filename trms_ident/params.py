@@ -105,9 +105,18 @@ def marked(name: str, value: float) -> str:
 
 
 def merge(overrides: Mapping[str, float] | None, *, source: str = "overrides") -> dict[str, float]:
-    """Table defaults updated by ``overrides``; unknown names or bad values raise."""
+    """Table defaults updated by ``overrides``; unknown names or bad values raise.  A bench's structure in
+    ``overrides`` (model.structure.BENCH_KEY: diagnose's bench dict) is carried over, checked."""
+    from .model.structure import BENCH_KEY, StructureError, parse_structure
+
     values = defaults()
     for name, value in (overrides or {}).items():
+        if name == BENCH_KEY:
+            try:
+                values[name] = parse_structure(value)
+            except StructureError as exc:
+                raise ParameterFileError(f"{source}: {exc}") from None
+            continue
         if name not in BY_NAME:
             raise ParameterFileError(
                 f"{source}: unknown parameter {name!r}; expected one of {', '.join(BY_NAME)}"
@@ -291,7 +300,7 @@ def refuse_structure(path: str | Path | None, command: str) -> None:
     structure = parameter_file_structure(path)
     if structure:
         raise SettingsError(f"{path}: states a [structure] ({'; '.join(phrases(structure))}), which {command} does not "
-                            "model yet (estimate, batch and estimate --joint do); for " + command + " against eq. (1) "
+                            "model yet (estimate, batch, estimate --joint and diagnose do); for " + command + " against eq. (1) "
                             "give a bench file without [structure] (the CE150's: --params humusoft_ce150_eq1)")
 
 

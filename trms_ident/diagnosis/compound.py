@@ -43,6 +43,7 @@ from ..model import effects as room
 from ..model.bench import MODIFICATION_KEYS, TORQUE_KEYS
 from ..numerics.adequacy import RMS_OVER_NOISE
 from .oe import motor_states
+from .model import settings_of
 from .result import Finding, known_value_finding
 
 #: at most this many hypotheses (findings first, then their torque-effect look-alikes) are estimated under: each
@@ -139,10 +140,9 @@ def estimate_under(h: Hypothesis, log: Log, law: str, overrides: dict) -> Hypoth
     with that effect in the bench file does)."""
     from ..errors import TrmsError
     from ..identify import identify
-    from ..settings import Settings
 
     torque = h.key in TORQUE_KEYS
-    settings = Settings(thrust_law=law, overrides=dict(overrides), effects={h.key: h.value},
+    settings = settings_of(overrides, law, effects={h.key: h.value},
                         free=(h.key,) if torque else ())
     try:
         with np.errstate(all="ignore"):
@@ -204,13 +204,12 @@ def _profiled_with_lead(h: Hypothesis, log: Log, law: str, overrides: dict, kv: 
     from ..errors import TrmsError
     from ..model_profile import identify_with_profiles
     from ..params import BY_NAME, merge
-    from ..settings import Settings
 
     first = lead_of(kv, h.key)
     if first is None:
         return none
     lead = first["name"]
-    settings = Settings(thrust_law=law, overrides=dict(overrides), effects={h.key: h.value}, free=(h.key, lead))
+    settings = settings_of(overrides, law, effects={h.key: h.value}, free=(h.key, lead))
     try:
         with np.errstate(all="ignore"):
             res = identify_with_profiles(log, settings)

@@ -16,8 +16,9 @@ import numpy as np
 from ..log import Log
 from . import oe
 from ..model.effects import SENSOR_LAG, angle_lag
+from ..model.structure import gyroscope_voltage, of_bench, stops
 from .model import AXIS_ANGLE, Model, modified_inputs, observed_log, restart_velocity, smoothed_velocity
-from .predict import HORIZON_S, nrmse_fit, predict_fitted_start
+from .predict import HORIZON_S, N_FX, nrmse_fit, predict_fitted_start
 
 
 #: how much of the log's beginning decides the motors' start states (search._choose_start, best_start) [s]
@@ -107,6 +108,9 @@ def prediction_fits(log: Log, p: dict, law: str, model: Model, values: dict, est
     u1, u2, changes = modified_inputs(log, dict(model.mods))
     pp = {**p, **changes}
     ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, dt, pp, law, start=start, rows="motors")
+    structure = of_bench(p)  # the bench's (model/structure.py): the gyroscope's drive, the end stops
+    gyro_u1 = gyroscope_voltage(structure)
+    pitch_other = u1 * ps.dbeta_rad_s if gyro_u1 else ps.dbeta_rad_s  # with the gyroscope's drive when it is u1
     extra = {axis: (extra or {}).get(axis) for axis in ("pitch", "yaw")}
     for key, t in oe.unit_torques(log, pp, law, [k for k in model.linear if k in values], u1, u2).items():
         for j, axis in enumerate(("pitch", "yaw")):  # the model room's torque effects (model/effects.py)
@@ -118,7 +122,8 @@ def prediction_fits(log: Log, p: dict, law: str, model: Model, values: dict, est
 
     def predicted(axis: str) -> np.ndarray:
         x = getattr(log, AXIS_ANGLE[axis])
-        fx = np.zeros(7)
+        fx = np.zeros(N_FX)
+        fx[8:10] = stops(structure, axis) or (0.0, 0.0)
         fx[0] = values.get(f"coulomb_friction:{axis}", 0.0)
         fx[1] = values.get(f"quadratic_drag:{axis}", 0.0)
         fx[5] = values.get(f"thrust_asymmetry:{axis}", 0.0)
@@ -130,8 +135,9 @@ def prediction_fits(log: Log, p: dict, law: str, model: Model, values: dict, est
         else:
             fx[3] = values.get("com_offset:pitch", 0.0)
             fx[4] = values.get("sensor_offset:pitch", 0.0)
+            fx[7] = gyro_u1
             th = np.array([est["J1"], est["B1"], pp["a1"], pp["b1"], pp["Mg"], pp["Kg"], law == "signed"], dtype=float)
-            drive, other = ps.tau1, ps.dbeta_rad_s
+            drive, other = ps.tau1, pitch_other
         if not all(math.isfinite(q) and q > 0 for q in th[:2]):  # J or B not physical: nothing to predict with
             return np.full_like(x, np.nan)
         aux = (zeros, zeros) if axis == "pitch" else _per_angles("yaw inertia", log.alpha_rad, dt,

@@ -17,6 +17,7 @@ from scipy import signal
 
 from ..log import Log
 from ..model import effects
+from ..model.structure import of_bench, stops
 from ..numerics.filters import discretize, second_order_lowpass
 from ..numerics.fused import plant_signals  # compiled, equal to regressors.plant_signals to round-off
 from ..numerics.kernel_args import readonly
@@ -52,6 +53,17 @@ class Regression:
     g: dict[str, np.ndarray]
     x: dict[str, np.ndarray]
     names: dict[str, list[str]] = field(default_factory=dict)
+
+
+def settings_of(overrides: dict | None, law: str, **options):
+    """identify's Settings for diagnose's bench ``overrides`` (known values by name, and the bench's structure
+    under model.structure.BENCH_KEY when it has one), with ``options`` (effects, free, ...)."""
+    from ..model.structure import BENCH_KEY
+    from ..settings import Settings
+
+    given = dict(overrides or {})
+    structure = given.pop(BENCH_KEY, None) or {}
+    return Settings(thrust_law=law, overrides=given, structure=structure, **options)
 
 
 def _low_passed(x: np.ndarray, dt: float) -> np.ndarray:
@@ -281,7 +293,25 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
             names.append(key)
         # no extra column: the cached regressors themselves (read-only use), not a copy per candidate
         reg.g[axis], reg.x[axis], reg.names[axis] = cache[keys[axis]], m if len(cols) == 2 else np.column_stack(cols), names
+        keep = _off_stops(log, p, a_rad_s, cache).get(axis)
+        if keep is not None:  # the samples at an end stop, and those the filter carries its torque into, weigh 0
+            reg.g[axis], reg.x[axis] = reg.g[axis] * keep, reg.x[axis] * keep[:, None]
     return reg
+
+
+def _off_stops(log: Log, p: dict, a_rad_s: float, cache: dict) -> dict:
+    """{axis: (n,) 1.0 off the bench's end stops, 0.0 at them and for the filter's settling after (identify's
+    stop_samples, as DREM leaves them out: a stop's contact torque is in no regression)}; {} without stops."""
+    structure = of_bench(p)
+    if not any(stops(structure, axis) for axis in ("pitch", "yaw")):
+        return {}
+    key = ("off_stops", a_rad_s)
+    if key not in cache:
+        from ..identify import stop_samples
+
+        skip = stop_samples(log, structure, a_rad_s, a_rad_s) or {}
+        cache[key] = {axis: (~m).astype(float) for axis, m in skip.items()}
+    return cache[key]
 
 
 def start_columns(axis: str, p: dict, law: str, ps, alpha_rad: np.ndarray, a_rad_s: float, dt: float,

@@ -22,17 +22,30 @@ from ..model.plant import (centrifugal_pitch, coriolis_yaw, coulomb_sign, fricti
 from ..numerics.kernel_args import readonly
 
 HORIZON_S = 2.0
+#: the entries of a prediction's effect vector ``fx`` (_rhs: the effects' values, the gyroscope's drive, the stops)
+N_FX = 10
+
+
+def _checked(fx: np.ndarray) -> np.ndarray:
+    """``fx`` as the kernel reads it: N_FX entries (a shorter one would be read past its end)."""
+    fx = np.asarray(fx, dtype=float)
+    if fx.shape != (N_FX,):
+        raise ValueError(f"the effect vector fx has {fx.size} entries, the predictions read {N_FX} (predict._rhs)")
+    return fx
 
 
 @njit(cache=True)
 def _rhs(pitch, x, v, tau_m, other, s2, scw, ext, th, fx):
-    # th: J, B, a, b, Mg, Kg, signed;  fx: Fc, c, k_cable, com_delta, sensor_delta, thrust asymmetry s, yaw dJ
+    # th: J, B, a, b, Mg, Kg, signed;  fx: Fc, c, k_cable, com_delta, sensor_delta, thrust asymmetry s, yaw dJ,
+    # the gyroscope driven by the voltage (1: the bench's structure, ``other`` is then u1 beta'; 0: eq. 1), the
+    # axis' end stops low, high [rad] (none when low >= high);
     # s2 = sin^2(alpha), scw = sin(alpha) cos(alpha) alpha' (measured; used by the yaw axis only);
     # ext: an extra torque [N m] from the measured states (a data-driven correction, diagnosis/sparse.py)
     m = reversed_gain(tau_m, fx[5]) * thrust(tau_m, th[2], th[3], th[6] > 0)  # eq. (1), with thrust asymmetry
     fric = friction(coulomb_sign(v), v, fx[0], fx[1]) + ext
     if pitch:
-        acc = pitch_torque(m, m, math.sin(x + fx[3]), math.cos(x), other, th[4], th[5]) + fric  # eq. (1), pitch
+        gd = m + fx[7] * (1.0 - m)  # M1 (eq. 1) or 1, the voltage being in ``other`` (model/structure.py)
+        acc = pitch_torque(m, gd, math.sin(x + fx[3]), math.cos(x), other, th[4], th[5]) + fric  # eq. (1), pitch
         acc += centrifugal_pitch(fx[6], math.sin(x), math.cos(x), other)  # J'(alpha) beta'^2 / 2
         return (acc - th[1] * v) / th[0]
     acc = yaw_torque(m, other) - fx[2] * x + fric + coriolis_yaw(fx[6], 1.0, scw, 1.0, v)  # eq. (1), yaw
@@ -66,6 +79,9 @@ def _predict(pitch, x_start, v_start, x_off, v_off, tau, other, s2, scw, ext, dt
         a4 = _rhs(pitch, x + dt * (v + 0.5 * dt * a2), v + dt * a3, t1, o1, p1, q1, e1, th, fx)
         x += dt * (v + dt / 6.0 * (a1 + a2 + a3))
         v += dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+        if fx[8] < fx[9] and ((x <= fx[8] and v <= 0.0) or (x >= fx[9] and v >= 0.0)):
+            x = fx[8] if x <= fx[8] else fx[9]  # an end stop holds the angle (inelastic): it leaves when the
+            v = 0.0  # torques point away (the next step's)
 
 
 def _windows(n: int, horizon: int) -> int:
@@ -75,6 +91,7 @@ def _windows(n: int, horizon: int) -> int:
 def predict(pitch, x_start, v_start, tau, other, s2, scw, ext, dt, horizon, th, fx) -> np.ndarray:
     """Angle predictions [rad], restarted every ``horizon`` samples from x_start and v_start (see _predict)."""
     x_start = readonly(x_start)  # one compiled _predict (numerics.kernel_args)
+    fx = _checked(fx)
     zero = np.zeros(_windows(x_start.size, horizon))
     out = np.empty(x_start.size)
     _predict(pitch, x_start, v_start, zero, zero, tau, other, s2, scw, ext, dt, horizon, th, fx, out)
@@ -118,6 +135,7 @@ def predict_fitted_start(pitch, x_meas, v_guess, tau, other, s2, scw, ext, dt, h
     Gauss-Newton step, kept where it lowers the window's error: friction makes the start non-smooth).  Three
     prediction buffers, no other temporaries the length of the log."""
     x_meas = readonly(x_meas)  # one compiled _predict, _normal_sums, _keep_better (numerics.kernel_args)
+    fx = _checked(fx)
     n, nw = x_meas.size, _windows(x_meas.size, horizon)
     zero = np.zeros(nw)
     args = (tau, other, s2, scw, ext, dt, horizon, th, fx)

@@ -9,6 +9,7 @@ from typing import Callable
 import numpy as np
 
 from ..log import Log
+from ..model.structure import of_bench
 from ..params import KNOWN, merge
 from . import held_out, search
 from .result import VERDICTS, Diagnosis
@@ -20,6 +21,8 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
              progress: Callable[[str, float], None] | None = None, seed=None) -> Diagnosis:
     """Find what the seed model leaves out of this log, fit it, and give the verdict (VERDICTS).
 
+    ``overrides``: the bench's known values that differ from Table 1, and its structure under
+    model.structure.BENCH_KEY when it is not eq. (1)'s (every fit below reads it from there).
     ``progress(stage, fraction done)``: called as the work advances (the CLI draws a bar with it).  ``seed``:
     identify's Result of this log with Settings(thrust_law=law, overrides=overrides) when the caller has it
     (batch --diagnose: the estimate it just made), else made here; either way made once, not per search rerun."""
@@ -50,7 +53,8 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
         held = [g for g in refused if not g["reason"].startswith(STAND_IN)]
         given = {k: {"value": p[k], "source": "override" if k in (overrides or {}) else "table"} for k in KNOWN}
         refused = d.refused + refused
-        return replace(d, held_out=h, refused=refused, settings={**d.settings, "known_values": given},
+        return replace(d, held_out=h, refused=refused, settings={**d.settings, "known_values": given,
+                                                                  "structure": of_bench(p)},
                        verdict_sentence=d.verdict_sentence + held_out.gate_sentence(held) + held_out.caution(h)
                        + (stand_in_sentence(refused) if d.verdict not in ("explained", "consistent") else ""))
 

@@ -22,7 +22,7 @@ from ..params import merge
 from . import oe
 from .discriminate import PAIR
 from .locate import lag_profile, regimes, segments
-from .model import AXIS_ANGLE, Model, drop_search_columns, modified_inputs, regression, smoothed_velocity
+from .model import AXIS_ANGLE, Model, drop_search_columns, modified_inputs, regression, settings_of, smoothed_velocity
 from .fits import REST, best_start, prediction_fits, start_cost, start_samples
 from .predict import HORIZON_S, fit_change, fit_text
 from .result import Diagnosis, Finding
@@ -370,7 +370,8 @@ def _accept(run: _Run, found: _Found, nominal: dict) -> _Kept:
                                                                seed.get("start_states"), _last_oe(findings))
         if not findings:
             break
-        why = _refusal(findings[-1][0]["c"], nominal, augmented, fit_before, fit_after, findings[-1][0].get("oe"))
+        why = _refusal(findings[-1][0]["c"], nominal, augmented, fit_before, fit_after, findings[-1][0].get("oe"),
+                       run.p)
         if why is None:
             break
         # the output-error fit judges it again, also when the equation error's J/B with it are not physical
@@ -472,7 +473,7 @@ def _report(run: _Run, found: _Found, kept: _Kept, base_reg, base, nominal: dict
     for i, (best, alts) in enumerate(findings):
         c = best["c"]
         v = values[c.key]
-        axes_c = axes_of(c)
+        axes_c = axes_of(c, p)
         # how far leaving this finding out (with the ones before it in) had moved each estimate
         shift = {k: 100.0 * (ests[i][k] / ests[i + 1][k] - 1.0) for k in ("J1", "B1", "J2", "B2")}
         fb = min(fits[i][0][x] for x in axes_c if x in fits[i][0])  # this finding's own step
@@ -574,7 +575,7 @@ def _finding_steps(log, p, law, findings, states, values, fits, cache, seg) -> l
     for i, (best, _) in enumerate(findings):
         c = best["c"]
         axes = {}
-        for axis in axes_of(c):
+        for axis in axes_of(c, p):
             x = getattr(log, AXIS_ANGLE[axis])
             r = [axis_residual(reg, sc, axis) for _, reg, sc in (states[i], states[i + 1])]
             regime = {"velocity": (f"{axis} velocity [rad/s]", cache[("velocity", axis)]),
@@ -586,7 +587,7 @@ def _finding_steps(log, p, law, findings, states, values, fits, cache, seg) -> l
                           "fit_before": fits[i][0][axis], "fit_after": fits[i + 1][0][axis],
                           "residual_before": r[0][th], "residual_after": r[1][th],
                           "regime_label": regime[0], "regime": regime[1][th], "segments": seg[axis]}
-        first = axes_of(c)[0]
+        first = axes_of(c, p)[0]
         if effects.generic(c.key):  # declared by its torque alone: that torque against its regime variable
             torque = oe.unit_torques(log, p, law, (c.key,))[c.key][:, 0 if c.axis == "pitch" else 1]
             shape = declared_shape(c, values[c.key], axes[c.axis]["regime_label"], regime[1], values[c.key] * torque)
@@ -636,11 +637,11 @@ def _corrections(log, p, law, a, current, values, augmented, reg_now, score_now,
 
 
 def _refusal(c: Candidate, nominal: dict, augmented: dict, fit_before: dict, fit_after: dict,
-             fitted: oe.OEFit | None = None) -> str | None:
+             fitted: oe.OEFit | None = None, p: dict | None = None) -> str | None:
     """Why the last finding cannot stand, or None: its refit J/B must stay physical (finite, positive) and
     the prediction fit of every axis it acts on must rise.  A finding the output-error fit decided is judged
     by that fit's simulation (its held-out test passed): no axis it acts on may fall, and one must rise."""
-    axes_c = axes_of(c)
+    axes_c = axes_of(c, p)
     unphysical = _unphysical(c, augmented if fitted is None else {**augmented, **fitted.estimates})
     if unphysical:
         return unphysical
@@ -691,7 +692,7 @@ def _backward(findings, current, augmented, values, fit_after, log, p, law, a, c
         est_wo, vals, fit_wo, _ = _model_fits(log, p, law, without, reg, sc, oe_values, start)
         why = small
         if why is None:
-            why = _refusal(c, {}, augmented, fit_wo, fit_after)
+            why = _refusal(c, {}, augmented, fit_wo, fit_after, p=p)
             if why is not None and oe.fittable(c.key) and oe.representable(without, oe_values):
                 value0 = oe_values.get(c.key, best["value"])
                 _, short = oe_fit(c, value0, fitter, without, vals, oe_start(sc, reg, p), log, p, n_tests, tested)
@@ -923,9 +924,9 @@ def seed_result(log: Log, overrides: dict | None, law: str):
     """identify's Result for the seed model (output-error fit with start states); an axis with no excitation
     raises IdentificationError (exit 6), as in estimate.  Without estimate's halves check: the search judges
     models by their angle errors against the floors, which a drift of J/B between the halves does not move."""
-    from ..identify import Settings, identify
+    from ..identify import identify
 
-    return identify(log, Settings(thrust_law=law, overrides=dict(overrides or {})), halves=False)
+    return identify(log, settings_of(overrides, law), halves=False)
 
 
 def _seed_check(res) -> dict:

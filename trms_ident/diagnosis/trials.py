@@ -11,6 +11,7 @@ import numpy as np
 
 from ..log import Log
 from ..model.effects import SENSOR_LAG, Candidate
+from ..model.structure import of_bench, reaction_voltage
 from ..numerics import safe
 from . import oe
 from .model import Model, regression
@@ -21,11 +22,15 @@ from .select import block_ids, compare, score
 #: constant, which went back to 1.0001 s once the further lag was in)
 MOTOR_LAG_NEUTRAL = 0.01
 
-def axes_of(c: Candidate) -> tuple[str, ...]:
+def axes_of(c: Candidate, p: dict | None = None) -> tuple[str, ...]:
+    """The axes candidate c acts on, on the bench ``p`` (its structure: model.structure.of_bench)."""
     if c.effect in ("input_delay",):
         return ("pitch", "yaw")
     if c.kind == "grid" and c.axis == "pitch":  # u1 also drives the yaw axis through M_R
-        return ("pitch", "yaw")
+        # ... through the main motor's state in eq. (1); where the bench's reaction follows the voltage u1 itself
+        # (model/structure.py), the main motor's own dynamics (its lags) stay on the pitch
+        if not (c.effect in ("motor_lag", "motor_second_lag") and reaction_voltage(of_bench(p))):
+            return ("pitch", "yaw")
     return (c.axis,) if c.axis != "both" else ("pitch", "yaw")
 
 
@@ -92,7 +97,7 @@ def try_candidate(c, log, p, law, a, current, cache, ids, score_now, n_tests, sp
     """Candidate c added to the current model and tested by the equation error: {"c", "model", "reg", "score",
     "test", "value"}, or None (a grid with no point).  An input modification's value is the best of its grid
     (on ``span``'s samples when given), refined by a parabola, and tested on the whole log."""
-    axes_c = axes_of(c)
+    axes_c = axes_of(c, p)
     if c.kind == "linear":
         model = current.with_linear(c.key)
         reg = regression(log, p, law, a, model, cache)
@@ -133,7 +138,7 @@ def at_value(c, value, log, p, law, a, current, cache, ids, score_now, n_tests):
     model = current.with_mod(c.key, value)
     reg = regression(log, p, law, a, model, cache)
     sc = score(reg, ids, ("pitch", "yaw"))
-    return {"c": c, "model": model, "reg": reg, "score": sc, "test": compare(score_now, sc, reg, axes_of(c), n_tests),
+    return {"c": c, "model": model, "reg": reg, "score": sc, "test": compare(score_now, sc, reg, axes_of(c, p), n_tests),
             "value": value}
 
 

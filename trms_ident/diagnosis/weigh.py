@@ -57,7 +57,7 @@ from ..numerics.stats import block_length
 from . import search
 from .compound import SAME, later_tries_sentence, ranked_together, together, tried_sentence, value_first
 from .fits import prediction_fits
-from .model import AXIS_ANGLE, regression
+from .model import AXIS_ANGLE, regression, settings_of
 from .oe import motor_states
 from .result import known_value_finding
 from .select import block_ids, score
@@ -216,9 +216,8 @@ def _joint(log: Log, law: str, overrides: dict | None, p: dict, kv: dict, check:
     """known_values.joint on the fit estimate's search used (identify.known_value_fit); None when it finds no
     set of two or more values that earns its place, or cannot be fitted."""
     from ..identify import known_value_fit
-    from ..settings import Settings
 
-    fit, noise, _ = known_value_fit(log, Settings(thrust_law=law, overrides=dict(overrides or {})), check)
+    fit, noise, _ = known_value_fit(log, settings_of(overrides, law), check)
     try:
         return known_values.joint(fit, p, noise, kv.get("fits", []))
     except (np.linalg.LinAlgError, FloatingPointError, ValueError, ZeroDivisionError):

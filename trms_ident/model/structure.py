@@ -18,6 +18,11 @@ with position limits), DREM's regressions (numerics.fused) with the samples at a
 their torque into, left out of the sums (a stop's contact torque is in no regression).  The canonical form (what
 Settings.structure holds and the report records) is a dict of the non-default entries: "gyroscope", "reaction",
 "pitch_stops_rad", "yaw_stops_rad".  Pure: no numba, no files.
+
+diagnose's passes take the bench as one dict of known values by name (``p``, params.merge's), hundreds of calls
+deep; the bench's structure rides in it under BENCH_KEY (with_structure), so that every stage below reads the same
+structure from the same dict (of_bench) rather than a second argument threaded beside it.  model_vector and the
+table's readers take known values by name and never see the entry.
 """
 from __future__ import annotations
 
@@ -64,6 +69,20 @@ def parse_structure(table) -> dict:
             raise StructureError(f"[structure] {key} = {list(value)!r}: the low stop must be below the high one")
         out[f"{axis}_stops_rad"] = (lo, hi)
     return out
+
+
+#: the entry of a bench's dict of known values (params.merge's) that holds its structure, canonical form
+BENCH_KEY = "structure"
+
+
+def with_structure(p: dict, structure: dict | None) -> dict:
+    """The bench ``p`` (known values by name) with ``structure`` in it (BENCH_KEY); ``p`` itself under eq. (1)."""
+    return {**p, BENCH_KEY: dict(structure)} if structure else p
+
+
+def of_bench(p: dict | None) -> dict:
+    """The structure a bench dict holds (with_structure), {} under eq. (1)."""
+    return (p or {}).get(BENCH_KEY) or {}
 
 
 def gyroscope_voltage(structure: dict | None) -> bool:

@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from ..model.plant import pitch_torque, reaction_moment, thrust, yaw_torque
-from ..model.structure import gyroscope_voltage, reaction_voltage
+from ..model.structure import gyroscope_voltage, of_bench, reaction_voltage
 from .coefficients import bilinear_second_order, zoh_first_order, zoh_lead_lag, zoh_reaction
 from .drem import gradient_step
 from .kernel_args import readonly
@@ -365,6 +365,7 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
 
     b = np.zeros((3, 3))
     a = np.zeros((3, 3))
+    structure = structure if structure is not None else of_bench(p)  # diagnose's bench holds it (model.structure)
     rv = reaction_voltage(structure)
     for i, f in enumerate((discretize([p["k1"]], [p["T11"], p["T10"]], dt_s, "zoh"),
                            discretize([p["k2"]], [p["T21"], p["T20"]], dt_s, "zoh"),

@@ -45,6 +45,7 @@ from scipy.special import stdtrit
 
 from . import parallel, safe
 from .kernel_args import readonly
+from ..model.structure import of_bench, slot_values
 from ..model.plant import (FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, GYRO_VOLTAGE_SLOT, LAG1_SLOT, LAG2_SLOT,
                            N_SLOTS, PARAM_ORDER, REACTION_VOLTAGE_SLOT, SENSOR_OFFSET_SLOT, STOP_SLOT,
                            YAW_INERTIA_SLOT, centrifugal_pitch, coriolis_yaw, coulomb_sign,
@@ -935,7 +936,9 @@ def setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s=WIND
     starts = np.array([[alpha[s], _start_velocity(alpha, t, s), beta[s], _start_velocity(beta, t, s)]
                        for s in range(0, nw * win, win)])
     free = tuple(free)
-    effects = dict(effects or {})
+    # the bench's structure where the caller's dict of known values holds it (model.structure.with_structure:
+    # diagnose's), beneath the caller's own slots
+    effects = {**slot_values(of_bench(params)), **dict(effects or {})}
     exogenous = tuple(torques or {})
     given = [float(params[k] if k in _P else effects.get(k, 0.0)) for k in free]  # the freed values' starts
     clips = {INPUT_SLOTS[k]: float(effects.pop(k)) for k in list(effects) if k in INPUT_SLOTS}

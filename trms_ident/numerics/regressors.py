@@ -42,8 +42,9 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
     at 100 Hz through its lag; the central difference left < 0.05 % at 100 Hz.  ``structure``: the bench's
     (model/structure.py): the gyroscope and M_R driven by the voltage u1 where it says so.
     """
-    from ..model.structure import gyroscope_voltage, reaction_voltage
+    from ..model.structure import gyroscope_voltage, of_bench, reaction_voltage
 
+    structure = structure if structure is not None else of_bench(p)  # diagnose's bench holds it (model.structure)
     # eq. (1): tau_i = k_i / (T_i1 s + T_i0) u_i
     tau1 = discretize([p["k1"]], [p["T11"], p["T10"]], dt_s, "zoh").apply(u1_v)
     tau2 = discretize([p["k2"]], [p["T21"], p["T20"]], dt_s, "zoh").apply(u2_v)

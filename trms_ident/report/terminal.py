@@ -71,6 +71,11 @@ def diagnosis_lines(d, source: str) -> list[str]:
     leads = bool(not_credible(d.augmented))
     lines = [f"{source}: {d.verdict.upper().replace('_', ' ')}: {headline(d.verdict, d.findings, leads)}.",
              f"  why: {d.verdict_sentence}"]
+    structure = (d.settings or {}).get("structure")
+    if structure:  # the bench file's [structure]: every fit of the search is made under it
+        from ..model.structure import phrases
+
+        lines.append(f"  searched under the bench's structure: {'; '.join(phrases(structure))}")
     fits = ", ".join(f"{k} {fit_text(v)}" for k, v in d.fit_before.items())
     if not d.findings:
         lines.append(f"  no effect in the library is found ({d.settings['candidates']} candidates tested; "
