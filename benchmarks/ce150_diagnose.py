@@ -11,11 +11,11 @@ end stops.  Each log is diagnosed twice, blind (diagnose sees the log and the be
   on pitch ~0.3 s and on yaw ~0.25 s), nothing else;
 - `--params humusoft_ce150_eq1`: the same values mapped onto eq. (1) (first-order motors of 0.6 and 0.5 s, the
   gyroscope and the reaction driven by the motor): what a user with eq. (1) and the CE150's values has.  diagnose
-  does not search structures, so the stop and the voltage drives cannot be named here; what it names instead is
-  the point.
+  does not search structures, so the voltage drives cannot be named here and the stop only said (the angle lies
+  on a value the model passes); what it names instead is the point.
 
-Per log: the findings with their values, the verdict, J/B under the findings against the published values, the
-time.  Writes the "CE150 diagnosed" section of RESULTS.md.
+Per log: the findings with their values, the verdict, the end stops the verdict says the log shows, J/B under the
+findings against the published values, the time.  Writes the "CE150 diagnosed" section of RESULTS.md.
 """
 from __future__ import annotations
 
@@ -77,8 +77,10 @@ def main() -> None:
                 d = diagnose(log, params=bench)
                 dt = time.perf_counter() - t0
                 times[bench].append(dt)
+                seen = ", ".join(f"{s['axis']} {s['deg']:.4g} deg ({s['rest_s']:.2g} s)"
+                                 for s in d.settings.get("stops_seen") or []) or "-"
                 row = (f"| {name} | {bench} | {', '.join(map(_finding, d.findings)) or '-'} | "
-                       f"{d.verdict.replace('_', ' ')} | {_jb(d)} | {dt:.0f} |")
+                       f"{d.verdict.replace('_', ' ')} | {seen} | {_jb(d)} | {dt:.0f} |")
                 rows.append(row)
                 print(row, flush=True)
     text = "\n".join([
@@ -88,11 +90,12 @@ def main() -> None:
         "(tests/plants/ce150.py) diagnosed blind under `humusoft_ce150` (its [structure]; the second-order motors "
         "of its [effects] not taken as given, so the right answer is motor_second_lag on pitch ~0.3 s and on yaw "
         "~0.25 s) and under `humusoft_ce150_eq1` (eq. (1)'s structure). J/B: under the findings' model, against "
-        "the published values. Median time a log: "
+        "the published values. Stop said: an end stop the bench file does not state, which the verdict says may hold "
+        "the angle (the model has one under humusoft_ce150, which states it). Median time a log: "
         + ", ".join(f"{b} {np.median(v):.0f} s" for b, v in times.items()) + ".",
         "",
-        "| log | bench | findings | verdict | J/B | time [s] |",
-        "|---|---|---|---|---|---|",
+        "| log | bench | findings | verdict | stop said | J/B | time [s] |",
+        "|---|---|---|---|---|---|---|",
         *rows,
     ])
     publish("CE150 diagnosed (benchmarks/ce150_diagnose.py)", text, write=not args.no_write)

@@ -306,3 +306,45 @@ def test_diagnose_is_given_the_bench_files_structure_and_searches_under_it(monke
     with pytest.raises(Stop):
         api.diagnose(log, params="humusoft_ce150")
     assert of_bench(seen) == parameter_file_structure("humusoft_ce150") and seen["Kg"] == 0.015
+
+
+def test_an_angle_resting_on_its_extreme_for_a_second_is_a_stop_the_log_may_show():
+    """identify.resting_extremes: the samples within the stop tolerance of an angle's smallest (largest) value,
+    at least MIN_STOP_REST_S of them in all; one sample fewer and the extreme is no candidate."""
+    from trms_ident.identify import MIN_STOP_REST_S, resting_extremes
+
+    dt = 0.01
+    need = int(math.ceil(MIN_STOP_REST_S / dt))
+    n = 3000
+    t = np.arange(n) * dt
+    for rest, expected in ((need, True), (need - 1, False)):
+        a = 0.3 + 0.2 * np.sin(2 * math.pi * 0.2 * t)  # never flat at its extremes
+        a[:rest] = 0.05  # lying on a lower value than it ever swings to
+        b = 0.5 * np.sin(2 * math.pi * 0.13 * t + 0.3)
+        log = validated(t, np.ones(n), np.zeros(n), a, b, source="rest", angle_unit="rad")
+        found = [(c["axis"], c["side"]) for c in resting_extremes(log)]
+        assert (("pitch", "low") in found) is expected and ("yaw", "low") not in found
+
+
+def test_diagnose_says_where_the_log_lies_on_a_stop_the_bench_file_does_not_state(monkeypatch):
+    """The CE150's elevation rests on its 45 degree stop from rest; under eq. (1)'s structure (humusoft_ce150_eq1)
+    the seed model simulates it past the stop there (measured 0.057 rad, 12x the 4.6 mrad tolerance): diagnose
+    says so (a stop the model lacks may hold it) and where, and does not add it.  Under the bench that states the
+    stop there is nothing to say; with the threshold just above what was measured, neither."""
+    import trms_ident.diagnosis.run as run
+    from trms_ident.diagnosis import search
+    from trms_ident.params import merge
+
+    t, u1, u2, a, b = ce150.simulate_log(60.0, 100.0, seed=11, ref="multisine", encoder_bits=12)
+    log = validated(t, u1, u2, a, b, source="ce150 multisine", angle_unit="rad")
+    given = load_parameter_file("humusoft_ce150_eq1")
+    seed = search.seed_result(log, given, "quadratic")
+    seen = run._stops_seen(log, merge(given), "quadratic", seed)
+    assert [(s["axis"], s["side"], s["deg"]) for s in seen] == [("pitch", "low", pytest.approx(45.0))]
+    assert 1.2 < seen[0]["rest_s"] < 1.6 and seen[0]["beyond_rad"] > run.STOP_BEYOND_TOLERANCES * 4.6e-3
+    words = run.stops_sentence(seen)
+    assert "pitch angle lies on its lowest value, 0.7854 rad (45 deg)" in words and "pitch_stops_deg" in words
+    bench, _ = _ce150_bench()
+    assert run._stops_seen(log, bench, "quadratic", seed) == []  # the stop is stated: nothing to say
+    monkeypatch.setattr(run, "STOP_BEYOND_TOLERANCES", seen[0]["beyond_rad"] / 4.6e-3 * 1.01)
+    assert run._stops_seen(log, merge(given), "quadratic", seed) == []

@@ -262,9 +262,16 @@ def identify(log: Log, settings: Settings | None = None, halves: bool = True, st
 STOP_SETTLE_TIME_CONSTANTS = 12.0
 
 
+def stop_tolerance_rad(log: Log, x: np.ndarray) -> float:
+    """How close to an end stop an angle ``x`` of ``log`` rests on it [rad]: three encoder steps, four times its
+    noise level, or 1e-4 rad, whichever is largest."""
+    t = None if log.uniform else log.t_s
+    return max(3.0 * quantization_step(x), 4.0 * angle_noise_rad(x, t), 1e-4)
+
+
 def at_stops(log: Log, structure: dict) -> dict:
     """{axis: (n,) bool}: where the angle rests on an end stop of the bench's structure (model/structure.py): within
-    three encoder steps of it, four times its noise level, or 1e-4 rad; only the axes with stops that reach them."""
+    stop_tolerance_rad of it; only the axes with stops that reach them."""
     from .model.structure import stops
 
     out = {}
@@ -272,11 +279,33 @@ def at_stops(log: Log, structure: dict) -> dict:
         s = stops(structure, axis)
         if s is None:
             continue
-        t = None if log.uniform else log.t_s
-        tol = max(3.0 * quantization_step(x), 4.0 * angle_noise_rad(x, t), 1e-4)
+        tol = stop_tolerance_rad(log, x)
         at = (x <= s[0] + tol) | (x >= s[1] - tol)
         if at.any():
             out[axis] = at
+    return out
+
+
+#: an angle that lies at its smallest or largest value (within stop_tolerance_rad) this long in all [s] may rest
+#: on an end stop there (resting_extremes).  A beam on its stop lies there until the thrust lifts it: the CE150's
+#: published model from rest, 1.2-1.5 s; at 0.5 s a saturated pitch and a yaw held by Coulomb friction of our
+#: simulator (seed 3, 40 s at 200 Hz), 0.6 s each at their extremes, were taken for stops (diagnosis.run)
+MIN_STOP_REST_S = 1.0
+
+
+def resting_extremes(log: Log) -> list[dict]:
+    """Where each angle lies at its smallest or largest value for at least MIN_STOP_REST_S in all: the end stops the
+    log may show, [{"axis", "side" ("low"/"high"), "rad" (the extreme), "at" ((n,) bool, the samples resting
+    there), "tol_rad"}].  The data say only that the angle went no further; whether a stop held it there, not the
+    torques, is for a fit to say (diagnosis.run)."""
+    out = []
+    need = int(math.ceil(MIN_STOP_REST_S / log.sample_time_s))
+    for axis, x in (("pitch", log.alpha_rad), ("yaw", log.beta_rad)):
+        tol = stop_tolerance_rad(log, x)
+        for side, edge in (("low", float(np.min(x))), ("high", float(np.max(x)))):
+            at = (x <= edge + tol) if side == "low" else (x >= edge - tol)
+            if np.count_nonzero(at) >= need:
+                out.append({"axis": axis, "side": side, "rad": edge, "at": at, "tol_rad": tol})
     return out
 
 

@@ -31,6 +31,8 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
     gated: list = []  # findings refused because they simulate an axis worse on samples they were not fitted on
     progress("fitting the seed model", 0.0)
     seed = seed if seed is not None else search.seed_result(log, overrides, law)
+    with np.errstate(all="ignore"):
+        stops_seen = _stops_seen(log, p, law, seed)
     with np.errstate(all="ignore"):  # a model far off the log overflows its predictions: they score as misfits
         for attempt in range(HELD_OUT_RERUNS + 1):
             exclude = tuple(g["key"] for g in gated)
@@ -54,9 +56,63 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
         given = {k: {"value": p[k], "source": "override" if k in (overrides or {}) else "table"} for k in KNOWN}
         refused = d.refused + refused
         return replace(d, held_out=h, refused=refused, settings={**d.settings, "known_values": given,
-                                                                  "structure": of_bench(p)},
-                       verdict_sentence=d.verdict_sentence + held_out.gate_sentence(held) + held_out.caution(h)
+                                                                  "structure": of_bench(p), "stops_seen": stops_seen},
+                       verdict_sentence=d.verdict_sentence + stops_sentence(stops_seen) + held_out.gate_sentence(held)
+                       + held_out.caution(h)
                        + (stand_in_sentence(refused) if d.verdict not in ("explained", "consistent") else ""))
+
+
+#: an angle lying on its extreme is said to be held there by an end stop the model lacks when the model without a
+#: stop simulates it this many of the stop's tolerances past it on those samples (measured on the CE150's published
+#: model under eq. (1)'s structure: 12x its tolerance past its 45 degree stop on a multisine from rest, 2.7x on a
+#: steps log whose misfit lies elsewhere; never on the bundled TRMS logs, whose model rests where the beam does)
+STOP_BEYOND_TOLERANCES = 10.0
+
+
+def _stops_seen(log: Log, p: dict, law: str, seed) -> list[dict]:
+    """The end stops the log shows and the bench does not state: an angle lying on its extreme
+    (identify.resting_extremes) that the seed model, fitted by output error (J/B and the start states free),
+    simulates well past it there.  Said, not modelled: where the stop is is measured, but whether adding it is the
+    simplest explanation is the search's question, and diagnose does not search structures (the bench file's
+    [structure] states stops; docs/parameters.md).  [] when there is none."""
+    from ..identify import resting_extremes
+    from ..model.structure import stops
+    from .model import Model
+    from .oe import Fitter
+    from .trials import jb_start
+
+    have = of_bench(p)
+    candidates = [c for c in resting_extremes(log) if stops(have, c["axis"]) is None]
+    if not candidates:
+        return []
+    fitter = Fitter(log, p, law, check=seed.model_check)
+    r0 = fitter.base(Model(), {}, jb_start({k: v for k, v in seed.estimates.items() if v is not None}, p))
+    if r0 is None:
+        return []
+    n, seen = fitter.n, []
+    for c in candidates:
+        at = c["at"][:n]
+        if not at.any():
+            continue
+        sim = r0.prediction[:n, 0 if c["axis"] == "pitch" else 1][at]
+        beyond = float(np.max(c["rad"] - sim if c["side"] == "low" else sim - c["rad"]))
+        if beyond >= STOP_BEYOND_TOLERANCES * c["tol_rad"]:
+            seen.append({"axis": c["axis"], "side": c["side"], "rad": c["rad"], "deg": float(np.degrees(c["rad"])),
+                         "rest_s": float(np.count_nonzero(c["at"]) * log.sample_time_s), "beyond_rad": beyond})
+    return seen
+
+
+def stops_sentence(seen: list[dict]) -> str:
+    """What the end stops seen say (the end of diagnose's verdict sentence); "" without any."""
+    if not seen:
+        return ""
+    parts = [f"the {f['axis']} angle lies on its {'lowest' if f['side'] == 'low' else 'highest'} value, "
+             f"{f['rad']:.4g} rad ({f['deg']:.4g} deg), for {f['rest_s']:.3g} s, where the model simulates it up to "
+             f"{f['beyond_rad']:.3g} rad further" for f in seen]
+    axis = seen[0]["axis"]
+    return (f" An end stop the model lacks may hold it there: {'; '.join(parts)}. If the bench has one, state it in "
+            f"the bench file ([structure] {axis}_stops_deg, docs/parameters.md) and diagnose again: the search does "
+            "not add stops itself.")
 
 
 def _without_stand_ins(d: Diagnosis, outside: list[dict]) -> Diagnosis:
