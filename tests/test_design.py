@@ -411,3 +411,20 @@ def test_the_search_gives_the_same_design_on_one_process_and_on_two():
     one, two = planner.design(*args, workers=1), planner.design(*args, workers=2)
     assert (one.pitch, one.yaw, one.candidates, one.feasible) == (two.pitch, two.yaw, two.candidates, two.feasible)
     assert one.run.precision == two.run.precision and one.candidates > 500
+
+
+def test_a_diagnosis_made_under_a_bench_structure_is_refused_in_one_line(tmp_path):
+    """diagnose searches under a bench file's [structure]; design plans under eq. (1) alone, so a diagnosis made
+    under a structure is refused (as a bench file stating one is), never planned with values that mean something
+    else there."""
+    dia = tmp_path / "diagnosis.json"
+    _diagnosis(dia, {"effect": "sensor_offset", "axis": "pitch", "parameter": {"name": "delta", "value": 0.03}},
+               ["com_offset:pitch"])
+    doc = json.loads(dia.read_text())
+    doc["settings"]["structure"] = {"gyroscope": "voltage", "pitch_stops_rad": [0.785, 2.356]}
+    dia.write_text(json.dumps(doc))
+    res = runner.invoke(app, ["design", "--duration", "10", "--rate", "50", "--discriminate", str(dia),
+                              "-o", str(tmp_path / "d.csv")])
+    assert res.exit_code == EXIT_USAGE and "diagnosed under a bench's [structure] (the gyroscopic torque driven by " \
+        "the voltage u1" in res.output and "which design does not model yet" in res.output, res.output
+    assert len(res.output.strip().splitlines()) == 1 and not (tmp_path / "d.csv").exists()

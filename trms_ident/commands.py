@@ -259,6 +259,12 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
     told = None
     if discriminate is not None:
         ddoc, truth, rivals, skipped, jb = read_diagnosis(Path(discriminate))
+        structure = (ddoc.get("settings") or {}).get("structure")
+        if structure:  # as refuse_structure does for a bench file: design plans under eq. (1) alone
+            from .model.structure import phrases
+
+            raise SettingsError(f"--discriminate {discriminate}: diagnosed under a bench's [structure] "
+                                f"({'; '.join(phrases(structure))}), which design does not model yet")
         overrides = {**overrides, **jb}
         floors = (ddoc.get("settings") or {}).get("floors") or {}
         if noise_std is None and encoder_bits is None:
