@@ -17,7 +17,8 @@ from ..log import Log
 from . import oe
 from ..model.effects import SENSOR_LAG, angle_lag
 from ..model.structure import gyroscope_voltage, of_bench, stops
-from .model import AXIS_ANGLE, Model, modified_inputs, observed_log, restart_velocity, smoothed_velocity
+from .model import (AXIS_ANGLE, Model, modified_inputs, observed_log, restart_velocity, smoothed_velocity,
+                    voltage_drive)
 from .predict import HORIZON_S, N_FX, nrmse_fit, predict_fitted_start
 
 
@@ -107,10 +108,11 @@ def prediction_fits(log: Log, p: dict, law: str, model: Model, values: dict, est
     dt = log.sample_time_s
     u1, u2, changes = modified_inputs(log, dict(model.mods))
     pp = {**p, **changes}
-    ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, dt, pp, law, start=start, rows="motors")
+    drive = voltage_drive(log, p, dict(model.mods))  # u1 as the gyroscope and M_R see it (None: u1 itself)
+    ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, dt, pp, law, start=start, rows="motors", drive_v=drive)
     structure = of_bench(p)  # the bench's (model/structure.py): the gyroscope's drive, the end stops
     gyro_u1 = gyroscope_voltage(structure)
-    pitch_other = u1 * ps.dbeta_rad_s if gyro_u1 else ps.dbeta_rad_s  # with the gyroscope's drive when it is u1
+    pitch_other = (u1 if drive is None else drive) * ps.dbeta_rad_s if gyro_u1 else ps.dbeta_rad_s
     extra = {axis: (extra or {}).get(axis) for axis in ("pitch", "yaw")}
     for key, t in oe.unit_torques(log, pp, law, [k for k in model.linear if k in values], u1, u2).items():
         for j, axis in enumerate(("pitch", "yaw")):  # the model room's torque effects (model/effects.py)

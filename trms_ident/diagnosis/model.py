@@ -17,7 +17,7 @@ from scipy import signal
 
 from ..log import Log
 from ..model import effects
-from ..model.structure import of_bench, stops
+from ..model.structure import gyroscope_voltage, of_bench, reaction_voltage, stops
 from ..numerics.filters import discretize, second_order_lowpass
 from ..numerics.fused import plant_signals  # compiled, equal to regressors.plant_signals to round-off
 from ..numerics.kernel_args import readonly
@@ -159,6 +159,19 @@ def modified_inputs(log: Log, mods: dict) -> tuple[np.ndarray, np.ndarray, dict]
     return u["pitch"], u["yaw"], changes
 
 
+def voltage_drive(log: Log, p: dict, mods: dict) -> np.ndarray | None:
+    """u1 as the gyroscope and M_R see it where the bench's structure drives them by the voltage and the main motor
+    is second order: through every modification but that motor's further lag, which acts on the motor alone (as
+    the output-error kernel drives them, numerics.refine._motor_rhs); None otherwise (they see modified_inputs')."""
+    structure = of_bench(p)
+    if MAIN_SECOND_LAG not in mods or not (gyroscope_voltage(structure) or reaction_voltage(structure)):
+        return None
+    return modified_inputs(log, {k: v for k, v in mods.items() if k != MAIN_SECOND_LAG})[0]
+
+
+MAIN_SECOND_LAG = "motor_second_lag:pitch"
+
+
 def dead_zone_levels(log: Log, mods: dict, key: str, free: tuple = ()) -> np.ndarray:
     """The distinct |u| > 0 [V], sorted, that the dead zone ``key`` sees on its motor: the log's voltage through
     the modifications of ``mods`` before it, in their order, as the output-error fit applies them (not an
@@ -241,6 +254,7 @@ def regression(log: Log, p: dict, law: str, a_rad_s: float, model: Model, cache:
                 any(("start", ax, a_rad_s) not in cache for ax in ("pitch", "yaw")))
         ps = plant_signals(u1, u2, log.alpha_rad - sensor, log.beta_rad, dt, pp, law,
                            gravity_offset_rad=mods.get("com_offset:pitch", 0.0), trig=trig,
+                           drive_v=voltage_drive(log, p, mods),
                            start=cache.get(("start_states",)),  # the motors mid-run when the log begins
                            rows="all" if full else "targets")
     reg = Regression({}, {}, {})

@@ -279,18 +279,19 @@ def warm_up() -> None:
 
 
 @njit(cache=True, nogil=True)
-def _motor_states(u1, u2, c1, c2, kc, t0, tp, rv, x0, out):
+def _motor_states(u1, u2, ur, c1, c2, kc, t0, tp, rv, x0, out):
     """Rows 0, 1, 4 of ``out`` (tau1, tau2, M_R) from given start states x0 = (tau1, tau2, zeta), the voltages
     held over each sample: c1 = zoh_motor_lag_states of the main motor and the reaction lag (e1, e2, phi21, g1,
     g2), c2 = (e, g) of the tail motor.  eq. (1): M_R = kc (T0/Tp tau1 + (1 - T0/Tp) zeta); ``rv`` (the bench's
-    structure): kc (T0/Tp u1 + (1 - T0/Tp) zeta), zeta the lag of u1 itself."""
+    structure): kc (T0/Tp ur + (1 - T0/Tp) zeta), zeta the lag of the voltage ``ur`` itself (u1 before a
+    second-order motor's further lag, which acts on the motor alone)."""
     t1, t2, z = x0[0], x0[1], x0[2]
     for k in range(u1.size):
         out[0, k] = t1
         out[1, k] = t2
-        out[4, k] = reaction_moment(u1[k] if rv else t1, z, kc, t0, tp)
+        out[4, k] = reaction_moment(ur[k] if rv else t1, z, kc, t0, tp)
         if rv:
-            t1, z = c1[0] * t1 + c1[3] * u1[k], c1[1] * z + (1.0 - c1[1]) * u1[k]
+            t1, z = c1[0] * t1 + c1[3] * u1[k], c1[1] * z + (1.0 - c1[1]) * ur[k]
         else:
             t1, z = c1[0] * t1 + c1[3] * u1[k], c1[2] * t1 + c1[1] * z + c1[4] * u1[k]
         t2 = c2[0] * t2 + c2[1] * u2[k]
@@ -303,12 +304,13 @@ ROWS = {"all": ROWS_ALL, "motors": ROWS_MOTORS, "targets": ROWS_TARGETS}
 
 
 @njit(cache=True, nogil=True)
-def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed, mg, kg, gv, delta, given, rows,
-                   out):
+def _plant_signals(u1, u2, ur, ug, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed, mg, kg, gv, delta, given,
+                   rows, out):
     """One pass of regressors.plant_signals (eq. 1): out rows tau1, tau2, M1, M2, M_R, beta', y_p, y_y.
     ``rows``: ROWS_ALL, ROWS_MOTORS (tau1, tau2, M_R, beta'; sin_a, cos_a not read) or ROWS_TARGETS (y_p, y_y);
     the other rows are not touched.  sin_a, cos_a: sin and cos of alpha (computed once by the caller, reused
-    across candidates)."""
+    across candidates).  ``ur``: what drives M_R's filter (u1 itself in eq. 1); ``ug``: the gyroscope's drive
+    where ``gv`` (the bench's structure)."""
     n = beta.size
     sd, cd = math.sin(delta), math.cos(delta)
     z = np.zeros((3, 2))
@@ -318,13 +320,13 @@ def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed,
         if k == 0:
             _init(b, a, 0, u1[0], z)
             _init(b, a, 1, u2[0], z)
-            _init(b, a, 2, u1[0], z)
+            _init(b, a, 2, ur[0], z)
         if given:  # motor states from their estimated start (rows 0, 1, 4 filled by _motor_states)
             t1, t2, mr = out[0, k], out[1, k], out[4, k]
         else:
             t1 = _step(b, a, 0, u1[k], z)  # eq. (1): motor lags, zero-order hold
             t2 = _step(b, a, 1, u2[k], z)
-            mr = _step(b, a, 2, u1[k], z)  # eq. (1): M_R from u1 in one ZOH step
+            mr = _step(b, a, 2, ur[k], z)  # eq. (1): M_R from u1 in one ZOH step
         if n < 3:
             db = 0.0
         elif k == 0:  # beta' as numpy.gradient(edge_order=2)
@@ -345,13 +347,13 @@ def _plant_signals(u1, u2, sin_a, cos_a, beta, dt, b, a, a1, b1, a2, b2, signed,
                 out[2, k] = m1
                 out[3, k] = m2
             s_ad = sin_a[k] if delta == 0.0 else sin_a[k] * cd + cos_a[k] * sd  # sin(alpha + delta)
-            out[6, k] = pitch_torque(m1, u1[k] if gv else m1, s_ad, cos_a[k], db, mg, kg)  # eq. (1), pitch
+            out[6, k] = pitch_torque(m1, ug[k] if gv else m1, s_ad, cos_a[k], db, mg, kg)  # eq. (1), pitch
             out[7, k] = yaw_torque(m2, mr)  # eq. (1), yaw
 
 
 def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str, gravity_offset_rad: float = 0.0,
                   trig: tuple | None = None, start: dict | None = None, rows: str = "all",
-                  structure: dict | None = None):
+                  structure: dict | None = None, drive_v: np.ndarray | None = None):
     """regressors.plant_signals in one compiled pass (the same ZOH coefficients, the same steady start);
     equal to the reference to round-off (tested).  For the diagnosis, which rebuilds these signals for
     every candidate and grid point; ``trig``: (sin alpha, cos alpha) when the caller keeps them; ``start``: the
@@ -359,7 +361,9 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
     them) instead of the steady state of the first voltage (a log that begins mid-run).  ``rows="motors"``: the
     motor states, M_R and beta' only (the other fields None); ``rows="targets"``: y_pitch_nm, y_yaw_nm only (a
     candidate's regression targets; a quarter of the memory traffic).  ``structure``: the bench's (model/structure.py;
-    None: eq. 1)."""
+    None: eq. 1).  ``drive_v``: the voltage u1 as the gyroscope and M_R see it where the structure drives them by
+    the voltage (default u1_v): u1 before a second-order motor's further lag, which acts on the motor alone (the
+    output-error kernel's drives, numerics.refine._motor_rhs)."""
     from .filters import discretize
     from .regressors import PlantSignals
 
@@ -367,6 +371,8 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
     a = np.zeros((3, 3))
     structure = structure if structure is not None else of_bench(p)  # diagnose's bench holds it (model.structure)
     rv = reaction_voltage(structure)
+    ud = u1_v if drive_v is None else drive_v  # the gyroscope's and (rv) M_R's drive; eq. (1): u1 through M_R's
+    ur = ud if rv else u1_v  # filter (kc k1 (T0 s + 1) / ((Tp s + 1) (T11 s + T10))), which holds the motor lag
     for i, f in enumerate((discretize([p["k1"]], [p["T11"], p["T10"]], dt_s, "zoh"),
                            discretize([p["k2"]], [p["T21"], p["T20"]], dt_s, "zoh"),
                            discretize(p["kc"] * p["k1"] * np.array([p["T0"], 1.0]),
@@ -380,7 +386,7 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
 
         c1 = np.array(zoh_motor_lag_states(p["k1"], p["Tp"], p["T11"], p["T10"], dt_s))
         bb, aa = zoh_first_order(p["k2"], p["T21"], p["T20"], dt_s)
-        _motor_states(readonly(u1_v), readonly(u2_v), c1,
+        _motor_states(readonly(u1_v), readonly(u2_v), readonly(ur), c1,
                       np.array([-aa[1], bb[1]]), p["kc"], p["T0"], p["Tp"], rv,
                       np.array([start["tau1_0"], start["tau2_0"], start["zeta_0"]], dtype=float), out)
     mode = ROWS[rows]
@@ -388,7 +394,7 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
         sin_a = cos_a = np.empty(0)
     else:
         sin_a, cos_a = trig if trig is not None else (np.sin(alpha_rad), np.cos(alpha_rad))
-    _plant_signals(readonly(u1_v), readonly(u2_v),
+    _plant_signals(readonly(u1_v), readonly(u2_v), readonly(ur), readonly(ud),
                    readonly(sin_a), readonly(cos_a), readonly(beta_rad),
                    float(dt_s), b, a, p["a1"], p["b1"], p["a2"], p["b2"], law == "signed", p["Mg"], p["Kg"],
                    gyroscope_voltage(structure), float(gravity_offset_rad), start is not None, mode, out)
