@@ -291,6 +291,7 @@ def test_diagnose_is_given_the_bench_files_structure_and_searches_under_it(monke
     predictions."""
     import trms_ident.diagnosis.run as run
     from trms_ident import api
+    from trms_ident.model.bench import given_of
     from trms_ident.model.structure import of_bench
 
     seen = {}
@@ -308,6 +309,8 @@ def test_diagnose_is_given_the_bench_files_structure_and_searches_under_it(monke
     with pytest.raises(Stop):
         api.diagnose(log, params="humusoft_ce150")
     assert of_bench(seen) == parameter_file_structure("humusoft_ce150") and seen["Kg"] == 0.015
+    # and its [effects]' input modifications, taken as given (tests/test_given_effects.py)
+    assert given_of(seen) == {"motor_second_lag:pitch": 0.3, "motor_second_lag:yaw": 0.25}
 
 
 def test_an_angle_resting_on_its_extreme_for_a_second_is_a_stop_the_log_may_show():

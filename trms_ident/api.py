@@ -249,16 +249,15 @@ def diagnose(log, *, params: dict | str | Path | None = None, thrust_law: str = 
     made it (identify's Result: diagnose's seed-model check is that estimate's, not made again)."""
     from .diagnosis.run import diagnose as run
     from .errors import SettingsError
-    from .model.structure import with_structure
-    from .params import THRUST_LAWS, load_parameter_file, parameter_file_inputs_unit, parameter_file_structure
+    from .params import THRUST_LAWS, diagnose_bench, parameter_file_inputs_unit
 
     if thrust_law not in THRUST_LAWS:
         raise SettingsError(f"thrust law must be one of {tuple(THRUST_LAWS)}, got {thrust_law!r}")
     data = _as_log(log, read)
     if isinstance(params, (str, Path)):
-        # the bench: its known values and, under model.structure.BENCH_KEY, its structure (diagnose reads both)
-        path, params = params, load_parameter_file(params)
-        params = with_structure(params, parameter_file_structure(path))
+        # the bench: its known values, its structure and its input modifications, taken as given (diagnose reads
+        # them from the one dict: params.diagnose_bench)
+        path, params = params, diagnose_bench(params)
         data = with_inputs_unit(data, parameter_file_inputs_unit(path))
     d = run(data, dict(params or {}), thrust_law, filter_a_rad_s, progress=progress, seed=seed)
     if progress is not None:

@@ -131,14 +131,15 @@ def _diagnosed(log, out: Path, settings: Settings, options: dict, estimated=None
     from .report.diagnosis import render, to_doc
     from .report.summary import to_json
 
+    from .diagnosis.model import settings_of
+    from .model.bench import with_given
     from .model.structure import with_structure
 
-    seedlike = replace(settings, inputs_unit=None) == Settings(thrust_law=settings.thrust_law,
-                                                                overrides=dict(settings.overrides),
-                                                                structure=settings.structure)
-    try:  # the bench: its known values and its structure (model.structure.BENCH_KEY)
-        d = diagnose(log, params=with_structure(dict(settings.overrides), settings.structure),
-                     thrust_law=settings.thrust_law, seed=estimated if seedlike else None)
+    # the bench: its known values, its structure and its input modifications, taken as given
+    bench = with_given(with_structure(dict(settings.overrides), settings.structure), settings.effects)
+    seedlike = replace(settings, inputs_unit=None) == settings_of(bench, settings.thrust_law)
+    try:
+        d = diagnose(log, params=bench, thrust_law=settings.thrust_law, seed=estimated if seedlike else None)
     except TrmsError as exc:  # a log too short to diagnose, ...: said in its row, the estimate stands
         return {"verdict": "not diagnosed", "findings": [], "file": None, "error": str(exc)}
     doc = to_doc(d, log)

@@ -30,9 +30,8 @@ from . import __version__
 from .errors import (EXIT_ALL_FAILED, EXIT_INADEQUATE, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_PIPE_CLOSED,
                      EXIT_SOME_FAILED, EXIT_UNDECIDED, JoinedRunsError, SettingsError, TrmsError)
 from .settings import GAIN_CONVENTIONS, HEADLINES, Settings
-from .params import (ESTIMATED, THRUST_LAWS, UNITS, bench_names, bench_settings, load_parameter_file,
-                     parameter_file_inputs_unit, parameter_file_structure, refuse_structure, unit_of)
-from .model.structure import with_structure
+from .params import (ESTIMATED, THRUST_LAWS, UNITS, bench_names, bench_settings, diagnose_bench, load_parameter_file,
+                     parameter_file_inputs_unit, refuse_structure, unit_of)
 
 app = typer.Typer(
     name="trms-ident",
@@ -527,9 +526,8 @@ def diagnose(
     check_units(angle_unit, time_unit)
     if thrust_law not in THRUST_LAWS:
         raise SettingsError(f"thrust law must be one of {tuple(THRUST_LAWS)}, got {thrust_law!r}")
-    overrides = load_parameter_file(params) if params else {}
-    if params:  # the bench: its known values and its structure (model.structure.BENCH_KEY)
-        overrides = with_structure(overrides, parameter_file_structure(params))
+    # the bench: its known values, its structure and its input modifications, taken as given (params.diagnose_bench)
+    overrides = diagnose_bench(params) if params else {}
     progress = stage_reporter(str(log))
     progress and progress("reading")
     data = read_log(log, angle_unit=angle_unit, signals=signal, time_source=time_source, time_unit=time_unit,
@@ -538,12 +536,13 @@ def diagnose(
         data = with_inputs_unit(data, parameter_file_inputs_unit(params))
     for note in data.meta.get("assumed", {}).values():
         say(f"note: {note}")
+    from .model.bench import TORQUE_KEYS
     from .params import parameter_file_effects
 
-    given = [e.key for e in parameter_file_effects(params)] if params else []
-    if given:
-        say(f"note: {params} holds effects ({', '.join(given)}); diagnose starts from eq. (1) with its known values "
-            "(and its [structure], if any) and searches the whole library, those included (it does not yet take them "
+    torques = [e.key for e in parameter_file_effects(params) if e.key in TORQUE_KEYS] if params else []
+    if torques:
+        say(f"note: {params} holds torque effects ({', '.join(torques)}), which diagnose does not take as given: it "
+            "starts without them and searches the whole library, those included (its input modifications it takes "
             "as given)")
     if progress:
         sys.stderr.write("\r\033[K")

@@ -71,7 +71,7 @@ def bench_from_diagnosis(path: Path) -> dict | None:
     from dataclasses import replace
 
     from .errors import LogFormatError
-    from .model.bench import from_findings
+    from .model.bench import BenchEffect, from_findings
 
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
@@ -85,6 +85,10 @@ def bench_from_diagnosis(path: Path) -> dict | None:
         sources = {k: "given to diagnose (--params)" for k, v in given.items() if v.get("source") == "override"}
         where = f"diagnose of {doc['input']['path']} (sha256 {str(doc['input']['sha256'])[:12]})"
         refits, effects, warnings = from_findings(doc["findings"], where)
+        # the bench file's input modifications diagnose took as given (settings.given_effects): the model the
+        # findings were found on top of, so theirs first
+        effects = [BenchEffect(k, float(v), "given to diagnose (--params)")
+                   for k, v in ((doc.get("settings") or {}).get("given_effects") or {}).items()] + list(effects)
         known.update(refits)
         sources.update({f["parameter"]["name"]: f"refitted by {where}; the table's {f['parameter'].get('table')}"
                         for f in doc["findings"] if f["effect"] == "known_value"})
@@ -265,6 +269,11 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
 
             raise SettingsError(f"--discriminate {discriminate}: diagnosed under a bench's [structure] "
                                 f"({'; '.join(phrases(structure))}), which design does not model yet")
+        given = (ddoc.get("settings") or {}).get("given_effects")
+        if given:  # its findings hold on top of those: design's rivals would be weighed without them
+            raise SettingsError(f"--discriminate {discriminate}: diagnosed on top of the bench file's effects "
+                                f"({', '.join(given)}), which design --discriminate does not take yet; diagnose "
+                                "with a bench file without [effects] to plan a run that tells its look-alikes apart")
         overrides = {**overrides, **jb}
         floors = (ddoc.get("settings") or {}).get("floors") or {}
         if noise_std is None and encoder_bits is None:

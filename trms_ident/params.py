@@ -105,16 +105,18 @@ def marked(name: str, value: float) -> str:
 
 
 def merge(overrides: Mapping[str, float] | None, *, source: str = "overrides") -> dict[str, float]:
-    """Table defaults updated by ``overrides``; unknown names or bad values raise.  A bench's structure in
-    ``overrides`` (model.structure.BENCH_KEY: diagnose's bench dict) is carried over, checked."""
+    """Table defaults updated by ``overrides``; unknown names or bad values raise.  A bench's structure and its
+    given input modifications in ``overrides`` (model.structure.BENCH_KEY, model.bench.GIVEN_KEY: diagnose's bench
+    dict) are carried over, checked."""
+    from .model.bench import GIVEN_KEY, BenchEffectError, check_given
     from .model.structure import BENCH_KEY, StructureError, parse_structure
 
     values = defaults()
     for name, value in (overrides or {}).items():
-        if name == BENCH_KEY:
+        if name in (BENCH_KEY, GIVEN_KEY):
             try:
-                values[name] = parse_structure(value)
-            except StructureError as exc:
+                values[name] = parse_structure(value) if name == BENCH_KEY else check_given(value)
+            except (StructureError, BenchEffectError) as exc:
                 raise ParameterFileError(f"{source}: {exc}") from None
             continue
         if name not in BY_NAME:
@@ -287,6 +289,17 @@ def parameter_file_structure(path: str | Path) -> dict:
     empty: eq. (1)'s).  Read after :func:`load_parameter_file`."""
     path = resolve_parameter_file(path)
     return _structure_of(path, tomllib.loads(path.read_text(encoding="utf-8")))
+
+
+def diagnose_bench(path: str | Path) -> dict:
+    """The bench dict diagnose takes from a bench file: its known values, its structure (model.structure.BENCH_KEY)
+    and its input modifications (model.bench.GIVEN_KEY: taken as given; its torque effects are searched for as any
+    other effect of the library)."""
+    from .model.bench import with_given
+    from .model.structure import with_structure
+
+    bench = with_structure(load_parameter_file(path), parameter_file_structure(path))
+    return with_given(bench, {e.key: e.value for e in parameter_file_effects(path)})
 
 
 def refuse_structure(path: str | Path | None, command: str) -> None:

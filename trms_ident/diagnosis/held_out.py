@@ -20,7 +20,7 @@ import numpy as np
 from ..log import Log
 from ..model import effects
 from . import oe
-from .model import Model
+from .model import Model, given_model
 from .trials import axes_of, jb_start
 
 #: the held-out fits use at most this many seconds of the output-error fit's samples (two halves): on an hour
@@ -29,10 +29,12 @@ from .trials import axes_of, jb_start
 MAX_SPAN_S = 120.0
 
 
-def final_model(findings) -> tuple[Model, dict, dict]:
-    """(the model, its effects' values, known values changed) the findings make: effects by key, known values
-    (effect "known_value") as parameter changes."""
-    model, values, changes = Model(), {}, {}
+def final_model(findings, p: dict | None = None) -> tuple[Model, dict, dict]:
+    """(the model, its effects' values, known values changed) the findings make on top of the bench ``p``'s given
+    input modifications (model.given_model): effects by key, known values (effect "known_value") as parameter
+    changes."""
+    model, changes = given_model(p), {}
+    values = dict(model.mods)
     for f in findings:
         v = float(f.parameter["value"])
         if f.effect == "known_value":
@@ -48,11 +50,11 @@ def held_out_fits(d, log: Log, p: dict, law: str) -> dict | None:
     """{"before": {axis: fit %}, "after": {axis: fit %} (None when no finding changed the model), "span_s",
     "samples", "prediction": {"t_s", "before", "after"} (held-out simulated angles, (n, 2) each), "folds",
     "method"}; None when the seed model's fit fails.  The findings' model's is None when its fit fails."""
-    model, values, changes = final_model(d.findings)
+    model, values, changes = final_model(d.findings, p)
     most = int(MAX_SPAN_S / log.sample_time_s)
     fitter = oe.Fitter(log, p, law, most, d.seed_check)
     n = fitter.n
-    before = fitter.held_out(Model(), {}, jb_start(d.nominal, p))
+    before = fitter.held_out(given_model(p), {}, jb_start(d.nominal, p))
     if before is None:
         return None
     after = None

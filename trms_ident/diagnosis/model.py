@@ -56,14 +56,28 @@ class Regression:
 
 
 def settings_of(overrides: dict | None, law: str, **options):
-    """identify's Settings for diagnose's bench ``overrides`` (known values by name, and the bench's structure
-    under model.structure.BENCH_KEY when it has one), with ``options`` (effects, free, ...)."""
+    """identify's Settings for diagnose's bench ``overrides`` (known values by name, the bench's structure under
+    model.structure.BENCH_KEY and its given input modifications under model.bench.GIVEN_KEY when it has them), with
+    ``options`` (effects, free, ...); the given modifications come first among the effects, ``options``' after."""
+    from ..model.bench import GIVEN_KEY
     from ..model.structure import BENCH_KEY
     from ..settings import Settings
 
-    given = dict(overrides or {})
-    structure = given.pop(BENCH_KEY, None) or {}
-    return Settings(thrust_law=law, overrides=given, structure=structure, **options)
+    known = dict(overrides or {})
+    structure = known.pop(BENCH_KEY, None) or {}
+    given = known.pop(GIVEN_KEY, None) or {}
+    if given:
+        options = {**options, "effects": {**given, **(options.get("effects") or {})}}
+    return Settings(thrust_law=law, overrides=known, structure=structure, **options)
+
+
+def given_model(p: dict | None) -> Model:
+    """The model diagnose starts from: the bench's given input modifications (model.bench.given_of), in the bench
+    file's order; Model() under eq. (1) alone.  Every fit of the search holds them at their values and the search
+    adds its findings to them (the library's candidates they already are are not tried)."""
+    from ..model.bench import given_of
+
+    return Model(tuple(given_of(p).items()))
 
 
 def _low_passed(x: np.ndarray, dt: float) -> np.ndarray:

@@ -50,7 +50,7 @@ from scipy.special import stdtr, stdtrit
 from ..log import Log
 from ..model import effects as room
 from ..model.plant import EFFECT_SLOTS, thrust_law
-from ..model.bench import KERNEL_KEYS, NATIVE_FREE_KEYS, inside_fit
+from ..model.bench import KERNEL_KEYS, NATIVE_FREE_KEYS, given_of, inside_fit
 from ..numerics import safe
 from ..numerics.parallel import fan_out
 from ..numerics.adequacy import judging_floors
@@ -539,7 +539,7 @@ class Fitter:
         base = self.base(model, values, theta0)
         if base is None or not value0 > 0:
             return None
-        lags = refitted_lags(model, key) if refit else ()
+        lags = tuple(k for k in refitted_lags(model, key) if k not in given_of(self.p)) if refit else ()
         held = None
         if lags:  # the trial values' drops measured from the model with its lags refitted too: only the value's own
             refitted = self._lags_refitted(model, values, base, lags)
@@ -633,7 +633,7 @@ class Fitter:
         where a fit without it put it stays a few per cent off (measured: a 1.25 V pitch and a 2.07 V yaw saturation
         named at 1.284 V and 2.132 V, the model partly explained; fitted together, 1.245 V and 2.070 V, both angles
         at their floors)."""
-        keys = tuple(k for k, _ in model.mods if k in NATIVE_FREE_KEYS)
+        keys = tuple(k for k, _ in model.mods if k in NATIVE_FREE_KEYS and k not in given_of(self.p))
         base = self.base(model, values, theta0) if keys else None
         if base is None:
             return None

@@ -9,6 +9,7 @@ from typing import Callable
 import numpy as np
 
 from ..log import Log
+from ..model.bench import given_of
 from ..model.structure import of_bench
 from ..params import KNOWN, merge
 from . import held_out, search
@@ -21,8 +22,10 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
              progress: Callable[[str, float], None] | None = None, seed=None) -> Diagnosis:
     """Find what the seed model leaves out of this log, fit it, and give the verdict (VERDICTS).
 
-    ``overrides``: the bench's known values that differ from Table 1, and its structure under
-    model.structure.BENCH_KEY when it is not eq. (1)'s (every fit below reads it from there).
+    ``overrides``: the bench's known values that differ from Table 1, its structure under
+    model.structure.BENCH_KEY when it is not eq. (1)'s (every fit below reads it from there), and the input
+    modifications its bench file states under model.bench.GIVEN_KEY (taken as given: the search starts from them,
+    holds them at their values and adds to them).
     ``progress(stage, fraction done)``: called as the work advances (the CLI draws a bar with it).  ``seed``:
     identify's Result of this log with Settings(thrust_law=law, overrides=overrides) when the caller has it
     (batch --diagnose: the estimate it just made), else made here; either way made once, not per search rerun."""
@@ -56,7 +59,9 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
         given = {k: {"value": p[k], "source": "override" if k in (overrides or {}) else "table"} for k in KNOWN}
         refused = d.refused + refused
         return replace(d, held_out=h, refused=refused, settings={**d.settings, "known_values": given,
-                                                                  "structure": of_bench(p), "stops_seen": stops_seen},
+                                                                  "structure": of_bench(p),
+                                                                  "given_effects": given_of(p),
+                                                                  "stops_seen": stops_seen},
                        verdict_sentence=d.verdict_sentence + held_out.gate_sentence(held) + held_out.caution(h)
                        + (stops_sentence(stops_seen) + stand_in_sentence(refused)
                           if d.verdict not in ("explained", "consistent") else ""))
@@ -78,7 +83,7 @@ def _stops_seen(log: Log, p: dict, law: str, seed) -> list[dict]:
     [structure] states stops; docs/parameters.md).  [] when there is none."""
     from ..identify import resting_extremes
     from ..model.structure import stops
-    from .model import Model
+    from .model import given_model
     from .oe import Fitter
     from .trials import jb_start
 
@@ -87,7 +92,7 @@ def _stops_seen(log: Log, p: dict, law: str, seed) -> list[dict]:
     if not candidates:
         return []
     fitter = Fitter(log, p, law, check=seed.model_check)
-    r0 = fitter.base(Model(), {}, jb_start({k: v for k, v in seed.estimates.items() if v is not None}, p))
+    r0 = fitter.base(given_model(p), {}, jb_start({k: v for k, v in seed.estimates.items() if v is not None}, p))
     if r0 is None:
         return []
     n, seen = fitter.n, []

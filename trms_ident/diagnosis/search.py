@@ -22,7 +22,8 @@ from ..params import merge
 from . import oe
 from .discriminate import PAIR
 from .locate import lag_profile, regimes, segments
-from .model import AXIS_ANGLE, Model, drop_search_columns, modified_inputs, regression, settings_of, smoothed_velocity
+from .model import (AXIS_ANGLE, Model, drop_search_columns, given_model, modified_inputs, regression, settings_of,
+                    smoothed_velocity)
 from .fits import REST, best_start, prediction_fits, start_cost, start_samples
 from .predict import HORIZON_S, fit_change, fit_text
 from .result import Diagnosis, Finding
@@ -139,7 +140,7 @@ def _prepare(log: Log, overrides: dict | None, law: str, a_rad_s: float | None, 
     start = _choose_start(log, p, law, a, estimated, ids)
     seed["start_states"] = start
     cache: dict = {("start_states",): start}  # the motors' states at the first sample (None: steady state)
-    current = Model()
+    current = given_model(p)  # the bench's given input modifications (Model() under eq. (1) alone)
     base_reg = regression(log, p, law, a, current, cache)
     base = score(base_reg, ids, axes)
     fitter = oe.Fitter(log, p, law, check=seed)  # output-error fits of candidates (oe.py), judged against the
@@ -159,12 +160,13 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
     ``scan``: as oe.Fitter.profile's, for the rescue."""
     log, p, law, a, ids, cache, fitter, n_tests, oe_tested, progress = (
         run.log, run.p, run.law, run.a, run.ids, run.cache, run.fitter, run.n_tests, run.oe_tested, run.progress)
-    current = Model()
+    current = given_model(p)  # the search adds its findings to the bench's given modifications
     tested, findings = [], []
     cands = list(effects.CANDIDATES)  # read when called: the model room's entries
     reg_now, score_now = base_reg, base
     excluded: set[str] = set(exclude)  # look-alikes already named as a finding's alternatives, and the gated
-    oe_values: dict = {}  # findings the output-error test decided: key -> its fitted value
+    # findings the output-error test decided: key -> its fitted value; the given modifications, held, with them
+    oe_values: dict = dict(current.mods)
     refused: list = []  # findings refused, first those the output-error test turned down in the rounds
     stopped = None  # the round after which the findings reached the noise floor, when they did
     span = grid_span(log, run.block, run.start)  # a long log's grids are searched on its head
@@ -364,7 +366,7 @@ def _accept(run: _Run, found: _Found, nominal: dict) -> _Kept:
         found.current, found.reg, found.score, found.findings, found.oe_values, found.refused)
     drop_search_columns(cache)
     progress("prediction fits", _SEED_SHARE + _ROUNDS_SHARE)
-    fit_before, over_before = prediction_fits(log, p, law, Model(), {}, nominal, start=seed.get("start_states"))
+    fit_before, over_before = prediction_fits(log, p, law, given_model(p), {}, nominal, start=seed.get("start_states"))
     while True:  # accept only findings that keep J/B physical and raise the fit of every axis they touch
         augmented, values, fit_after, over_after = _model_fits(log, p, law, current, reg_now, score_now, oe_values,
                                                                seed.get("start_states"), _last_oe(findings))
@@ -440,9 +442,9 @@ def _report(run: _Run, found: _Found, kept: _Kept, base_reg, base, nominal: dict
             fitted = oe.motor_start(fit) if fit is not None else {}
             starts += [fitted] if fitted else []
         starts = [x for i, x in enumerate(starts) if x not in starts[:i]]
-        start_before = best_start(log, p, law, Model(), {}, nominal, starts)
+        start_before = best_start(log, p, law, given_model(p), {}, nominal, starts)
         if start_before != start:
-            fit_before, over_before = prediction_fits(log, p, law, Model(), {}, nominal, start=start_before)
+            fit_before, over_before = prediction_fits(log, p, law, given_model(p), {}, nominal, start=start_before)
         start_after = best_start(log, p, law, current, values, augmented, starts)
         if start_after != start:
             fit_after, over_after = prediction_fits(log, p, law, current, values, augmented, start=start_after)
@@ -909,11 +911,11 @@ def _choose_start(log: Log, p: dict, law: str, a: float, estimated: dict | None,
     log, ids = log.head(n), ids[:n]
     best, best_cost = None, math.inf
     for opt in options:
-        reg = regression(log, p, law, a, Model(), {("start_states",): opt})
+        reg = regression(log, p, law, a, given_model(p), {("start_states",): opt})
         # J/B of the table when the equation error's are not physical (a missed delay drives B1 below 0): with no
         # prediction to score, every option would cost the same and the first (the steady state) would stand
         theta0 = oe_start(score(reg, ids, ("pitch", "yaw")), reg, p)
-        fits, _ = prediction_fits(log, p, law, Model(), {}, theta0, start=opt)
+        fits, _ = prediction_fits(log, p, law, given_model(p), {}, theta0, start=opt)
         cost = start_cost(fits)
         if cost < best_cost:
             best, best_cost = opt, cost

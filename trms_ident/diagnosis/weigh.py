@@ -188,7 +188,7 @@ def _refitted(d, log: Log, pp: dict, law: str, est: dict, start: dict | None, fi
     ``d``'s overlay and residual with its predictions and equation error as the "after" ones."""
     from .held_out import final_model
 
-    model, values, _ = final_model([f for f in findings if f.effect != "known_value"])
+    model, values, _ = final_model([f for f in findings if f.effect != "known_value"], pp)
     with np.errstate(all="ignore"):
         fits_after, preds = prediction_fits(log, pp, law, model, values, est, start=start)
         a = d.settings["a_rad_s"]

@@ -48,6 +48,40 @@ MODIFICATION_KEYS = ("dead_zone:pitch", "dead_zone:yaw", "shifted_dead_zone:pitc
                      "motor_second_lag:yaw", room.SENSOR_LAG)
 
 
+#: the entry of diagnose's bench dict (params.merge's, beside model.structure.BENCH_KEY) holding the bench file's
+#: input modifications (MODIFICATION_KEYS: key -> value, the file's order), which diagnose takes as given: its
+#: search starts from the model they make (diagnosis.model.given_model) and adds to it.  The bench's torque effects
+#: are not carried (diagnose searches the library for them as for any other)
+GIVEN_KEY = "effects"
+
+
+def with_given(p: dict, effects: dict | None) -> dict:
+    """The bench ``p`` (known values by name) with the input modifications of ``effects`` (key -> value) in it under
+    GIVEN_KEY; ``p`` itself when there are none."""
+    mods = {k: float(v) for k, v in (effects or {}).items() if k in MODIFICATION_KEYS}
+    return {**p, GIVEN_KEY: mods} if mods else p
+
+
+def given_of(p: dict | None) -> dict:
+    """The input modifications a bench dict holds (with_given): key -> value, {} without."""
+    return dict((p or {}).get(GIVEN_KEY) or {})
+
+
+def check_given(table) -> dict:
+    """A bench dict's GIVEN_KEY entry checked as a bench file's [effects] entries are (parse_effect), input
+    modifications only; raises BenchEffectError naming the entry."""
+    if not isinstance(table, dict):
+        raise BenchEffectError(f"{GIVEN_KEY} must be a table of \"effect:axis\" = value")
+    out = {}
+    for key, value in table.items():
+        e = parse_effect(key, value)
+        if key not in MODIFICATION_KEYS:
+            raise BenchEffectError(f"\"{key}\": a torque effect; diagnose takes only the input modifications as "
+                                   f"given ({', '.join(MODIFICATION_KEYS)})")
+        out[key] = e.value
+    return out
+
+
 def inside_fit(free: tuple = ()) -> tuple:
     """The modifications the output-error fit applies itself, not the voltages handed to it: KERNEL_KEYS and the
     saturations ``free`` names (NATIVE_FREE_KEYS)."""

@@ -112,6 +112,10 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                                                                 "estimates; null: steady state)",
             "settings.known_values": "the known values diagnose was given: value and source (table or override, "
                                      "--params); `trms-ident export` writes them, with the findings, as the bench file",
+            "settings.structure, given_effects": "the bench file's [structure] every fit was made under, and its "
+                                                 "input modifications ([effects]) the search started from and held "
+                                                 "at their values (taken as given, never searched): key -> value; "
+                                                 "empty under eq. (1) alone",
             "settings.floors": "per axis the floor [rad] the output-error fits are weighted by and the verdict is "
                                "judged against, and which: noise (the measured noise floor), black_box (the angles "
                                "carry no measurable noise; the held-out error of the flexible black-box model the "
@@ -325,11 +329,27 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
         oe_line += " " + html.escape(held_out_sentence(d.held_out, bool(d.findings)))
     units = units_text(doc["input"])
     units = html.escape(units) + "<br>" if units else ""
+    bench = _bench_line(doc["settings"])
     return f"""<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>trms-ident diagnose</title>
 <style>body{{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto}}img{{max-width:100%}}
 table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px}}.note{{color:#555;font-size:.9em}}</style>
 </head><body><h1>Diagnosis of {html.escape(log.source)}</h1><p><b>{verdict}</b>.</p><p>{why}
-Fit measure: {html.escape(doc['fit']['measure'])}.{oe_line}</p><ol>{items}{corrections}</ol>
+Fit measure: {html.escape(doc['fit']['measure'])}.{oe_line}</p>{bench}<ol>{items}{corrections}</ol>
 <table><tr><th>parameter</th><th>seed model</th><th>with findings{aug_from}</th>{est_head}</tr>{est}</table>{under}{imgs}
 <p class="note">{units}sha256 {log.sha256}; versions {html.escape(str(doc['versions']))}</p></body></html>
 """
+
+
+def _bench_line(settings: dict) -> str:
+    """The bench the search stood on, as the terminal says it (report/terminal.py): its [structure] and its given
+    input modifications; "" under eq. (1) alone."""
+    from ..model.bench import BenchEffect
+    from ..model.structure import phrases
+
+    parts = []
+    if settings.get("structure"):
+        parts.append("Searched under the bench's structure: " + "; ".join(phrases(settings["structure"])))
+    if settings.get("given_effects"):
+        parts.append("Searched on top of the bench's effects (taken as given, held at their values): " + "; ".join(
+            BenchEffect(k, float(v)).phrase() for k, v in settings["given_effects"].items()))
+    return f"<p>{html.escape('. '.join(parts))}.</p>" if parts else ""

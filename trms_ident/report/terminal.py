@@ -76,6 +76,12 @@ def diagnosis_lines(d, source: str) -> list[str]:
         from ..model.structure import phrases
 
         lines.append(f"  searched under the bench's structure: {'; '.join(phrases(structure))}")
+    given = (d.settings or {}).get("given_effects")
+    if given:  # the bench file's input modifications: the model the search started from and added to
+        from ..model.bench import BenchEffect
+
+        lines.append("  searched on top of the bench's effects (taken as given, held at their values): "
+                     + "; ".join(BenchEffect(k, float(v)).phrase() for k, v in given.items()))
     fits = ", ".join(f"{k} {fit_text(v)}" for k, v in d.fit_before.items())
     if not d.findings:
         lines.append(f"  no effect in the library is found ({d.settings['candidates']} candidates tested; "
