@@ -380,3 +380,15 @@ def test_diagnoses_regressions_drive_the_gyroscope_and_the_reaction_by_u1_before
     assert np.allclose(got.y_pitch_nm - by_lagged.y_pitch_nm, -gyro * (raw - lagged), atol=1e-15)
     plain = fused_plant_signals(lagged, u2, a, b, 0.01, p, "quadratic", drive_v=raw)
     assert np.array_equal(plain.MR_nm, fused_plant_signals(lagged, u2, a, b, 0.01, p, "quadratic").MR_nm)
+
+
+def test_the_stops_sentence_names_the_entry_of_every_axis_it_saw_a_stop_on():
+    from trms_ident.diagnosis.run import stops_sentence
+
+    seen = [{"axis": "pitch", "side": "low", "rad": 0.785, "deg": 45.0, "rest_s": 3.0, "beyond_rad": 0.2},
+            {"axis": "yaw", "side": "high", "rad": 2.27, "deg": 130.0, "rest_s": 1.5, "beyond_rad": 0.1},
+            {"axis": "yaw", "side": "low", "rad": -2.27, "deg": -130.0, "rest_s": 1.2, "beyond_rad": 0.1}]
+    said = stops_sentence(seen)
+    assert "([structure] pitch_stops_deg and yaw_stops_deg, docs/parameters.md)" in said, said
+    assert "the yaw angle lies on its highest value, 2.27 rad (130 deg), for 1.5 s" in said
+    assert "([structure] yaw_stops_deg, docs/parameters.md)" in stops_sentence(seen[1:]) and stops_sentence([]) == ""

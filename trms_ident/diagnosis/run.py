@@ -115,9 +115,9 @@ def stops_sentence(seen: list[dict]) -> str:
     parts = [f"the {f['axis']} angle lies on its {'lowest' if f['side'] == 'low' else 'highest'} value, "
              f"{f['rad']:.4g} rad ({f['deg']:.4g} deg), for {f['rest_s']:.3g} s, where the model simulates it up to "
              f"{f['beyond_rad']:.3g} rad further" for f in seen]
-    axis = seen[0]["axis"]
+    entries = " and ".join(dict.fromkeys(f"{f['axis']}_stops_deg" for f in seen))  # each axis once, in order
     return (f" An end stop the model lacks may hold it there: {'; '.join(parts)}. If the bench has one, state it in "
-            f"the bench file ([structure] {axis}_stops_deg, docs/parameters.md) and diagnose again: the search does "
+            f"the bench file ([structure] {entries}, docs/parameters.md) and diagnose again: the search does "
             "not add stops itself.")
 
 
