@@ -6,6 +6,7 @@ import numpy as np
 from sim import SimSettings, simulate
 from trms_ident.diagnosis import compound
 from trms_ident.diagnosis.result import Diagnosis, Finding
+from trms_ident.log import validated
 from trms_ident.params import defaults
 
 from .conftest import as_log
@@ -94,6 +95,24 @@ def test_a_modification_found_under_a_wrong_known_value_is_profiled_again_beside
     assert abs(h.fitted / 0.03 - 1) < 0.02
     lo, hi = h.value_fit["ci95"]
     assert lo <= 0.83 * table["Mg"] <= hi
+
+
+def test_a_second_order_motor_is_estimated_under_with_both_its_time_constants_free():
+    """A main motor of second order whose own time constant is off the table too (the textbook plant: T11 1.0 s for
+    1.1 s and a further 0.08 s lag; their sum is about the table's, so T11 refitted alone explains nothing and the
+    lag profiled at the table's T11 sits at its grid's end).  The second-order motor's hypothesis frees its own time
+    constant with it (compound.lead_of): both at their values, the model at the floor.  Without that lead the
+    known-value search beside the lag names nothing near the floor and the hypothesis explains nothing."""
+    from .plants import textbook
+
+    t, u1, u2, a, b = textbook.simulate_log(30.0, 100.0, seed=5, ref="multisine", second_lag_s=(0.08, 0.0),
+                                            values={"T11": 1.0})
+    log = validated(t, u1, u2, a, b, source="textbook", angle_unit="rad")
+    assert compound.lead_of({"fits": []}, "motor_second_lag:pitch") == {"name": "T11"}
+    assert compound.lead_of({"fits": []}, "motor_second_lag:yaw") == {"name": "T21"}
+    h = compound.estimate_under(compound.Hypothesis("motor_second_lag:pitch", 0.02, 0), log, "quadratic", {})
+    assert h.explains and h.parameters == 2 and h.value_fit["name"] == "T11", h
+    assert abs(h.value_fit["value"] - 1.0) < 0.01 and abs(h.fitted / 0.08 - 1) < 0.05, (h.value_fit["value"], h.fitted)
 
 
 def _kv_fit(name, value, table, cost, over):
