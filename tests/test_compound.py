@@ -97,6 +97,28 @@ def test_a_modification_found_under_a_wrong_known_value_is_profiled_again_beside
     assert lo <= 0.83 * table["Mg"] <= hi
 
 
+def test_a_motor_time_constant_found_is_followed_by_that_motor_of_second_order():
+    """A motor_lag finding (a first-order motor's time constant off the table) that leaves the log short of its
+    floor: that motor of second order is the next hypothesis, its lag from its output-error value when it has one."""
+    d = _diagnosis([_finding("motor_lag", "pitch", "T", 1.013)],
+                   tested=[{"effect": "motor_second_lag", "axis": "pitch", "parameter": 0.07}])
+    assert [(h.key, h.value, h.finding) for h in compound.hypotheses(d)] == [
+        ("motor_lag:pitch", 1.013, 0), ("motor_second_lag:pitch", 0.07, None)]
+    d = _diagnosis([_finding("motor_lag", "yaw", "T", 0.9), _finding("motor_second_lag", "yaw", "T2", 0.2)])
+    assert [h.key for h in compound.hypotheses(d)] == ["motor_lag:yaw", "motor_second_lag:yaw"]  # once
+    assert [h.value for h in compound.hypotheses(_diagnosis([_finding("motor_lag", "yaw", "T", 0.9)]))] == [
+        0.9, compound.SECOND_LAG_START_S]
+
+
+def test_the_second_order_motor_grown_from_a_time_constant_is_a_finding_of_its_own():
+    d = _diagnosis([_finding("motor_lag", "pitch", "T", 1.013)])
+    h = compound.Hypothesis("motor_second_lag:pitch", 0.05, None, fitted=0.069,
+                            value_fit={"name": "T11", "value": 0.938, "table": 1.1})
+    f = compound._effect_finding(d, h, [])
+    assert (f.effect, f.axis, f.parameter["value"], f.alternatives) == ("motor_second_lag", "pitch", 0.069, [])
+    assert "that motor of second order in place of the search's motor_lag:pitch" in f.evidence and "T11" in f.evidence
+
+
 def test_a_second_order_motor_is_estimated_under_with_both_its_time_constants_free():
     """A main motor of second order whose own time constant is off the table too (the textbook plant: T11 1.0 s for
     1.1 s and a further 0.08 s lag; their sum is about the table's, so T11 refitted alone explains nothing and the
