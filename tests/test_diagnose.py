@@ -860,3 +860,30 @@ def test_a_refusal_says_a_fit_that_is_not_a_number_in_words():
                    "n/a (J or B not physical: no prediction))")
     assert _refusal(c, ok, ok, {"pitch": 90.0}, {"pitch": 95.0}) is None
     assert "(95.00 % -> 90.00 %)" in _refusal(c, ok, ok, {"pitch": 95.0}, {"pitch": 90.0})
+
+
+def test_a_modification_finding_that_acts_on_no_sample_that_matters_is_refused_and_the_verdict_stands():
+    """Whichever step placed it, an input-modification finding that changes its motor's thrust by less than the
+    practical size (oe.MIN_MODIFICATION_SHARE) is not a finding (measured: a 6.3e-7 V dead zone named beside a
+    right saturation); the fit without it is the same, so the verdict stands."""
+    from dataclasses import replace
+
+    from trms_ident.diagnosis.run import _without_inert
+    from trms_ident.log import validated
+    from trms_ident.params import merge
+
+    from .plants import textbook
+    from .test_compound import _diagnosis, _finding
+
+    t, u1, u2, a, b = textbook.simulate_log(10.0, 100.0, seed=3)
+    log = validated(t, u1, u2, a, b, source="textbook", angle_unit="rad")
+    tiny, real = _finding("shifted_dead_zone", "pitch", "w", 6.3e-7), _finding("input_saturation", "pitch", "U", 0.9)
+    d = replace(_diagnosis([tiny, real]), verdict="explained")
+    out = _without_inert(d, log, merge({}), "quadratic")
+    assert out.findings == [real] and out.verdict == "explained"
+    assert out.refused[-1]["effect"] == "shifted_dead_zone" and "below the practical size" in out.refused[-1]["reason"]
+    alone = _without_inert(replace(_diagnosis([tiny]), verdict="explained"), log, merge({}), "quadratic")
+    assert alone.findings == [] and alone.verdict == "consistent"
+    kept = _without_inert(replace(_diagnosis([_finding("shifted_dead_zone", "pitch", "w", 0.1)]),
+                                  verdict="explained"), log, merge({}), "quadratic")
+    assert len(kept.findings) == 1  # a 0.1 V dead zone acts
