@@ -878,9 +878,10 @@ def test_a_modification_finding_that_acts_on_no_sample_that_matters_is_refused_a
     t, u1, u2, a, b = textbook.simulate_log(10.0, 100.0, seed=3)
     log = validated(t, u1, u2, a, b, source="textbook", angle_unit="rad")
     tiny, real = _finding("shifted_dead_zone", "pitch", "w", 6.3e-7), _finding("input_saturation", "pitch", "U", 0.9)
-    d = replace(_diagnosis([tiny, real]), verdict="explained")
+    d = replace(_diagnosis([tiny, real]), verdict="explained",
+                steps=[{"key": "shifted_dead_zone:pitch"}, {"key": "input_saturation:pitch"}])
     out = _without_inert(d, log, merge({}), "quadratic")
-    assert out.findings == [real] and out.verdict == "explained"
+    assert out.findings == [real] and out.verdict == "explained" and out.steps == [{"key": "input_saturation:pitch"}]
     assert out.refused[-1]["effect"] == "shifted_dead_zone" and "below the practical size" in out.refused[-1]["reason"]
     alone = _without_inert(replace(_diagnosis([tiny]), verdict="explained"), log, merge({}), "quadratic")
     assert alone.findings == [] and alone.verdict == "consistent"

@@ -156,9 +156,11 @@ def _without_inert(d: Diagnosis, log: Log, p: dict, law: str) -> Diagnosis:
     refused = [{"effect": f.effect, "axis": f.axis, "parameter": f.parameter["value"],
                 "reason": f"changes its motor's thrust torque by {share:.2g} of its RMS, below the practical size of "
                           f"{MIN_MODIFICATION_SHARE:g}: it acts on no sample that matters"} for f, share in inert]
+    keys = {f"{f.effect}:{f.axis}" for f, _ in inert}
+    steps = [s for s in d.steps if s.get("key") not in keys]  # (the report draws a figure per finding's step)
     if kept or d.verdict != "explained":
-        return replace(d, findings=kept, refused=d.refused + refused)
-    return replace(d, findings=kept, verdict="consistent", verdict_sentence=VERDICTS["consistent"] + ".",
+        return replace(d, findings=kept, steps=steps, refused=d.refused + refused)
+    return replace(d, findings=kept, steps=steps, verdict="consistent", verdict_sentence=VERDICTS["consistent"] + ".",
                    refused=d.refused + refused)
 
 
