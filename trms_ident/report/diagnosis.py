@@ -10,7 +10,7 @@ from ..diagnosis.result import Diagnosis
 from ..log import Log
 from ..params import PLAUSIBLE_FACTOR, marked, not_credible
 from .summary import units_text, versions
-from .terminal import headline
+from .terminal import bench_lines, headline
 
 
 def to_doc(d: Diagnosis, log: Log) -> dict:
@@ -341,15 +341,6 @@ Fit measure: {html.escape(doc['fit']['measure'])}.{oe_line}</p>{bench}<ol>{items
 
 
 def _bench_line(settings: dict) -> str:
-    """The bench the search stood on, as the terminal says it (report/terminal.py): its [structure] and its given
-    input modifications; "" under eq. (1) alone."""
-    from ..model.bench import BenchEffect
-    from ..model.structure import phrases
-
-    parts = []
-    if settings.get("structure"):
-        parts.append("Searched under the bench's structure: " + "; ".join(phrases(settings["structure"])))
-    if settings.get("given_effects"):
-        parts.append("Searched on top of the bench's effects (taken as given, held at their values): " + "; ".join(
-            BenchEffect(k, float(v)).phrase() for k, v in settings["given_effects"].items()))
+    """The bench the search stood on (terminal.bench_lines, each line a sentence); "" under eq. (1) alone."""
+    parts = [line[:1].upper() + line[1:] for line in bench_lines(settings)]
     return f"<p>{html.escape('. '.join(parts))}.</p>" if parts else ""

@@ -59,6 +59,22 @@ def headline(verdict: str, findings, leads: bool = False) -> str:
     return (LEADS if leads and findings else HEADLINES[verdict]).format(found=found)
 
 
+def bench_lines(settings: dict) -> list[str]:
+    """What a diagnosis' search stood on beyond eq. (1), one line each (the terminal's and the report's words): the
+    bench file's [structure], under which every fit was made, and its input modifications taken as given, from
+    which the search started and to which it added; [] under eq. (1) alone."""
+    from ..model.bench import BenchEffect
+    from ..model.structure import phrases
+
+    lines = []
+    if settings.get("structure"):
+        lines.append("searched under the bench's structure: " + "; ".join(phrases(settings["structure"])))
+    if settings.get("given_effects"):
+        lines.append("searched on top of the bench's effects (taken as given, held at their values): " + "; ".join(
+            BenchEffect(k, float(v)).phrase() for k, v in settings["given_effects"].items()))
+    return lines
+
+
 def diagnosis_lines(d, source: str) -> list[str]:
     """diagnose's terminal text for Diagnosis ``d`` of the log ``source``: the verdict and findings in plain words,
     then why (the verdict's sentence with its figures), each finding with its value, interval, explanation, one
@@ -71,17 +87,7 @@ def diagnosis_lines(d, source: str) -> list[str]:
     leads = bool(not_credible(d.augmented))
     lines = [f"{source}: {d.verdict.upper().replace('_', ' ')}: {headline(d.verdict, d.findings, leads)}.",
              f"  why: {d.verdict_sentence}"]
-    structure = (d.settings or {}).get("structure")
-    if structure:  # the bench file's [structure]: every fit of the search is made under it
-        from ..model.structure import phrases
-
-        lines.append(f"  searched under the bench's structure: {'; '.join(phrases(structure))}")
-    given = (d.settings or {}).get("given_effects")
-    if given:  # the bench file's input modifications: the model the search started from and added to
-        from ..model.bench import BenchEffect
-
-        lines.append("  searched on top of the bench's effects (taken as given, held at their values): "
-                     + "; ".join(BenchEffect(k, float(v)).phrase() for k, v in given.items()))
+    lines += [f"  {line}" for line in bench_lines(d.settings or {})]
     fits = ", ".join(f"{k} {fit_text(v)}" for k, v in d.fit_before.items())
     if not d.findings:
         lines.append(f"  no effect in the library is found ({d.settings['candidates']} candidates tested; "
