@@ -208,6 +208,26 @@ def test_the_joint_search_adds_no_value_a_single_one_does_not_need():
     assert known_values.joint(fit, defaults(), noise, found.fits) is None
 
 
+def test_the_joint_search_drops_a_value_the_later_ones_make_unnecessary():
+    """benchmarks/any_bench.py's seed 2718, bench 14: Tp 0.84x (J/B off the table, square 500 Hz cut 34.6 s into
+    the run, 12-bit).  The score test did not rank Tp among the four values refitted alone; the joint search freed
+    T0 first (the yaw to 1.24x), then Tp, and T0 came back to 3.496 for 3.5: named as a difference.  The backward
+    step refits the set without each value and drops T0, which the set no longer needs: Tp alone, at its value."""
+    truth = {"J1": 0.0837366836494152, "B1": 0.006615854728724444, "J2": 0.02253526938132932,
+             "B2": 0.09360850458086968, "Tp": 1.6780933548251113}
+    log = as_log(_sim(truth, ref="square", rate=500.0, duration=60.0, start=34.614219350994055, seed=20063851))
+    from trms_ident.identify import known_value_fit
+
+    fit, noise, n = known_value_fit(log, Settings())
+    found = known_values.search(fit, defaults(), noise, n)
+    assert found.best is None and "Tp" not in [f.name for f in found.fits]  # the case: Tp not refitted alone
+    j = known_values.joint(fit, defaults(), noise, found.fits)
+    assert j is not None and j.explains and j.names == ["Tp"], j
+    assert j.values["Tp"] == pytest.approx(truth["Tp"], rel=0.005)
+    assert [list(s[0]) for s in j.steps] == [["T0"], ["T0", "Tp"], ["Tp"]]  # forward twice, then backward
+    assert "refitted with J/B, Tp 1.678 (given 2) takes the worst angle" in known_values.joint_sentence(j)
+
+
 def test_refits_that_all_wander_off_say_the_bench_is_far_from_the_table():
     """A real CE150 recording judged with Table 1's values: each refit alone ran to T11 = 622 s with J1 = 5e7
     kg m^2.  Neither a value nor a joint set is reported from such numbers; the sentence says the bench is far

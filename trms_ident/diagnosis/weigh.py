@@ -224,9 +224,15 @@ def _joint(log: Log, law: str, overrides: dict | None, p: dict, kv: dict, check:
         return None
 
 
+def _count(n: int) -> str:
+    """"1 known value", "2 known values"."""
+    return f"{n} known value{'s' if n != 1 else ''}"
+
+
 def _explained_by_values(d, log: Log, p: dict, law: str, j):
-    """The diagnosis when several known values, refitted together, bring both angles to their noise floors and
-    no single one does, nor the effect search: each value a finding, the effect search's findings refused."""
+    """The diagnosis when the joint search's known values, refitted together, bring both angles to their noise
+    floors and no single refit did, nor the effect search: each value a finding, the effect search's findings
+    refused.  One value alone where the backward step dropped the others (known_values._backward)."""
     pp = {**p, **j.values}
     est = dict(j.estimates)
     start = motor_states(j.start_states) or None
@@ -239,11 +245,14 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
         axis = known_values.AXIS[name]
         lo, hi = j.ci95[name]
         others = [k for k in j.names if k != name]
-        evidence = (f"freed together with {', '.join(others)} and refitted by output error with J1, B1, J2, B2 and "
+        freed = (f"freed together with {', '.join(others)}" if others else
+                 "freed alone (the joint search's backward step held the values it had freed before it: not needed)")
+        evidence = (f"{freed} and refitted by output error with J1, B1, J2, B2 and "
                     f"the start states (multiple shooting in {known_values.SHOOTING_WINDOW_S:g} s windows, then the "
-                    f"standard windows), the {len(j.names)} values bring the angles to {j.over_noise['alpha']:.3g}x "
-                    f"and {j.over_noise['beta']:.3g}x their noise floors (seed model: {before}); no single known "
-                    f"value does; 95 % interval {lo:.6g} to {hi:.6g} {j.units[name]}" +
+                    f"standard windows), {_count(len(j.names))} bring the angles to {j.over_noise['alpha']:.3g}x "
+                    f"and {j.over_noise['beta']:.3g}x their noise floors (seed model: {before})"
+                    f"{'; no single known value does' if others else ''}; 95 % interval {lo:.6g} to {hi:.6g} "
+                    f"{j.units[name]}" +
                     ("" if name in j.determined else
                      f" (wider than {100 * known_values.DETERMINED_REL:g} % of the value: this log does not "
                      "determine it well)"))
@@ -251,15 +260,23 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
                                             d.fit_before, fits_after.get(axis, math.nan), evidence,
                                             _drop(base, j.over_noise), (),
                                             {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est}))
-    why = (f"{len(j.names)} known values refitted together explain the log ({listed}); the effect search's "
-           "findings do not bring the angles to their noise floors")
+    why = (f"{_count(len(j.names))} refitted {'together ' if len(j.names) > 1 else ''}explain"
+           f"{'s' if len(j.names) == 1 else ''} the log ({listed}); the effect search's findings do not bring the "
+           "angles to their noise floors")
     refused = list(d.refused) + [{"effect": f.effect, "axis": f.axis, "parameter": f.parameter["value"],
                                   "reason": why} for f in d.findings]
     step = _step(log, ", ".join(j.names), "both", d, overlay, residual, fits_after)
-    sentence = (f"the model fits the log to its noise level once {len(j.names)} known values take the bench's own "
-                f"values instead of the ones it was given: {listed} (refitted together, both angles within "
-                f"{RMS_OVER_NOISE:g}x their noise floors; no single value and no effect of the library does). "
-                f"Check them on the bench, or estimate them with `trms-ident estimate "
+    sentence = (f"the model fits the log to its noise level once {_count(len(j.names))} "
+                f"take{'s' if len(j.names) == 1 else ''} the bench's own "
+                f"value{'s' if len(j.names) > 1 else ''} instead of the one{'s' if len(j.names) > 1 else ''} it was "
+                f"given: {listed} ("
+                + (f"refitted together, both angles within {RMS_OVER_NOISE:g}x their noise floors; no single value "
+                   "and no effect of the library does). " if len(j.names) > 1 else
+                   f"refitted with J/B, both angles within {RMS_OVER_NOISE:g}x their noise floors; the single "
+                   "refits had not tried it, the joint search found it and its backward step dropped the values "
+                   "freed before it). ") +
+                f"Check {'them' if len(j.names) > 1 else 'it'} on the bench, or estimate "
+                f"{'them' if len(j.names) > 1 else 'it'} with `trms-ident estimate "
                 + " ".join(f"--free {k}" for k in j.names) + "`.")
     return replace(d, mismatch=True, findings=findings, augmented=est, fit_after=fits_after, overlay=overlay,
                    residual=residual, verdict="explained", verdict_sentence=sentence, refused=refused,
