@@ -230,18 +230,57 @@ def main() -> None:
     ap.add_argument("--no-write", action="store_true", help="print only; leave RESULTS.md as it is")
     ap.add_argument("--workers", type=int, default=2, help="diagnoses at once (default 2)")
     a = ap.parse_args()
-    todo = cases(a.seed, a.n)
+    import signal
+
+    def stop(*_):
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, stop)  # also when started in the background, where SIGINT comes ignored
+    signal.signal(signal.SIGTERM, stop)
+    todo = interleaved(cases(a.seed, a.n))
     if a.only:
         todo = [c for c in todo if c["i"] in a.only]
     results = []
-    with ProcessPoolExecutor(a.workers) as pool:
+    pool = ProcessPoolExecutor(a.workers, initializer=_ignore_interrupts)
+    stopped = False
+    try:
         for fut in as_completed([pool.submit(run, c) for c in todo]):
             r = fut.result()
             results.append(r)
             print(_row(r), file=sys.stderr, flush=True)
+    except KeyboardInterrupt:  # Ctrl-C or kill: the table of the benches done, said as a partial run
+        stopped = True
+        for proc in list((pool._processes or {}).values()):  # the diagnoses under way are dropped
+            proc.kill()
+    pool.shutdown(wait=not stopped, cancel_futures=True)
+    if not results:
+        return
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                             cwd=Path(__file__).parent).stdout.strip()
-    publish("Any bench", table(results, a.seed, commit, a.workers), write=not (a.no_write or a.only or a.n < 60))
+    text = table(results, a.seed, commit, a.workers)
+    if stopped:
+        text = text.replace(" benches, at ", f" of {len(todo)} benches (stopped early), at ", 1)
+    publish("Any bench", text, write=not (a.no_write or a.only or a.n < 60 or stopped))
+
+
+def _ignore_interrupts() -> None:
+    """The worker processes leave Ctrl-C and kill to the parent, which stops them and writes what was done."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def interleaved(todo: list[dict]) -> list[dict]:
+    """The benches taken by number of differences in turn (0, 1, 2, 3, 0, ...), so that a run stopped early has
+    measured every kind."""
+    groups = [[c for c in todo if c["n_diff"] == k] for k in range(4)]
+    out = []
+    while any(groups):
+        for g in groups:
+            if g:
+                out.append(g.pop(0))
+    return out
 
 
 if __name__ == "__main__":
