@@ -20,7 +20,7 @@ sim/ (the library's forms: benchmarks/independent.py judges the textbook forms).
 under the simulator's PID (the pitch beyond 1 rad, the yaw beyond two turns) is drawn again.
 
 Judged as benchmarks/compound.py judges: each difference *named* (a finding, or a flagged look-alike of one; a
-dead zone or saturation acting on fewer than NOT_EXERCISED of the samples is not counted), its value within 30 %
+dead zone or saturation acting on fewer than compound.NOT_EXERCISED of the samples is not counted), its value within 30 %
 (of the deviation, for a known value), *nothing invented* (every finding is a difference of the bench or flags one
 as its look-alike), the verdict, and each difference's size in the angles over the noise ([..x]; under 1x no
 tool can tell it from noise).  Issue #75's targets: every difference named on >= 85 % of the benches with 1-2
@@ -32,7 +32,6 @@ from __future__ import annotations
 import math
 import statistics
 import sys
-import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
@@ -41,7 +40,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from compound import NOT_EXERCISED, _judge, _log_settings, _sizes  # noqa: E402
+from compound import _log_settings, _sizes, diagnosed  # noqa: E402
 
 #: how many benches of 0, 1, 2 and 3 differences in 60 (scaled to --n, the clean ones at least 1)
 COUNTS = (8, 18, 20, 14)
@@ -137,24 +136,7 @@ def run(case: dict) -> dict:
             continue
     table = defaults()
     known = {k: v for k, v in overrides.items() if k not in ("J1", "B1", "J2", "B2")}
-    t0 = time.perf_counter()
-    try:
-        d = ti.diagnose(log)
-        verdict, judged = d.verdict, _judge(d, known, effects, table)
-    except Exception as exc:  # noqa: BLE001 - a benchmark says what happened, it does not stop
-        verdict, judged = f"failed ({exc})", {"named": {}, "within": {}, "invented": [], "found": []}
-    seconds = time.perf_counter() - t0
-    judged = dict(judged)
-    exercised = {}  # the share of samples a dead zone or saturation acts on
-    for e in effects:
-        if e["effect"] in ("dead_zone", "shifted_dead_zone", "input_saturation"):
-            u = np.abs(sim.u1_v if e["axis"] == "pitch" else sim.u2_v)
-            exercised[f"{e['effect']}:{e['axis']}"] = float(np.mean(u < e["value"] if "dead_zone" in e["effect"]
-                                                                    else u > e["value"]))
-    judged["idle"] = [k for k, v in exercised.items() if v < NOT_EXERCISED]
-    for k in judged["idle"]:  # a dead zone or saturation the voltages never reach cannot be named: not counted
-        judged["named"].pop(k, None)
-        judged["within"].pop(k, None)
+    verdict, judged, exercised, seconds = diagnosed(log, sim, known, effects, table)
     size = _sizes(settings, overrides, effects)
     judged["small"] = [k for k, v in size.items() if not v >= 1.0]
     axes = [e["axis"] for e in effects] + [AXIS[k] for k in known]

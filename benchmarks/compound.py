@@ -151,23 +151,7 @@ def run(case: dict) -> dict:
     from trms_ident.log import validated
 
     log = validated(sim.t_s, sim.u1_v, sim.u2_v, sim.alpha_rad, sim.beta_rad)
-    t0 = time.perf_counter()
-    try:
-        d = ti.diagnose(log)
-        verdict, judged = d.verdict, _judge(d, known, effects, table)
-    except Exception as exc:  # noqa: BLE001 - a benchmark says what happened, it does not stop
-        verdict, judged = f"failed ({exc})", {"named": {}, "within": {}, "invented": [], "found": []}
-    judged = dict(judged)
-    exercised = {}  # the share of samples a dead zone or saturation acts on
-    for e in effects:
-        u = np.abs(sim.u1_v if e["axis"] == "pitch" else sim.u2_v)
-        if e["effect"] in ("dead_zone", "input_saturation"):
-            exercised[f"{e['effect']}:{e['axis']}"] = float(np.mean(u < e["value"] if e["effect"] == "dead_zone"
-                                                                    else u > e["value"]))
-    judged["idle"] = [k for k, v in exercised.items() if v < NOT_EXERCISED]
-    for k in judged["idle"]:  # a dead zone or saturation the voltages never reach cannot be named: not counted
-        judged["named"].pop(k, None)
-        judged["within"].pop(k, None)
+    verdict, judged, exercised, seconds = diagnosed(log, sim, known, effects, table)
     size = _sizes(settings, overrides, effects)
     hidden = [f"{e['effect']}:{e['axis']} {e['value']:.3g}" +
               (f" (acts on {100 * exercised[e['effect'] + ':' + e['axis']]:.2g} %)"
@@ -179,7 +163,34 @@ def run(case: dict) -> dict:
             "log": f"{settings['ref']} {settings['sample_rate_hz']:g} Hz "
                    f"{'from rest' if not settings['start_s'] else 'mid-run'} "
                    f"{'12-bit' if settings['quantization_rad'] else 'gauss'}",
-            "seconds": time.perf_counter() - t0}
+            "seconds": seconds}
+
+
+def diagnosed(log, sim, known: dict, effects: list, table: dict) -> tuple[str, dict, dict, float]:
+    """diagnose on the bench's log, judged (_judge): (the verdict or "failed (why)", the judgement with "idle",
+    the share of samples each dead zone or saturation acts on, diagnose's seconds).  A dead zone or saturation
+    that acts on fewer than NOT_EXERCISED of the samples is not counted as a difference to name."""
+    import trms_ident as ti
+
+    t0 = time.perf_counter()
+    try:
+        d = ti.diagnose(log)
+        verdict, judged = d.verdict, _judge(d, known, effects, table)
+    except Exception as exc:  # noqa: BLE001 - a benchmark says what happened, it does not stop
+        verdict, judged = f"failed ({exc})", {"named": {}, "within": {}, "invented": [], "found": []}
+    seconds = time.perf_counter() - t0
+    judged = dict(judged)
+    exercised = {}  # the share of samples a dead zone (either form) or saturation acts on
+    for e in effects:
+        if e["effect"] in ("dead_zone", "shifted_dead_zone", "input_saturation"):
+            u = np.abs(sim.u1_v if e["axis"] == "pitch" else sim.u2_v)
+            exercised[f"{e['effect']}:{e['axis']}"] = float(np.mean(u < e["value"] if "dead_zone" in e["effect"]
+                                                                    else u > e["value"]))
+    judged["idle"] = [k for k, v in exercised.items() if v < NOT_EXERCISED]
+    for k in judged["idle"]:  # a dead zone or saturation the voltages never reach cannot be named: not counted
+        judged["named"].pop(k, None)
+        judged["within"].pop(k, None)
+    return verdict, judged, exercised, seconds
 
 
 def _sizes(settings: dict, overrides: dict, effects: list) -> dict:
