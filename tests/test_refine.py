@@ -438,6 +438,32 @@ def test_each_kernel_is_compiled_for_one_array_type_whatever_the_voltages_flags(
         assert len(kernel.signatures) == max(b, 1), (kernel.py_func.__name__, kernel.signatures)
 
 
+def test_fan_out_runs_each_item_in_the_callers_context():
+    """A caller's np.errstate (numpy keeps it in a context variable) holds in fan_out's worker threads: diagnose
+    silences the overflows of a fit that runs off, and a worker's overflow had reached the terminal as a
+    RuntimeWarning."""
+    import contextvars
+    import warnings
+
+    from trms_ident.numerics import parallel
+
+    mark = contextvars.ContextVar("mark", default="unset")
+
+    def work(x):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # a RuntimeWarning would raise here
+            big = np.array([1e308]) * (x + 10.0)  # overflows to inf
+        return mark.get(), bool(np.isinf(big[0]))
+
+    token = mark.set("caller's")
+    try:
+        with np.errstate(all="ignore"):
+            out = parallel.fan_out(work, range(4))
+    finally:
+        mark.reset(token)
+    assert out == [("caller's", True)] * 4
+
+
 def test_fan_out_keeps_order_and_does_not_nest():
     """parallel.fan_out: results in the items' order, work inside a worker runs serially there (a nested pool
     would wait for ever on work queued behind it), and a fit's windows stay in its thread inside a worker."""

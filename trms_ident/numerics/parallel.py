@@ -9,6 +9,7 @@ depend on the machine or the scheduling.  Standard library only.
 """
 from __future__ import annotations
 
+import contextvars
 import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
@@ -63,11 +64,15 @@ def fan_out(fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
     if len(items) < 2 or n < 2 or in_worker():
         return [fn(x) for x in items]
 
-    def job(x):
+    def job(task):
+        x, context = task
         _LOCAL.busy = True
         try:
-            return fn(x)
+            return context.run(fn, x)
         finally:
             _LOCAL.busy = False
 
-    return list(pool(n).map(job, items))
+    # each item runs in a copy of the caller's context: numpy's error state lives in a context variable, so a
+    # caller's np.errstate(all="ignore") holds in the workers too (a pool thread starts from an empty context, and
+    # an overflow the caller silences printed a RuntimeWarning on the terminal of a diagnose)
+    return list(pool(n).map(job, [(x, contextvars.copy_context()) for x in items]))
