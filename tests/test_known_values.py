@@ -226,6 +226,10 @@ def test_the_joint_search_drops_a_value_the_later_ones_make_unnecessary():
     assert j.values["Tp"] == pytest.approx(truth["Tp"], rel=0.005)
     assert [list(s[0]) for s in j.steps] == [["T0"], ["T0", "Tp"], ["Tp"]]  # forward twice, then backward
     assert "refitted with J/B, Tp 1.678 (given 2) takes the worst angle" in known_values.joint_sentence(j)
+    d = diagnose(log)  # diagnose names Tp alone, in the singular
+    assert d.verdict == "explained" and [f.parameter["name"] for f in d.findings] == ["Tp"], d.verdict_sentence
+    assert "once one known value takes the bench's own value" in d.verdict_sentence
+    assert "freed alone" in d.findings[0].evidence and "brings the angles" in d.findings[0].evidence
 
 
 def test_refits_that_all_wander_off_say_the_bench_is_far_from_the_table():

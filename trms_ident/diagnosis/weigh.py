@@ -225,8 +225,8 @@ def _joint(log: Log, law: str, overrides: dict | None, p: dict, kv: dict, check:
 
 
 def _count(n: int) -> str:
-    """"1 known value", "2 known values"."""
-    return f"{n} known value{'s' if n != 1 else ''}"
+    """"one known value", "2 known values"."""
+    return "one known value" if n == 1 else f"{n} known values"
 
 
 def _explained_by_values(d, log: Log, p: dict, law: str, j):
@@ -246,10 +246,11 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
         lo, hi = j.ci95[name]
         others = [k for k in j.names if k != name]
         freed = (f"freed together with {', '.join(others)}" if others else
-                 "freed alone (the joint search's backward step held the values it had freed before it: not needed)")
+                 "freed alone (the joint search's backward step held the other values it had freed at their given "
+                 "values: not needed)")
         evidence = (f"{freed} and refitted by output error with J1, B1, J2, B2 and "
                     f"the start states (multiple shooting in {known_values.SHOOTING_WINDOW_S:g} s windows, then the "
-                    f"standard windows), {_count(len(j.names))} bring the angles to {j.over_noise['alpha']:.3g}x "
+                    f"standard windows), {_count(len(j.names))} bring{'s' if len(j.names) == 1 else ''} the angles to {j.over_noise['alpha']:.3g}x "
                     f"and {j.over_noise['beta']:.3g}x their noise floors (seed model: {before})"
                     f"{'; no single known value does' if others else ''}; 95 % interval {lo:.6g} to {hi:.6g} "
                     f"{j.units[name]}" +
@@ -272,9 +273,9 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
                 f"given: {listed} ("
                 + (f"refitted together, both angles within {RMS_OVER_NOISE:g}x their noise floors; no single value "
                    "and no effect of the library does). " if len(j.names) > 1 else
-                   f"refitted with J/B, both angles within {RMS_OVER_NOISE:g}x their noise floors; the single "
-                   "refits had not tried it, the joint search found it and its backward step dropped the values "
-                   "freed before it). ") +
+                   f"refitted with J/B, both angles within {RMS_OVER_NOISE:g}x their noise floors; found by the "
+                   "joint search over several known values, whose backward step held the others it had freed at "
+                   "their given values: not needed). ") +
                 f"Check {'them' if len(j.names) > 1 else 'it'} on the bench, or estimate "
                 f"{'them' if len(j.names) > 1 else 'it'} with `trms-ident estimate "
                 + " ".join(f"--free {k}" for k in j.names) + "`.")
