@@ -59,7 +59,7 @@ EFFECTS = (
     ("thrust_asymmetry", "pitch", (0.1, 0.4), "1"), ("thrust_asymmetry", "yaw", (0.1, 0.4), "1"),
     ("yaw_inertia_pitch", "yaw", (0.002, 0.006), "kg m^2"),
 )
-#: kinds that cannot both be on one bench: the same physics in two forms, or one motor's voltage twice
+#: kinds that cannot both be on one bench: the same physics in two forms (a motor may carry a dead zone and a saturation)
 CLASH = {"dead_zone": "dead zone", "shifted_dead_zone": "dead zone", "com_offset": "pitch offset",
          "sensor_offset": "pitch offset"}
 
