@@ -20,10 +20,10 @@ sim/ (the library's forms: benchmarks/independent.py judges the textbook forms).
 under the simulator's PID (the pitch beyond 1 rad, the yaw beyond two turns) is drawn again.
 
 Judged as benchmarks/compound.py judges: each difference *named* (a finding, or a flagged look-alike of one; a
-dead zone or saturation acting on fewer than compound.NOT_EXERCISED of the samples is not counted), its value within 30 %
-(of the deviation, for a known value), *nothing invented* (every finding is a difference of the bench or flags one
-as its look-alike), the verdict, and each difference's size in the angles over the noise ([..x]; under 1x no
-tool can tell it from noise).  Issue #75's targets: every difference named on >= 85 % of the benches with 1-2
+dead zone or saturation acting on fewer than compound.NOT_EXERCISED of the samples is not counted), its value
+within 30 % (of the deviation, for a known value), *nothing invented* (every finding is a difference of the bench
+or flags one as its look-alike), the verdict, and each difference's size in the angles over the noise ([..x];
+under 1x no tool can tell it from noise).  Issue #75's targets: every difference named on >= 85 % of the benches with 1-2
 differences and >= 70 % with 3; nothing invented on >= 90 %; 0 findings on the clean ones; diagnose's median time
 a log <= 15 s on this 2-core machine (measure it with --workers 1: two processes share the cores).
 """
@@ -59,7 +59,8 @@ EFFECTS = (
     ("thrust_asymmetry", "pitch", (0.1, 0.4), "1"), ("thrust_asymmetry", "yaw", (0.1, 0.4), "1"),
     ("yaw_inertia_pitch", "yaw", (0.002, 0.006), "kg m^2"),
 )
-#: kinds that cannot both be on one bench: the same physics in two forms (a motor may carry a dead zone and a saturation)
+#: kinds that cannot both be on one bench: the same physics in two forms (a motor may carry a dead zone and a
+#: saturation)
 CLASH = {"dead_zone": "dead zone", "shifted_dead_zone": "dead zone", "com_offset": "pitch offset",
          "sensor_offset": "pitch offset"}
 

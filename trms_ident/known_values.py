@@ -448,8 +448,9 @@ def joint_sentence(j: KnownValueSet, base_over_noise: float | None = None) -> st
     undetermined = [k for k in j.names if k not in j.determined]
     if j.determined and undetermined:
         det += f", not {', '.join(undetermined)}"
-    return (f" The bench's known values are not the table's: refitted {'together' if len(j.names) > 1 else 'with J/B'}, "
-            f"{vals} take{'s' if len(j.names) == 1 else ''} the worst angle"
+    one = len(j.names) == 1  # the backward step left one value (_backward)
+    return (f" The bench's known values are not the table's: refitted {'with J/B' if one else 'together'}, "
+            f"{vals} take{'s' if one else ''} the worst angle"
             f"{before} to {worst:.3g}x its noise floor, still above it{det}; the model leaves out more (physics "
             "or further values).")
 

@@ -224,11 +224,6 @@ def _joint(log: Log, law: str, overrides: dict | None, p: dict, kv: dict, check:
         return None
 
 
-def _count(n: int) -> str:
-    """"one known value", "2 known values"."""
-    return "one known value" if n == 1 else f"{n} known values"
-
-
 def _explained_by_values(d, log: Log, p: dict, law: str, j):
     """The diagnosis when the joint search's known values, refitted together, bring both angles to their noise
     floors and no single refit did, nor the effect search: each value a finding, the effect search's findings
@@ -240,6 +235,9 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
     base = d.seed_check.get("axes", {})
     before = _seed_ratios(base)
     listed = ", ".join(f"{k} = {j.values[k]:.4g} instead of {j.table[k]:.4g}" for k in j.names)
+    one = len(j.names) == 1  # the backward step left one value: said in the singular
+    count, verb_s, noun_s, them = (("one known value", "s", "", "it") if one else
+                                   (f"{len(j.names)} known values", "", "s", "them"))
     findings = []
     for name in j.names:
         axis = known_values.AXIS[name]
@@ -250,7 +248,7 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
                  "values: not needed)")
         evidence = (f"{freed} and refitted by output error with J1, B1, J2, B2 and "
                     f"the start states (multiple shooting in {known_values.SHOOTING_WINDOW_S:g} s windows, then the "
-                    f"standard windows), {_count(len(j.names))} bring{'s' if len(j.names) == 1 else ''} the angles to {j.over_noise['alpha']:.3g}x "
+                    f"standard windows), {count} bring{verb_s} the angles to {j.over_noise['alpha']:.3g}x "
                     f"and {j.over_noise['beta']:.3g}x their noise floors (seed model: {before})"
                     f"{'; no single known value does' if others else ''}; 95 % interval {lo:.6g} to {hi:.6g} "
                     f"{j.units[name]}" +
@@ -261,24 +259,19 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
                                             d.fit_before, fits_after.get(axis, math.nan), evidence,
                                             _drop(base, j.over_noise), (),
                                             {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est}))
-    why = (f"{_count(len(j.names))} refitted {'together ' if len(j.names) > 1 else ''}explain"
-           f"{'s' if len(j.names) == 1 else ''} the log ({listed}); the effect search's findings do not bring the "
-           "angles to their noise floors")
+    why = (f"{count} refitted {'' if one else 'together '}explain{verb_s} the log ({listed}); the effect search's "
+           "findings do not bring the angles to their noise floors")
     refused = list(d.refused) + [{"effect": f.effect, "axis": f.axis, "parameter": f.parameter["value"],
                                   "reason": why} for f in d.findings]
     step = _step(log, ", ".join(j.names), "both", d, overlay, residual, fits_after)
-    sentence = (f"the model fits the log to its noise level once {_count(len(j.names))} "
-                f"take{'s' if len(j.names) == 1 else ''} the bench's own "
-                f"value{'s' if len(j.names) > 1 else ''} instead of the one{'s' if len(j.names) > 1 else ''} it was "
-                f"given: {listed} ("
-                + (f"refitted together, both angles within {RMS_OVER_NOISE:g}x their noise floors; no single value "
-                   "and no effect of the library does). " if len(j.names) > 1 else
-                   f"refitted with J/B, both angles within {RMS_OVER_NOISE:g}x their noise floors; found by the "
-                   "joint search over several known values, whose backward step held the others it had freed at "
-                   "their given values: not needed). ") +
-                f"Check {'them' if len(j.names) > 1 else 'it'} on the bench, or estimate "
-                f"{'them' if len(j.names) > 1 else 'it'} with `trms-ident estimate "
-                + " ".join(f"--free {k}" for k in j.names) + "`.")
+    how = (f"refitted with J/B, both angles within {RMS_OVER_NOISE:g}x their noise floors; found by the joint "
+           "search over several known values, whose backward step held the others it had freed at their given "
+           "values: not needed)" if one else
+           f"refitted together, both angles within {RMS_OVER_NOISE:g}x their noise floors; no single value and no "
+           "effect of the library does)")
+    sentence = (f"the model fits the log to its noise level once {count} take{verb_s} the bench's own value{noun_s} "
+                f"instead of the one{noun_s} it was given: {listed} ({how}. Check {them} on the bench, or estimate "
+                f"{them} with `trms-ident estimate " + " ".join(f"--free {k}" for k in j.names) + "`.")
     return replace(d, mismatch=True, findings=findings, augmented=est, fit_after=fits_after, overlay=overlay,
                    residual=residual, verdict="explained", verdict_sentence=sentence, refused=refused,
                    corrections=[], steps=[step], settings=_value_settings(d, j.over_noise, start))
