@@ -24,8 +24,8 @@ dead zone or saturation acting on fewer than compound.NOT_EXERCISED of the sampl
 within 30 % (of the deviation, for a known value), *nothing invented* (every finding is a difference of the bench
 or flags one as its look-alike), the verdict, and each difference's size in the angles over the noise ([..x];
 under 1x no tool can tell it from noise).  Issue #75's targets: every difference named on >= 85 % of the benches
-with 1-2 differences and >= 70 % with 3; nothing invented on >= 90 %; 0 findings on the clean ones; diagnose's median time
-a log <= 15 s on this 2-core machine (measure it with --workers 1: two processes share the cores).
+with 1-2 differences and >= 70 % with 3; nothing invented on >= 90 %; 0 findings on the clean ones; diagnose's
+median time a log <= 15 s on this 2-core machine (measure it with --workers 1: two processes share the cores).
 """
 from __future__ import annotations
 
