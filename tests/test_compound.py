@@ -3,6 +3,7 @@ import math
 
 import numpy as np
 
+import trms_ident as ti
 from sim import SimSettings, simulate
 from trms_ident.diagnosis import compound
 from trms_ident.diagnosis.result import Diagnosis, Finding
@@ -322,3 +323,22 @@ def test_a_verdict_the_later_steps_did_not_change_says_what_they_left():
     assert "kc" not in said  # a search that failed left no angles to tell
     assert compound.later_tries_sentence([]) == ""
     assert "next-ranked" not in compound.later_tries_sentence(records[:1])
+
+
+def test_a_known_value_whose_refits_alone_all_wander_off_is_found_under_the_effect_beside_it():
+    """independent.py's seed 6061 bench 22 (a development seed): the textbook plant with Mg 21 % high and a 0.127 V
+    yaw dead zone in Simulink's form.  The yaw dead zone's misfit sends every known value refitted alone off to
+    implausible numbers (known_values.far_from_table), and the rule stopped there, the pitch misfit named as a
+    thrust asymmetry and a centre-of-mass offset (invented).  The effect search's dead zone estimated under, with its
+    known-value search run with it in (together), reaches the floor with Mg: both are named, the others refused."""
+    from .plants import textbook
+
+    t, u1, u2, a, b = textbook.simulate_log(60.0, 100.0, seed=1371407380, ref="multisine", dead_zone_v=(0.0, 0.127),
+                                            values={"Mg": 0.38674})
+    d = ti.diagnose(validated(t, u1, u2, a, b, source="textbook", angle_unit="rad"))
+    assert d.verdict == "explained", d.verdict_sentence
+    found = {(f.effect, f.axis): f.parameter["value"] for f in d.findings}
+    assert set(found) == {("shifted_dead_zone", "yaw"), ("known_value", "pitch")}, found
+    assert abs(found[("shifted_dead_zone", "yaw")] / 0.127 - 1) < 0.05
+    assert abs(found[("known_value", "pitch")] / 0.38674 - 1) < 0.02
+    assert next(f for f in d.findings if f.effect == "known_value").parameter["name"] == "Mg"
