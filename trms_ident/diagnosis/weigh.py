@@ -26,7 +26,9 @@ refitted with every one):
 4. when neither a single known value nor the effect search reaches the floor, each of the search's findings is
    put into the model and the log estimated under it, its known-value search run with the effect in
    (compound.py): an effect that fits alone (one parameter), else an effect with a known value (two) that
-   reaches the floor explains the log, the search's other findings refused as not needed;
+   reaches the floor explains the log, the search's other findings refused as not needed.  Also when every known
+   value refitted alone wandered off to an implausible number (known_values.far_from_table), which the other
+   difference's misfit can cause; the steps below start from those refits and are not taken then;
 5. when that reaches no floor either, several known values are refitted
    together (known_values.joint, a forward search, each value a further parameter that must earn its place).
    A set that reaches the floor explains the log: one finding per value, the effect search's findings refused
