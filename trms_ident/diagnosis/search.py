@@ -113,9 +113,13 @@ def effect_search(log: Log, overrides: dict | None, law: str, a_rad_s: float | N
     # search's findings can then only stand as its look-alikes, and only a single effect that explains the log
     # alone does: a second round would add findings the rule refuses (the rounds after the first are skipped),
     # and the rescue's profiles need not screen a value range for a partial explanation (oe.Fitter.profile's
-    # scan; measured: other_bench.csv diagnosed in 41 s, not 58 s, with the same findings and refusals)
+    # scan; measured: other_bench.csv diagnosed in 41 s, not 58 s, with the same findings and refusals), nor are
+    # two-parameter steps tried, the two motors' saturations together or the other motor's of a kind (_search's
+    # ``single``; farm-bench, two pairs beside a benchmark: other_bench.csv 0.12x the CPU time, 15 s not 125 s,
+    # kc named as before, the yaw dead zone the sibling step added no longer tried and refused; a 1 kHz log with
+    # T10 off 0.44x)
     named = bool((run.seed.get("known_values") or {}).get("named"))
-    found = _search(run, base_reg, base, exclude, 1 if named else MAX_FINDINGS, scan=not named)
+    found = _search(run, base_reg, base, exclude, 1 if named else MAX_FINDINGS, scan=not named, single=named)
     kept = _accept(run, found, nominal)
     return _report(run, found, kept, base_reg, base, nominal)
 
@@ -150,14 +154,16 @@ def _prepare(log: Log, overrides: dict | None, law: str, a_rad_s: float | None, 
             base_reg, base)
 
 
-def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FINDINGS, scan: bool = True
-            ) -> _Found:
+def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FINDINGS, scan: bool = True,
+            single: bool = False) -> _Found:
     """The rounds (at most ``rounds``): every hypothesis of the library not yet in the model is tested by the
     equation error (try_candidate: held-out blocks, family-wise level); the output-error fit judges what the equation
     error passes (oe_confirm), rescues when it passes nothing (oe_rescue) and decides between close rivals;
     the best that passes becomes a finding, its look-alikes its alternatives.  The rounds stop when nothing
     passes or the findings reach the floor (_reaches_floor).  The keys in ``exclude`` are never tested.
-    ``scan``: as oe.Fitter.profile's, for the rescue."""
+    ``scan``: as oe.Fitter.profile's, for the rescue.  ``single``: only a finding of one parameter is wanted (a
+    known value explains the log alone, effect_search): the two motors' saturations fitted together and the other
+    motor's of a kind (two parameters, which the rule refuses beside one value) are not tried."""
     log, p, law, a, ids, cache, fitter, n_tests, oe_tested, progress = (
         run.log, run.p, run.law, run.a, run.ids, run.cache, run.fitter, run.n_tests, run.oe_tested, run.progress)
     current = given_model(p)  # the search adds its findings to the bench's given modifications
@@ -232,7 +238,8 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
                         oe_values[best["c"].key] = best["value"]
                 elif failed:
                     # a saturation whose fit alone fails may be one of a pair: both motors' fitted together
-                    both = _both_saturations(run, best, current, reg_now, score_now, oe_values, excluded)
+                    both = None if single else _both_saturations(run, best, current, reg_now, score_now,
+                                                                          oe_values, excluded)
                     if both is None:
                         refused.append({"effect": best["c"].effect, "axis": best["c"].axis,
                                         "parameter": best["value"], "reason": f"in round {round_i + 1}, {failed}"})
@@ -240,7 +247,8 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
                     best = both
         if best is None:
             break
-        best = _both_saturations(run, best, current, reg_now, score_now, oe_values, excluded) or best
+        if not single:
+            best = _both_saturations(run, best, current, reg_now, score_now, oe_values, excluded) or best
         best["told_apart"] = told
         for r in ok:
             if r is not best:
@@ -271,7 +279,7 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
         if _reaches_floor(fitter, current, reg_now, score_now, oe_values, p):
             stopped = round_i + 1
             break  # the findings reach the floor (STOP_OE_OVER_NOISE): a further round could only add parameters
-    siblings = _siblings(findings, current, excluded) if len(findings) < MAX_FINDINGS else []
+    siblings = _siblings(findings, current, excluded) if len(findings) < MAX_FINDINGS and not single else []
     if siblings and oe.representable(current, oe_values):
         # the first motor's value given every finding, before the other motor's is tried beside it: a value the
         # rounds placed early can sit in another basin (measured: a yaw saturation at 1.25 V for 0.66 V; the pitch
