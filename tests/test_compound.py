@@ -342,3 +342,24 @@ def test_a_known_value_whose_refits_alone_all_wander_off_is_found_under_the_effe
     assert abs(found[("shifted_dead_zone", "yaw")] / 0.127 - 1) < 0.05
     assert abs(found[("known_value", "pitch")] / 0.38674 - 1) < 0.02
     assert next(f for f in d.findings if f.effect == "known_value").parameter["name"] == "Mg"
+
+
+def test_the_lead_beside_a_modification_is_the_refit_that_reached_the_floor_in_the_shooting_windows():
+    """independent.py's seed 9393 bench 22: b1 21 % high beside a 0.269 V pitch dead zone, found at 0.2689 V on a
+    log whose pitch command hovers at the zone's edge.  Under the dead zone held there, b1's refit (0.12097 for
+    0.12101) reached the floor in the shooting windows and left the yaw at 4.7x over the standard ones; Mg's refit
+    stopped at the shooting windows with the lower cost (those windows restart every second).  The lead is b1: the
+    dead zone profiled beside it reaches the floor at 0.2690 V and 0.12101 (diagnose: both named, explained)."""
+    kv = {"fits": [
+        {"name": "Mg", "value": 0.2477, "table": 0.32, "cost": 2.2e5, "stage": "shooting",
+         "over_noise": {"alpha": 2.52, "beta": 1.01}},
+        {"name": "b1", "value": 0.12097, "table": 0.0924, "cost": 7.2e5, "stage": "windows",
+         "over_noise": {"alpha": 1.37, "beta": 4.70}},
+        {"name": "Kg", "value": 0.0091, "table": 0.05, "cost": 9.4e5, "stage": "shooting",
+         "over_noise": {"alpha": 5.49, "beta": 1.01}}]}
+    assert compound.lead_of(kv, "shifted_dead_zone:pitch")["name"] == "b1"
+    # no refit reached the shooting floor: the lowest cost leads when it is near the floor, else none does
+    shooting = [{**f, "stage": "shooting"} for f in kv["fits"]]
+    assert compound.lead_of({"fits": shooting}, "shifted_dead_zone:pitch") is None
+    near = [{**shooting[0], "over_noise": {"alpha": 1.5, "beta": 1.0}}] + shooting[1:]
+    assert compound.lead_of({"fits": near}, "shifted_dead_zone:pitch")["name"] == "Mg"
