@@ -764,7 +764,11 @@ def test_a_seed_model_as_good_as_the_black_box_on_a_smoothed_log_is_consistent_w
     for axis in ({"adequate": False, "floor_used": "black_box"}, {"adequate": None, "floor_used": "noise"}):
         seed["axes"]["yaw"] = axis
         seed["adequate"] = axis["adequate"]
-        assert verdict_of(log, seed, [], {"pitch": 99.0, "yaw": 99.0}, {}, None)[0] == "unexplained"
+        verdict, sentence = verdict_of(log, seed, [], {"pitch": 99.0, "yaw": 99.0}, {}, None)
+        assert verdict == "unexplained"
+        # nothing found alone does not tell physics outside the library from several differences at once
+        assert sentence.startswith("no effect in the library improves the fit alone: the mismatch is physics "
+                                   "outside the library, or more than one difference at once")
 
 
 def test_the_output_error_check_decides_the_verdict_when_it_can_carry_the_findings():
