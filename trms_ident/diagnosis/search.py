@@ -238,8 +238,8 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
                         oe_values[best["c"].key] = best["value"]
                 elif failed:
                     # a saturation whose fit alone fails may be one of a pair: both motors' fitted together
-                    both = None if single else _both_saturations(run, best, current, reg_now, score_now,
-                                                                          oe_values, excluded)
+                    both = None if single else _both_saturations(run, best, current, reg_now, score_now, oe_values,
+                                                                  excluded)
                     if both is None:
                         refused.append({"effect": best["c"].effect, "axis": best["c"].axis,
                                         "parameter": best["value"], "reason": f"in round {round_i + 1}, {failed}"})

@@ -90,7 +90,7 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None, exclude
                 return _refitted(d, log, pp, law, est, start, found)
 
             # each finding estimated under, its known-value search run with it in: also when every value refitted
-            # alone wandered off, which the other difference's misfit can cause (a yaw dead zone beside Mg 23 %
+            # alone wandered off, which the other difference's misfit can cause (a yaw dead zone beside Mg 21 %
             # high: each refit alone ran off, Mg under the dead zone reaches the floor)
             both, tried = together(d, log, p, law, overrides, refit)
             if both is not None:
