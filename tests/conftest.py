@@ -23,7 +23,7 @@ SLOW = {
     "test_both_motors.py::test_when_neither_motors_saturation_passes_alone_the_pair_is_judged_each_given_the_other": 125,
     "test_diagnose.py::test_two_effects_are_both_named": 17,
     # diagnosed_model.py's seed 23, a whole diagnose (the exported interval; the widening itself: the fast tests
-    # of a held value's interval above)
+    # of a held value's interval above); a strict xfail since 5 Dec 2026 (its reason says which defect)
     "test_bench_file.py::test_a_modification_moved_by_a_known_values_refit_is_exported_with_its_interval_and_jb_"
     "cover": 351,
     "test_sparse_correction.py::test_cli_reports_the_correction_in_words_and_json": 180,
@@ -32,8 +32,8 @@ SLOW = {
     "published_values[Data100_ea_a0]": 147,
     "test_real_recordings.py::test_diagnose_on_real_ce150_recordings_under_table_1_is_honest[Data100_ea_a0]": 156,
     "test_diagnose.py::test_an_input_modification_is_fitted_again_given_the_later_findings": 269,
-    # 832 s alone at 760f54f (1 Dec 2026), 965 s in -m slow (2 Dec 2026); 112 s when listed: xfail, a known defect
-    # of #47 (its reason says which)
+    # 832 s alone at 760f54f (1 Dec 2026), 965 s in -m slow (2 Dec 2026); about 205 s alone on 5 Dec 2026, when it
+    # passes (no longer an xfail: the test's comment says what changed)
     "test_sparse_correction.py::test_outside_the_library_is_described_and_raises_the_fit": 965,
     "test_known_values.py::test_the_known_value_wins_over_effects_that_need_more_parameters": 63,
     "test_diagnose.py::test_a_rugged_dead_zone_profile_is_scanned_and_a_wrong_width_is_never_called_explained": 321,
