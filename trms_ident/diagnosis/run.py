@@ -136,13 +136,14 @@ def _without_stand_ins(d: Diagnosis, outside: list[dict]) -> Diagnosis:
 def _without_inert(d: Diagnosis, log: Log, p: dict, law: str) -> Diagnosis:
     """The diagnosis without the input-modification findings that change their motor's thrust torque by less than
     oe.MIN_MODIFICATION_SHARE of its RMS (oe.modification_torque_share), whichever step placed them, when the model
-    without them fits the log as well (inert_fit_kept): a value that acts on no sample that matters describes no
+    without them fits the log as well (fit_without): a value that acts on no sample that matters describes no
     bench (measured: a 6.3e-7 V main-motor dead zone named beside a right 0.878 V saturation, "explained").  The fit
     without them is measured, not assumed: a small share of a large thrust can be most of what moves an axis that
     thrust and reaction hold nearly balanced (measured: a 0.42 s second lag of the CE150's tail motor on its
     elevation ramp, 0.00099 of the thrust's RMS, brings the yaw from 25 000x its floor to it; refusing it had made
-    the verdict "consistent", the seed model's yaw fit 10 %).  The verdict stands; a log explained by such findings
-    alone is then fitted by the model without them: consistent."""
+    the verdict "consistent", the seed model's yaw fit 10 %).  The verdict stands while findings are left; with none
+    left it is the model's without them: consistent when that reaches the floors, else unexplained."""
+    from ..numerics.adequacy import RMS_OVER_NOISE
     from .oe import MIN_MODIFICATION_SHARE, modification_torque_share, profiled
 
     inert = []
@@ -157,7 +158,8 @@ def _without_inert(d: Diagnosis, log: Log, p: dict, law: str) -> Diagnosis:
         return d
     gone = {id(f) for f, _ in inert}
     kept = [f for f in d.findings if id(f) not in gone]
-    if not inert_fit_kept(d, kept, log, p, law):
+    after = fit_without(d, kept, log, p, law)
+    if after is None:
         return d
     refused = [{"effect": f.effect, "axis": f.axis, "parameter": f.parameter["value"],
                 "reason": f"changes its motor's thrust torque by {share:.2g} of its RMS, below the practical size of "
@@ -165,23 +167,27 @@ def _without_inert(d: Diagnosis, log: Log, p: dict, law: str) -> Diagnosis:
                           "sample that matters"} for f, share in inert]
     keys = {f"{f.effect}:{f.axis}" for f, _ in inert}
     steps = [s for s in d.steps if s.get("key") not in keys]  # (the report draws a figure per finding's step)
-    if kept or d.verdict != "explained":
+    if kept or d.verdict in ("consistent", "unexplained"):
         return replace(d, findings=kept, steps=steps, refused=d.refused + refused)
-    return replace(d, findings=kept, steps=steps, verdict="consistent", verdict_sentence=VERDICTS["consistent"] + ".",
+    # no finding left: the verdict is the model's without them, as measured (a verdict of "partly explained" with
+    # no finding had reached the user: a wrong-width dead zone that fitted worse than none)
+    verdict = "consistent" if all(r <= RMS_OVER_NOISE for r in after.values()) else "unexplained"
+    return replace(d, findings=kept, steps=steps, verdict=verdict, verdict_sentence=VERDICTS[verdict] + ".",
                    refused=d.refused + refused)
 
 
 #: the model without a finding of no practical size fits "as well" when each angle's error RMS over its floor is at
 #: most this factor of the findings' model's, or within the verdict's threshold (adequacy.RMS_OVER_NOISE) where the
-#: findings' model was: the measured case is 1.000 to four digits (the 6.3e-7 V dead zone), the counter-case
-#: 25 000x against 0.0066x
+#: findings' model was (measured: the CE150's tail-motor lag kept, 25 000x without it against 0.0066x; a dead zone
+#: the grid left at a wrong width refused, 2.53x without it against 2.94x)
 INERT_FIT_RATIO = 1.01
 
 
-def inert_fit_kept(d: Diagnosis, kept: list, log: Log, p: dict, law: str) -> bool:
-    """Does the model of the findings ``kept`` fit the log as well as d's findings' model (INERT_FIT_RATIO)?  Both
-    by diagnose's output-error check (oe.Fitter.check: J/B, the torque terms and the start states refitted, the
-    floors the seed check says); False when either cannot be fitted (nothing is refused on an assumption)."""
+def fit_without(d: Diagnosis, kept: list, log: Log, p: dict, law: str) -> dict | None:
+    """The model of the findings ``kept``'s error RMS over the floors (angle -> ratio) when it fits the log as well
+    as d's findings' model (INERT_FIT_RATIO), else None.  Both by diagnose's output-error check (oe.Fitter.check:
+    J/B, the torque terms and the start states refitted, the floors the seed check says); None when either cannot
+    be fitted (nothing is refused on an assumption)."""
     from ..numerics.adequacy import RMS_OVER_NOISE
     from .held_out import final_model
     from .oe import Fitter
@@ -195,9 +201,10 @@ def inert_fit_kept(d: Diagnosis, kept: list, log: Log, p: dict, law: str) -> boo
     with np.errstate(all="ignore"):
         before, after = ratios(d.findings), ratios(kept)
     if before is None or after is None:
-        return False
-    return all(after[a] <= max(INERT_FIT_RATIO * before[a], RMS_OVER_NOISE if before[a] <= RMS_OVER_NOISE else 0.0)
-               for a in before)
+        return None
+    as_well = all(after[a] <= max(INERT_FIT_RATIO * before[a], RMS_OVER_NOISE if before[a] <= RMS_OVER_NOISE else 0.0)
+                  for a in before)
+    return dict(after) if as_well else None
 
 
 #: diagnose runs its search again without the effects whose model simulated an axis worse on held-out samples
