@@ -47,7 +47,7 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
             if outside and attempt < HELD_OUT_RERUNS:
                 gated += outside
                 continue
-            d = _backward(_without_inert(_without_stand_ins(d, outside), log, p, law), log, p, law)
+            d = _without_inert(_without_stand_ins(d, outside), log, p, law)
             progress("held-out simulation fits", 0.97)
             h = held_out.held_out_fits(d, log, p, law)
             refuse = held_out.lowering(d.findings, h)
@@ -185,68 +185,26 @@ INERT_FIT_RATIO = 1.01
 
 def fit_without(d: Diagnosis, kept: list, log: Log, p: dict, law: str) -> dict | None:
     """The model of the findings ``kept``'s error RMS over the floors (angle -> ratio) when it fits the log as well
-    as d's findings' model (INERT_FIT_RATIO), else None.  Both by diagnose's output-error check (check_ratios); None
-    when either cannot be fitted (nothing is refused on an assumption)."""
+    as d's findings' model (INERT_FIT_RATIO), else None.  Both by diagnose's output-error check (oe.Fitter.check:
+    J/B, the torque terms and the start states refitted, the floors the seed check says); None when either cannot
+    be fitted (nothing is refused on an assumption)."""
     from ..numerics.adequacy import RMS_OVER_NOISE
+    from .held_out import final_model
+    from .oe import Fitter
+    from .trials import jb_start
 
-    before, after = check_ratios(d, d.findings, log, p, law), check_ratios(d, kept, log, p, law)
+    def ratios(findings):
+        model, values, changes = final_model(findings, p)
+        fitter = Fitter(log, {**p, **changes}, law, check=d.seed_check or None)
+        return fitter.check(model, values, jb_start(d.augmented or d.nominal, p))
+
+    with np.errstate(all="ignore"):
+        before, after = ratios(d.findings), ratios(kept)
     if before is None or after is None:
         return None
     as_well = all(after[a] <= max(INERT_FIT_RATIO * before[a], RMS_OVER_NOISE if before[a] <= RMS_OVER_NOISE else 0.0)
                   for a in before)
     return dict(after) if as_well else None
-
-
-def check_ratios(d: Diagnosis, findings: list, log: Log, p: dict, law: str) -> dict | None:
-    """The model of ``findings`` (held_out.final_model) checked as diagnose checks its findings' model (oe.Fitter.check:
-    J/B, the torque terms and the start states refitted from d's J/B, the floors d's seed check says): angle -> error
-    RMS over its floor; None when it cannot be fitted."""
-    from .held_out import final_model
-    from .oe import Fitter
-    from .trials import jb_start
-
-    model, values, changes = final_model(findings, p)
-    fitter = Fitter(log, {**p, **changes}, law, check=d.seed_check or None)
-    with np.errstate(all="ignore"):
-        got = fitter.check(model, values, jb_start(d.augmented or d.nominal, p))
-    return None if got is None else dict(got)
-
-
-def _backward(d: Diagnosis, log: Log, p: dict, law: str) -> Diagnosis:
-    """The backward step of the rule (the simplest set that reaches the floors wins): on an explained log, an
-    effect finding the others reach the noise floors without (each angle within adequacy.RMS_OVER_NOISE, by the
-    output-error check) is not needed and is refused; the one whose removal leaves the angles nearest their floors
-    first, then again on what is left.  The rounds add a finding while the earlier ones' values are not yet placed;
-    once they are, a finding added for what their values left can be unnecessary (measured: a 1.32 s pitch motor
-    lag and a yaw drag, with a 0.008 V shifted pitch dead zone added in a round between them: without it both angles
-    at 1.05-1.06x their floors).  Known values are weighed by their own rule (weigh.py) and never dropped here."""
-    from ..numerics.adequacy import RMS_OVER_NOISE
-
-    if d.verdict != "explained" or len(d.findings) < 2:
-        return d
-    findings, refused = list(d.findings), []
-    while len(findings) >= 2:
-        best = None
-        for f in findings:
-            if f.effect == "known_value":
-                continue
-            r = check_ratios(d, [g for g in findings if g is not f], log, p, law)
-            if r is not None and all(v <= RMS_OVER_NOISE for v in r.values()) and (
-                    best is None or max(r.values()) < max(best[1].values())):
-                best = (f, r)
-        if best is None:
-            break
-        f, r = best
-        findings = [g for g in findings if g is not f]
-        told = ", ".join(f"{a} {v:.3g}x" for a, v in r.items())
-        refused.append({"effect": f.effect, "axis": f.axis, "parameter": f.parameter["value"],
-                        "reason": f"not needed: the other findings bring the angles to their noise floors without it "
-                                  f"({told} the floor, by the output-error check)"})
-    if not refused:
-        return d
-    keys = {f"{g['effect']}:{g['axis']}" for g in refused}
-    return replace(d, findings=findings, steps=[s for s in d.steps if s.get("key") not in keys],
-                   refused=d.refused + refused)
 
 
 #: diagnose runs its search again without the effects whose model simulated an axis worse on held-out samples
