@@ -913,6 +913,7 @@ def test_a_small_modification_the_fit_needs_is_kept_and_a_log_it_explains_is_nev
     from dataclasses import replace
 
     from trms_ident.diagnosis import oe
+    from trms_ident.diagnosis.result import VERDICTS
     from trms_ident.diagnosis.run import _without_inert
     from trms_ident.log import validated
     from trms_ident.params import merge
@@ -926,7 +927,11 @@ def test_a_small_modification_the_fit_needs_is_kept_and_a_log_it_explains_is_nev
         t, u1, u2, a, b = textbook.simulate_log(20.0, 100.0, seed=3, dead_zone_v=dead_zone_v)
         log = validated(t, u1, u2, a, b, source="textbook", angle_unit="rad")
         for verdict in ("explained", "partly_explained"):
-            out = _without_inert(replace(_diagnosis([zone]), verdict=verdict), log, merge({}), "quadratic")
-            # refused, the verdict is the model's without it: the clean log's seed model reaches its floors
-            assert (out.findings == [zone] and out.verdict == verdict) if kept else \
-                (out.findings == [] and out.verdict == "consistent"), (dead_zone_v, verdict)
+            said = VERDICTS[verdict] + ". What the rule said."
+            out = _without_inert(replace(_diagnosis([zone]), verdict=verdict, verdict_sentence=said), log, merge({}),
+                                 "quadratic")
+            # refused, the verdict is the model's without it: the clean log's seed model reaches its floors; the
+            # verdict's words swapped, the rest kept
+            assert (out.findings == [zone] and out.verdict == verdict and out.verdict_sentence == said) if kept else \
+                (out.findings == [] and out.verdict == "consistent" and
+                 out.verdict_sentence == VERDICTS["consistent"] + ". What the rule said."), (dead_zone_v, verdict)
