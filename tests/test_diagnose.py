@@ -930,8 +930,18 @@ def test_a_small_modification_the_fit_needs_is_kept_and_a_log_it_explains_is_nev
             said = VERDICTS[verdict] + ". What the rule said."
             out = _without_inert(replace(_diagnosis([zone]), verdict=verdict, verdict_sentence=said), log, merge({}),
                                  "quadratic")
-            # refused, the verdict is the model's without it: the clean log's seed model reaches its floors; the
-            # verdict's words swapped, the rest kept
+            # refused, the verdict is the model's without it: the clean log's seed model reaches its floors, and
+            # nothing of the findings' words stays
             assert (out.findings == [zone] and out.verdict == verdict and out.verdict_sentence == said) if kept else \
                 (out.findings == [] and out.verdict == "consistent" and
-                 out.verdict_sentence == VERDICTS["consistent"] + ". What the rule said."), (dead_zone_v, verdict)
+                 out.verdict_sentence == VERDICTS["consistent"] + "."), (dead_zone_v, verdict)
+    # a finding that changes nothing on a log the model without it leaves above its floors (its yaw dead zone not
+    # found): unexplained, what the rule said after the verdict kept
+    t, u1, u2, a, b = textbook.simulate_log(20.0, 100.0, seed=3, dead_zone_v=(0.0, 0.25))
+    log = validated(t, u1, u2, a, b, source="textbook", angle_unit="rad")
+    tiny = _finding("shifted_dead_zone", "pitch", "w", 1e-6)
+    said = VERDICTS["partly_explained"] + ". Refitted alone, every known value ran off."
+    out = _without_inert(replace(_diagnosis([tiny]), verdict="partly_explained", verdict_sentence=said), log,
+                         merge({}), "quadratic")
+    assert out.findings == [] and out.verdict == "unexplained"
+    assert out.verdict_sentence == VERDICTS["unexplained"] + ". Refitted alone, every known value ran off."

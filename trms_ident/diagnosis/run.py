@@ -172,9 +172,11 @@ def _without_inert(d: Diagnosis, log: Log, p: dict, law: str) -> Diagnosis:
     # no finding left: the verdict is the model's without them, as measured (a verdict of "partly explained" with
     # no finding had reached the user: a wrong-width dead zone that fitted worse than none)
     verdict = "consistent" if all(r <= RMS_OVER_NOISE for r in after.values()) else "unexplained"
-    said = d.verdict_sentence  # the verdict's words swapped, what the search and the rule said after them kept
-    sentence = VERDICTS[verdict] + (said[len(VERDICTS[d.verdict]):] if said.startswith(VERDICTS[d.verdict])
-                                    else ".")
+    # unexplained: the verdict's words swapped, what the search and the rule said after them kept (the known values
+    # tried); consistent: nothing of the findings' model's words applies
+    said = d.verdict_sentence
+    sentence = VERDICTS[verdict] + (said[len(VERDICTS[d.verdict]):] if verdict == "unexplained" and
+                                    said.startswith(VERDICTS[d.verdict]) else ".")
     return replace(d, findings=kept, steps=steps, verdict=verdict, verdict_sentence=sentence,
                    refused=d.refused + refused)
 
