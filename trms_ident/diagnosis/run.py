@@ -198,10 +198,14 @@ def fit_without(d: Diagnosis, kept: list, log: Log, p: dict, law: str) -> dict |
     from .oe import Fitter
     from .trials import jb_start
 
+    # one fitter for both: ``kept`` differs from d's findings by input modifications only, so the known values the
+    # findings change (final_model's third part) are the same, and the fitter's floors are measured once
+    fitter = Fitter(log, {**p, **final_model(kept, p)[2]}, law, check=d.seed_check or None)
+    theta0 = jb_start(d.augmented or d.nominal, p)
+
     def ratios(findings):
-        model, values, changes = final_model(findings, p)
-        fitter = Fitter(log, {**p, **changes}, law, check=d.seed_check or None)
-        return fitter.check(model, values, jb_start(d.augmented or d.nominal, p))
+        model, values, _ = final_model(findings, p)
+        return fitter.check(model, values, theta0)
 
     with np.errstate(all="ignore"):
         before, after = ratios(d.findings), ratios(kept)
