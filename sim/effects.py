@@ -62,6 +62,13 @@ I_SENSOR_LAG = 18
 I_SHIFTED_DEADZONE = (19, 20)
 N_EFFECT_SLOTS = 21
 AXIS_INDEX = {"pitch": 0, "yaw": 1}
+#: a term (physics outside the library: c x a product of the plant's signals on one axis, trms_ident/model/terms.py's
+#: grammar) follows the effect slots: the count at N_EFFECT_SLOTS, then per term its axis (0 pitch, 1 yaw), c, and
+#: TERM_FACTORS codes of its factors (0: none), evaluated by the kernel from its own true states (plant._factor)
+TERM_FACTORS = {"1": 0, "alpha": 1, "beta": 2, "sin(alpha)": 3, "cos(alpha)": 4, "alpha'": 5, "beta'": 6, "|alpha'|": 7,
+                "|beta'|": 8, "sign(alpha')": 9, "sign(beta')": 10, "tau1": 11, "tau2": 12, "M1": 13, "M2": 14,
+                "MR": 15, "u1": 16, "u2": 17}
+TERM_SLOTS = 5  # axis, c, three factor codes
 
 
 def pack(effects: list[dict]) -> list[float]:
@@ -71,8 +78,11 @@ def pack(effects: list[dict]) -> list[float]:
     """
     vec = [0.0] * N_EFFECT_SLOTS
     vec[I_SAT[0]] = vec[I_SAT[1]] = float("inf")
+    terms = [spec for spec in effects if spec.get("effect") == "term"]
     for spec in effects:
         name, value = spec["effect"], float(spec["value"])
+        if name == "term":
+            continue
         if name not in EFFECTS:
             raise ValueError(f"unknown effect {name!r}; expected one of {', '.join(EFFECTS)}")
         axis = spec.get("axis", EFFECTS[name].axes[0])
@@ -108,4 +118,23 @@ def pack(effects: list[dict]) -> list[float]:
             if value < 0:
                 raise ValueError("input_delay must be >= 0 s")
             vec[I_DELAY] = value
+    if terms:
+        vec.append(float(len(terms)))
+        for spec in terms:
+            vec += _term_slots(spec)
     return vec
+
+
+def _term_slots(spec: dict) -> list[float]:
+    """A term {"effect": "term", "axis", "product": 'M1*sin(alpha)', "value": c} as its kernel slots."""
+    from trms_ident.model.terms import TermError, parse_product
+
+    axis = spec.get("axis")
+    if axis not in AXIS_INDEX:
+        raise ValueError(f"a term acts on pitch or yaw, not {axis!r}")
+    try:
+        factors = parse_product(spec.get("product", ""))
+    except TermError as exc:
+        raise ValueError(f"term: {exc}") from None
+    codes = [float(TERM_FACTORS[f]) for f in factors] + [0.0] * (TERM_SLOTS - 2 - len(factors))
+    return [float(AXIS_INDEX[axis]), float(spec["value"])] + codes

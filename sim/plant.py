@@ -41,6 +41,46 @@ def _deadzone_sat(u, w, big_u, shift=0.0):
 
 
 @njit(cache=True)
+def _factor(code, al, dal, be, dbe, tau1, tau2, M1, M2, MR, u1, u2):
+    """A term's factor (sim.effects.TERM_FACTORS) from the true states; 1 for code 0 (no factor)."""
+    if code == 1:
+        return al
+    if code == 2:
+        return be
+    if code == 3:
+        return math.sin(al)
+    if code == 4:
+        return math.cos(al)
+    if code == 5:
+        return dal
+    if code == 6:
+        return dbe
+    if code == 7:
+        return abs(dal)
+    if code == 8:
+        return abs(dbe)
+    if code == 9:
+        return math.tanh(dal / OMEGA_SMOOTH)
+    if code == 10:
+        return math.tanh(dbe / OMEGA_SMOOTH)
+    if code == 11:
+        return tau1
+    if code == 12:
+        return tau2
+    if code == 13:
+        return M1
+    if code == 14:
+        return M2
+    if code == 15:
+        return MR
+    if code == 16:
+        return u1
+    if code == 17:
+        return u2
+    return 1.0
+
+
+@njit(cache=True)
 def _deriv(x, u1, u2, p, law, fx, dx):
     J1, B1, J2, B2 = p[0], p[1], p[2], p[3]
     a1, b1, a2, b2, Mg, Kg = p[4], p[5], p[6], p[7], p[8], p[9]
@@ -56,6 +96,16 @@ def _deriv(x, u1, u2, p, law, fx, dx):
     MR = kc * (T0 / Tp * tau1 + (1.0 - T0 / Tp) * zeta)
     extra1 = -fx[0] * math.tanh(dal / OMEGA_SMOOTH) - fx[2] * dal * abs(dal)
     extra2 = -fx[1] * math.tanh(dbe / OMEGA_SMOOTH) - fx[3] * dbe * abs(dbe) - fx[4] * be
+    if fx.size > 21:  # terms (sim.effects.TERM_FACTORS): c x the product of up to three factors on one axis
+        for i in range(int(fx[21])):
+            b = 22 + 5 * i
+            v = fx[b + 1]
+            for j in range(3):
+                v *= _factor(int(fx[b + 2 + j]), al, dal, be, dbe, tau1, tau2, M1, M2, MR, u1, u2)
+            if fx[b] == 0.0:
+                extra1 += v
+            else:
+                extra2 += v
     # pitch-dependent yaw inertia J(alpha) = J2 - dJ sin^2(alpha) (Lagrange: kinetic energy J(alpha) beta'^2 / 2):
     # pitch gains J'(alpha) beta'^2 / 2 = -dJ sin cos beta'^2, yaw d/dt(J beta') = J beta'' + J'(alpha) alpha' beta'
     dj = fx[15]

@@ -161,8 +161,9 @@ TimeUnitOpt = Annotated[str, typer.Option("--time-unit", help="Unit of CSV time 
                                           "step: <= 0.15 s, ms up to 150, else us; said on stderr), s, ms or us.")]
 FreeOpt = Annotated[str, typer.Option("--free", help="Known values to estimate with J/B by the refinement, e.g. "
                                       "Mg,kc (started from the table or --params), and effects of the bench file's "
-                                      "[effects], e.g. cable_stiffness:yaw (an input modification by a profile); "
-                                      "results in refined.known_values_estimated.")]
+                                      "[effects], e.g. cable_stiffness:yaw (an input modification by a profile), "
+                                      "or its [terms], e.g. 'pitch: M1 * sin(alpha)'; results in "
+                                      "refined.known_values_estimated.")]
 StrictOpt = Annotated[bool, typer.Option("--strict", help="Exit with code 10 when the model does not fit the log "
                                           "(model_check.adequate false), 11 when that is not decided (adequate "
                                           "null: the fit did not converge, or the log's noise floor cannot be "
@@ -202,9 +203,19 @@ def build_settings(a: str, b: str, gain_convention: str, gamma: str, settle: flo
     settings = Settings(filter_a_rad_s=parse_auto("--a", a), filter_b_rad_s=parse_auto("--b", b),
                         gain_convention=gain_convention, gamma=parse_gamma(gamma), settle_time_s=settle,
                         thrust_law=thrust_law, headline=headline, refine=refine,
-                        free=tuple(x.strip() for x in free.split(",") if x.strip()), **bench_settings(params))
+                        free=free_keys(free), **bench_settings(params))
     settings.validate()
     return settings
+
+
+def free_keys(free: str) -> tuple:
+    """--free's comma-separated names, a bench file's term ('pitch: M1 * sin(alpha)') as the model room's key."""
+    from .model.bench import BenchEffectError, free_key
+
+    try:
+        return tuple(free_key(x.strip()) for x in free.split(",") if x.strip())
+    except BenchEffectError as exc:
+        raise SettingsError(f"--free {exc}") from None
 
 
 def stage_reporter(label: str):
@@ -379,8 +390,10 @@ def _say_estimate(res, log: Path, json_path: str | None, strict: bool) -> None:
         if tv:
             line += f"   truth {tv['values'][k]:.6g}, error {tv['error_percent'][k]:+.3f} %"
         say(line)
+    from .model.bench import shown
+
     for k, v in ((s.get("refined") or {}).get("known_values_estimated") or {}).items():
-        say(f"  {k} = {v['estimate']:<11.6g} {unit_of(k):<10} 95 % {interval_text(*v['ci95'], v['estimate'])}   "
+        say(f"  {shown(k)} = {v['estimate']:<11.6g} {unit_of(k):<10} 95 % {interval_text(*v['ci95'], v['estimate'])}   "
             f"(estimated with --free; given {v['table_or_file_value']:.6g})" + (
                 f"; at the edge of its search, {PROFILE_SPAN:g}x the value given: give a closer one"
                 if v.get("at_search_edge") else ""))
@@ -536,14 +549,19 @@ def diagnose(
         data = with_inputs_unit(data, parameter_file_inputs_unit(params))
     for note in data.meta.get("assumed", {}).values():
         say(f"note: {note}")
-    from .model.bench import TORQUE_KEYS
+    from .model.bench import TORQUE_KEYS, is_term
     from .params import parameter_file_effects
 
-    torques = [e.key for e in parameter_file_effects(params) if e.key in TORQUE_KEYS] if params else []
+    held = parameter_file_effects(params) if params else ()
+    torques = [e.key for e in held if e.key in TORQUE_KEYS]
     if torques:
         say(f"note: {params} holds torque effects ({', '.join(torques)}), which diagnose does not take as given: it "
             "starts without them and searches the whole library, those included (its input modifications it takes "
             "as given)")
+    terms = [e.phrase() for e in held if is_term(e.key)]
+    if terms:
+        say(f"note: {params} holds terms outside the library ({'; '.join(terms)}), which diagnose does not take as "
+            "given: it starts without them (what the library leaves, it describes again as a correction)")
     if progress:
         sys.stderr.write("\r\033[K")
     with progress_bar(str(log)) as advance:  # a bar on a terminal, nothing when stderr is piped
@@ -1005,7 +1023,9 @@ def export(
     if missing:
         header.append(f"not identifiable from that log, left out: {', '.join(missing)}")
     if freed:
-        header.append(f"estimated with --free: {', '.join(freed)}")
+        from .model.bench import shown
+
+        header.append(f"estimated with --free: {', '.join(map(shown, freed))}")
     from .model.bench import BenchEffectError, parse_effect
     from .model.structure import parse_structure
 

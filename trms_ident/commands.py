@@ -65,13 +65,14 @@ def bench_from_diagnosis(path: Path) -> dict | None:
     """The bench file ``export`` writes from a diagnosis.json of diagnose, or None when the file is not one:
     {"known": the known values given with the known-value findings' refits, "sources": name -> where from,
     "intervals": name -> the 95 % interval of a known value refitted with the findings,
-    "effects": the findings as model.bench.BenchEffect, "identified": J/B of the findings' model, "header",
+    "effects": the findings as model.bench.BenchEffect (and the terms of its corrections), "identified": J/B of the findings' model, "header",
     "warnings": what cannot go into the file or does not hold}.  One-line errors naming the file."""
     import json
     from dataclasses import replace
 
     from .errors import LogFormatError
-    from .model.bench import BenchEffect, from_findings
+    from .model import effects as room
+    from .model.bench import BenchEffect, BenchEffectError, from_findings, parse_effect
 
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
@@ -111,9 +112,27 @@ def bench_from_diagnosis(path: Path) -> dict | None:
     except (KeyError, TypeError, AttributeError) as exc:
         raise LogFormatError(f"{path}: a diagnosis.json, but not one this version can export (missing {exc}); "
                              "run trms-ident diagnose again") from None
-    if doc.get("corrections"):
-        warnings.append("outside the library: " + "; ".join(c["sentence"] for c in doc["corrections"]) +
-                        " (a description, not a model: not in the file)")
+    carried = []
+    for c in doc.get("corrections") or []:  # physics outside the library: its terms go into [terms]
+        for t in c.get("terms") or []:
+            if not t.get("key"):  # a diagnosis.json written before terms had keys
+                warnings.append(f"outside the library: {t['sentence']} (written before terms could be carried: run "
+                                "diagnose again to have it in the file)")
+                continue
+            try:
+                e = parse_effect(t["key"], {room.by_key(t["key"]).parameter: t["coefficient"],
+                                            "from": f"the equation error's correction by {where}"})
+            except (BenchEffectError, AttributeError) as exc:
+                warnings.append(f"outside the library: {t['sentence']}; left out ({exc})")
+                continue
+            if e.key in {x.key for x in effects}:
+                warnings.append(f"outside the library: {t['sentence']}; left out ({e.key} is a finding already)")
+                continue
+            effects.append(e)
+            carried.append(e.phrase())
+    if carried:
+        warnings.append("outside the library, carried as the equation error's correction found it (J/B not refitted "
+                        "with it; estimate --params with --free on it refits its value): " + "; ".join(carried))
     if together.get("adequate") is False and verdict in ("explained", "consistent"):
         warnings.append("the findings' model fitted as one (estimates.with_findings) does not fit the log: estimate "
                         "under this file will say so")
@@ -216,7 +235,7 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
     from .errors import InputNotFoundError, LogFormatError, ParameterFileError, SettingsError
     from .io.atomic import write_text
     from .io.reference import write_reference
-    from .model.bench import BenchEffect, describe
+    from .model.bench import BenchEffect, describe, is_term
     from .params import ESTIMATED, load_parameter_file, merge, parameter_file_effects, refuse_structure
     from .report.design import design_doc, render
 
@@ -260,6 +279,11 @@ def design_files(duration_s: float, rate_hz: float, limits, output: Path, *, noi
         refuse_structure(params, "design")
         overrides = load_parameter_file(params, allow_estimated=True) if params else {}
         bench = {e.key: e.value for e in parameter_file_effects(params)} if params else {}
+    terms = [k for k in bench if is_term(k)]
+    if terms:  # design's information runs through the kernel's effect slots, which hold no term (model/terms.py)
+        raise SettingsError(f"{from_result or params}: the bench has terms outside the effect library "
+                            f"({', '.join(BenchEffect(k, bench[k]).phrase() for k in terms)}), which design does not "
+                            "model yet; design for the bench without them (a copy of the file without [terms])")
     told = None
     if discriminate is not None:
         ddoc, truth, rivals, skipped, jb = read_diagnosis(Path(discriminate))

@@ -153,18 +153,35 @@ def refined_free(settings: Settings) -> tuple:
     return tuple(k for k in settings.free if k not in MODIFICATION_KEYS or k in NATIVE_FREE_KEYS)
 
 
-def model_kw(settings: Settings, values: dict | None = None) -> dict:
+def model_kw(settings: Settings, values: dict | None = None, log: Log | None = None, params: dict | None = None,
+             n: int | None = None) -> dict:
     """refine's ``effects``: the bench's torque effects at their values (``values``: freed ones' estimates in
     their place), the modifications the kernel integrates (model.bench.KERNEL_KEYS, and the saturations freed:
     NATIVE_FREE_KEYS, on voltages from under_model(..., kernel=True, free=settings.free)) and the bench's structure
-    (model.structure.slot_values); empty under eq. (1) alone."""
-    from .model.bench import TORQUE_KEYS, inside_fit
+    (model.structure.slot_values); empty under eq. (1) alone.  With the bench's terms (model/terms.py) and ``log``
+    (the refinement's, its first ``n`` samples) and ``params``, refine's ``torques`` too: each term's torque per
+    unit c from the log's angles, smoothed rates and the motor states its voltages drive (term_torques)."""
+    from .model.bench import inside_fit, is_term, is_torque
     from .model.structure import slot_values
 
-    inside = TORQUE_KEYS + inside_fit(settings.free)
-    effects = {k: (values or {}).get(k, v) for k, v in settings.effects.items() if k in inside}
+    inside = inside_fit(settings.free)
+    effects = {k: (values or {}).get(k, v) for k, v in settings.effects.items() if is_torque(k) or k in inside}
     effects.update(slot_values(settings.structure))
-    return {"effects": effects} if effects else {}
+    out = {"effects": effects} if effects else {}
+    terms = tuple(k for k in settings.effects if is_term(k))
+    if terms and log is not None:
+        out["torques"] = term_torques(log, params, settings.thrust_law, terms, n)
+    return out
+
+
+def term_torques(log: Log, params: dict, law: str, keys: tuple, n: int | None = None) -> dict:
+    """key -> (n, 2) torque per unit c [N m / unit] on pitch and yaw of each term ``keys`` names (model/terms.py), on
+    the first ``n`` samples of ``log``: the signals of the whole log (its smoothed rates, the motor states its
+    voltages drive under ``params``; diagnosis.oe.unit_torques), cut after."""
+    from .diagnosis.oe import unit_torques
+
+    n = len(log) if n is None else n
+    return {k: np.ascontiguousarray(t[:n]) for k, t in unit_torques(log, params, law, keys).items()}
 
 
 def timing(log: Log, n: int | None = None) -> dict:
@@ -425,7 +442,8 @@ def refine_first(log: Log, n: int, params: dict, settings: Settings, start: dict
     """The refinement on the log's first n samples, with its stamps and voltage switch times; ``options``:
     refine's (window_s, start_states0)."""
     return refine(log.u1_v[:n], log.u2_v[:n], log.alpha_rad[:n], log.beta_rad[:n], log.sample_time_s, params,
-                  settings.thrust_law, start, noise, free=free, **model_kw(settings), **timing(log, n), **options)
+                  settings.thrust_law, start, noise, free=free, **model_kw(settings, log=log, params=params, n=n),
+                  **timing(log, n), **options)
 
 
 #: motor and reaction-lag start states at rest, a second way into the fit when the steady state of the first
@@ -653,7 +671,7 @@ def _with_rounding(log: Log, settings: Settings, params: dict, r: Refined, noise
         cov, _ = rounding_covariance(log.u1_v, log.u2_v, r.prediction, log.sample_time_s, {**params, **known},
                                      settings.thrust_law, r.estimate, noise, quantum, free=tuple(freed),
                                      start_states0=r.start_states, window_starts=r.fit.starts,
-                                     **model_kw(settings, freed),
+                                     **model_kw(settings, freed, log=log, params=params),
                                      **timing(log, len(log)))
     except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
         return r, "; the encoder's rounding spread could not be evaluated (intervals: batch means only)"

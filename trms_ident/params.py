@@ -61,9 +61,10 @@ def unit_of(name: str) -> str:
     """The unit of a parameter of the table or of an effect's parameter (its key, "cable_stiffness:yaw")."""
     if name in UNITS:
         return UNITS[name]
-    from .model.effects import BY_KEY
+    from .model.effects import BY_KEY, by_key
 
-    return BY_KEY[name].unit if name in BY_KEY else ""
+    c = BY_KEY.get(name) or by_key(name)  # the library as imported, or a term (model/terms.py)
+    return "" if c is None else c.unit
 
 
 def defaults() -> dict[str, float]:
@@ -214,7 +215,7 @@ def load_parameter_file(path: str | Path, allow_estimated: bool = False) -> dict
     if not isinstance(table, dict):
         raise ParameterFileError(f"{path}: [parameters] must be a table of name = value")
     overrides = {k: v for k, v in table.items()
-                 if k not in ("parameters", "identified", "units", "effects", "structure")}
+                 if k not in ("parameters", "identified", "units", "effects", "structure", "terms")}
     overrides = {k: _value_of(path, k, v) for k, v in overrides.items()}
     identified = raw.get("identified", {})  # an exported model's J/B: true values for the simulator only
     if allow_estimated and isinstance(identified, dict):
@@ -330,17 +331,21 @@ def _structure_of(path: Path, raw: dict) -> dict:
 
 
 def _effects_of(path: Path, raw: dict) -> tuple:
-    from .model.bench import BenchEffectError, parse_effects
+    """The [effects] table's entries, then the [terms] table's (model/terms.py), as model.bench.BenchEffect."""
+    from .model.bench import BenchEffectError, parse_effects, parse_terms
 
-    if "effects" not in raw:
-        return ()
-    try:
-        return parse_effects(raw["effects"])
-    except BenchEffectError as exc:
-        text = str(exc)
-        key = text.split('"')[1] if text.startswith('"') else None
-        line = _line_of(path, key) if key else _line_of(path, "[effects]")
-        raise ParameterFileError(f"{path}" + (f", line {line}" if line else "") + f": [effects] {text}") from None
+    out = ()
+    for table, parse in (("effects", parse_effects), ("terms", parse_terms)):
+        if table not in raw:
+            continue
+        try:
+            out += parse(raw[table])
+        except BenchEffectError as exc:
+            text = str(exc)
+            key = text.split('"')[1] if text.startswith('"') else None
+            line = _line_of(path, key) if key else _line_of(path, f"[{table}]")
+            raise ParameterFileError(f"{path}" + (f", line {line}" if line else "") + f": [{table}] {text}") from None
+    return out
 
 
 def _line_of(path: Path, needle: str) -> int | None:

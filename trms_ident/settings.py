@@ -61,14 +61,14 @@ class Settings:
             raise SettingsError(f"refine must be one of {REFINE_MODES}, got {self.refine!r}")
         if self.headline not in HEADLINES:
             raise SettingsError(f"headline must be one of {HEADLINES}, got {self.headline!r}")
-        from .model.bench import MODIFICATION_KEYS, TORQUE_KEYS, BenchEffectError, parse_effect
+        from .model.bench import MODIFICATION_KEYS, TORQUE_KEYS, BenchEffectError, is_term, is_torque, parse_effect
 
         for name in self.free:  # every known value can be freed (numerics.refine.FREEABLE; numba not loaded here)
             if name in MODIFICATION_KEYS and name in self.effects:
                 continue  # profiled over its value (model_profile.identify_with_profiles)
-            if name in TORQUE_KEYS and name in self.effects:
+            if is_torque(name) and name in self.effects:
                 continue  # estimated with J/B by the refinement, from the bench file's value
-            if name in TORQUE_KEYS + MODIFICATION_KEYS:
+            if name in TORQUE_KEYS + MODIFICATION_KEYS or is_term(name):
                 raise SettingsError(f"--free {name}: the model has no {name} (free an effect of the bench file's "
                                     "[effects]: " + (", ".join(self.effects) or "it has none") + ")")
             if name not in KNOWN:
@@ -85,7 +85,7 @@ class Settings:
                 parse_effect(key, value)
             except BenchEffectError as exc:
                 raise SettingsError(f"effects: {exc}") from None
-        torques = [k for k in self.effects if k in TORQUE_KEYS]
+        torques = [k for k in self.effects if is_torque(k)]
         if torques and self.refine == "off":
             raise SettingsError(f"--refine off with the bench file's {', '.join(torques)}: only the output-error "
                                 "refinement carries torque effects (DREM's regression is eq. (1)'s); drop --refine off")

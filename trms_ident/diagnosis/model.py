@@ -452,7 +452,7 @@ def _bound(cache: dict, keep: tuple) -> None:
 def state_signals(log: Log, ps, p: dict, cache: dict) -> dict:
     """Measured and reconstructed signals a torque is made of (effects.Candidate.torque, sparse.LIBRARY): angles
     [rad], rates smoothed as the candidates' [rad/s] (and the scale below which a rate's sign is noise), the
-    motor states and thrust torques [N m] of ``ps`` (plant_signals with rows="all")."""
+    motor states and thrust torques [N m] of ``ps`` (plant_signals with rows="all"), the logged voltages [V]."""
     dt = log.sample_time_s
     vel = {}
     for axis in ("pitch", "yaw"):
@@ -463,7 +463,7 @@ def state_signals(log: Log, ps, p: dict, cache: dict) -> dict:
     scale = {a: max(3.0 * float(np.median(np.abs(np.diff(v)))), 1e-4) for a, v in vel.items()}
     return {"alpha": log.alpha_rad, "beta": log.beta_rad, "dalpha": vel["pitch"], "dbeta": vel["yaw"],
             "scale_alpha": scale["pitch"], "scale_beta": scale["yaw"], "tau1": ps.tau1, "tau2": ps.tau2,
-            "M1": ps.M1_nm, "M2": ps.M2_nm, "MR": ps.MR_nm,
+            "M1": ps.M1_nm, "M2": ps.M2_nm, "MR": ps.MR_nm, "u1": log.u1_v, "u2": log.u2_v,
             "gyro_factor": 1.0 - p["Kg"] * vel["yaw"] * np.cos(log.alpha_rad)}
 
 

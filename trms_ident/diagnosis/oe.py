@@ -218,7 +218,7 @@ def unit_torques(log: Log, p: dict, law: str, keys, u1=None, u2=None, cache: dic
     u1 = log.u1_v if u1 is None else u1
     u2 = log.u2_v if u2 is None else u2
     ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, log.sample_time_s, p, law, rows="all")
-    sig = state_signals(log, ps, p, {} if cache is None else cache)
+    sig = {**state_signals(log, ps, p, {} if cache is None else cache), "u1": u1, "u2": u2}
     out = {}
     for k in keys:
         t = np.zeros((len(log), 2))

@@ -49,6 +49,10 @@ class Term:
     unit: str  # of the coefficient
     torque: Callable  # (signals dict) -> torque [N m] per unit coefficient, added to the axis' right-hand side
     words: Callable  # (coefficient, context dict) -> one sentence
+    #: the same torque as a bench file holds it: a term's product (model/terms.py: 'M1*beta'*cos(alpha)'), or the
+    #: library effect whose parameter it is ('thrust_asymmetry:pitch'); tests/test_sparse_correction.py checks that
+    #: the torques agree
+    carried: str = ""
 
 
 def _pct(x: float) -> str:
@@ -66,45 +70,61 @@ def _thrust_words(rotor: str, sign: str, axis: str, direction: str):
 
 LIBRARY: tuple[Term, ...] = (
     Term("constant", "pitch", "N m", lambda s: np.ones_like(s["alpha"]),
-         lambda c, ctx: f"a constant pitch torque of {c:+.3g} N m"),
+         lambda c, ctx: f"a constant pitch torque of {c:+.3g} N m",
+         carried='1'),
     Term("sin_alpha", "pitch", "N m", lambda s: np.sin(s["alpha"]),
          lambda c, ctx: f"the gravity moment is about {_pct(c / ctx['Mg'])} {'weaker' if c > 0 else 'stronger'} "
-                        "than the table's Mg sin(alpha)"),
+                        "than the table's Mg sin(alpha)",
+         carried='sin(alpha)'),
     Term("cos_alpha", "pitch", "N m", lambda s: np.cos(s["alpha"]),
          lambda c, ctx: f"a pitch torque of {c:+.3g} N m x cos(alpha), as a centre-of-mass offset of "
-                        f"{-c / ctx['Mg']:+.3g} rad would give"),
+                        f"{-c / ctx['Mg']:+.3g} rad would give",
+         carried='cos(alpha)'),
     Term("rate", "pitch", "N m s/rad", lambda s: s["dalpha"],
          lambda c, ctx: f"the pitch damping is {_pct(c / ctx['B1'])} {'lower' if c > 0 else 'higher'} than B1 "
-                        f"({-c:+.3g} N m s/rad)"),
+                        f"({-c:+.3g} N m s/rad)",
+         carried="alpha'"),
     Term("drag", "pitch", "N m s^2/rad^2", lambda s: s["dalpha"] * np.abs(s["dalpha"]),
-         lambda c, ctx: f"a pitch torque of {c:+.3g} N m s^2/rad^2 x alpha'|alpha'| (drag if negative)"),
+         lambda c, ctx: f"a pitch torque of {c:+.3g} N m s^2/rad^2 x alpha'|alpha'| (drag if negative)",
+         carried="alpha'*|alpha'|"),
     Term("sign", "pitch", "N m", lambda s: np.tanh(s["dalpha"] / s["scale_alpha"]),
          lambda c, ctx: f"a torque of {abs(c):.3g} N m {'against' if c < 0 else 'along'} the pitch motion that "
-                        "flips with its direction"),
+                        "flips with its direction",
+         carried="sign(alpha')"),
     Term("thrust_reverse", "pitch", "1", lambda s: np.where(s["tau1"] < 0, s["M1"], 0.0) * s["gyro_factor"],
-         _thrust_words("main", "u1 < 0", "pitch", "backwards")),
+         _thrust_words("main", "u1 < 0", "pitch", "backwards"),
+         carried='thrust_asymmetry:pitch'),
     Term("gyroscopic", "pitch", "1", lambda s: s["M1"] * s["dbeta"] * np.cos(s["alpha"]),
          lambda c, ctx: f"the gyroscopic coupling is about {_pct(c / ctx['Kg'])} {'weaker' if c > 0 else 'stronger'}"
-                        " than the table's Kg"),
+                        " than the table's Kg",
+         carried="M1*beta'*cos(alpha)"),
     Term("constant", "yaw", "N m", lambda s: np.ones_like(s["beta"]),
-         lambda c, ctx: f"a constant yaw torque of {c:+.3g} N m"),
+         lambda c, ctx: f"a constant yaw torque of {c:+.3g} N m",
+         carried='1'),
     Term("angle", "yaw", "N m/rad", lambda s: s["beta"],
-         lambda c, ctx: f"a yaw torque of {c:+.3g} N m/rad x beta ({'a spring pulling back to beta = 0' if c < 0 else 'pushing away from beta = 0'})"),
+         lambda c, ctx: f"a yaw torque of {c:+.3g} N m/rad x beta ({'a spring pulling back to beta = 0' if c < 0 else 'pushing away from beta = 0'})",
+         carried='beta'),
     Term("pitch_angle", "yaw", "N m/rad", lambda s: s["alpha"],
-         lambda c, ctx: f"a yaw torque of {c:+.3g} N m/rad x alpha (the pitch angle pushes the yaw axis)"),
+         lambda c, ctx: f"a yaw torque of {c:+.3g} N m/rad x alpha (the pitch angle pushes the yaw axis)",
+         carried='alpha'),
     Term("rate", "yaw", "N m s/rad", lambda s: s["dbeta"],
          lambda c, ctx: f"the yaw damping is {_pct(c / ctx['B2'])} {'lower' if c > 0 else 'higher'} than B2 "
-                        f"({-c:+.3g} N m s/rad)"),
+                        f"({-c:+.3g} N m s/rad)",
+         carried="beta'"),
     Term("drag", "yaw", "N m s^2/rad^2", lambda s: s["dbeta"] * np.abs(s["dbeta"]),
-         lambda c, ctx: f"a yaw torque of {c:+.3g} N m s^2/rad^2 x beta'|beta'| (drag if negative)"),
+         lambda c, ctx: f"a yaw torque of {c:+.3g} N m s^2/rad^2 x beta'|beta'| (drag if negative)",
+         carried="beta'*|beta'|"),
     Term("sign", "yaw", "N m", lambda s: np.tanh(s["dbeta"] / s["scale_beta"]),
          lambda c, ctx: f"a torque of {abs(c):.3g} N m {'against' if c < 0 else 'along'} the yaw motion that "
-                        "flips with its direction"),
+                        "flips with its direction",
+         carried="sign(beta')"),
     Term("thrust_reverse", "yaw", "1", lambda s: np.where(s["tau2"] < 0, s["M2"], 0.0),
-         _thrust_words("tail", "u2 < 0", "yaw", "backwards")),
+         _thrust_words("tail", "u2 < 0", "yaw", "backwards"),
+         carried='thrust_asymmetry:yaw'),
     Term("reaction", "yaw", "1", lambda s: s["MR"],
          lambda c, ctx: f"the main rotor's reaction torque on yaw is about {_pct(c)} "
-                        f"{'weaker' if c > 0 else 'stronger'} than the table's M_R"),
+                        f"{'weaker' if c > 0 else 'stronger'} than the table's M_R",
+         carried='MR'),
 )
 
 
@@ -202,8 +222,18 @@ def _keeps_physics(jb: np.ndarray, jb_before: np.ndarray) -> bool:
 
 
 def describe(terms: list[Term], coef: np.ndarray, context: dict) -> list[dict]:
-    return [{"term": t.name, "coefficient": float(c), "unit": t.unit, "sentence": t.words(float(c), context)}
-            for t, c in zip(terms, coef)]
+    """Each term's name, coefficient, unit, sentence, and ``key``: the bench file's entry that carries it (a term of
+    model/terms.py, or a library effect: Term.carried) at the coefficient's value."""
+    return [{"term": t.name, "coefficient": float(c), "unit": t.unit, "sentence": t.words(float(c), context),
+             "key": carried_key(t)} for t, c in zip(terms, coef)]
+
+
+def carried_key(t: Term) -> str:
+    """The model room's key of the bench file's entry that carries ``t``: 'term(M1*beta'*cos(alpha)):pitch', or a
+    library effect's key ('thrust_asymmetry:pitch')."""
+    from ..model.terms import term_key
+
+    return t.carried if ":" in t.carried else term_key(t.carried, t.axis)
 
 
 def torque(terms: list[Term], coef: np.ndarray, sig: dict) -> np.ndarray:

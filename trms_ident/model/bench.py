@@ -21,6 +21,7 @@ import math
 from dataclasses import dataclass
 
 from . import effects as room
+from . import terms as term_room
 
 #: effects the output-error refinement carries in its model with their parameter free or fixed (numerics/refine.py,
 #: model.plant.EFFECT_SLOTS; listed here so that reading a parameter file does not load the compiled kernel)
@@ -114,14 +115,17 @@ class BenchEffect:
 
     @property
     def candidate(self) -> room.Candidate:
-        return room.BY_KEY[self.key]
+        """Its entry of the model room: the library as imported (room.BY_KEY), a term's made from its key."""
+        return term_room.candidate(self.key) if is_term(self.key) else room.BY_KEY[self.key]
 
     def phrase(self) -> str:
-        """'a second-order tail motor (T2 = 0.463 s)'."""
-        effect, axis = self.key.split(":")
+        """'a second-order tail motor (T2 = 0.463 s)'; a term's 'a pitch term c * M1 * sin(alpha) (c = 0.31)'."""
+        effect, axis = self.key.rsplit(":", 1)
         c = self.candidate
         value = room.with_unit(self.value, c.unit)
-        if effect in ("motor_second_lag", "motor_lag", "dead_zone", "shifted_dead_zone", "input_saturation"):
+        if is_term(self.key):
+            what = f"a {axis} term c * {shown(self.key).partition(': ')[2]}"
+        elif effect in ("motor_second_lag", "motor_lag", "dead_zone", "shifted_dead_zone", "input_saturation"):
             what = PHRASES[effect].replace("motor", MOTOR_WORDS[axis]) if "motor" in PHRASES[effect] else \
                 f"{PHRASES[effect]} on the {MOTOR_WORDS[axis]}"
         else:
@@ -145,9 +149,68 @@ def known_keys() -> tuple[str, ...]:
     return TORQUE_KEYS + MODIFICATION_KEYS
 
 
+def is_term(key: str) -> bool:
+    """Is ``key`` a term's (model/terms.py: 'term(M1*sin(alpha)):pitch')?"""
+    return term_room.is_term_key(key)
+
+
+def is_torque(key: str) -> bool:
+    """Does ``key`` add a torque the output-error refinement carries (TORQUE_KEYS, or a term)?"""
+    return key in TORQUE_KEYS or is_term(key)
+
+
+def free_key(name: str) -> str:
+    """A name --free takes: a known value's or an effect's key as it is, a term as written in [terms] ('pitch: M1 *
+    sin(alpha)') as its key (BenchEffectError when it is not one)."""
+    head = name.partition(":")[0].strip()
+    if head in term_room.AXES:
+        try:
+            return term_room.parse_entry(name).key
+        except term_room.TermError as exc:
+            raise BenchEffectError(f"{name}: {exc.reason}") from None
+    return name
+
+
+def shown(key: str) -> str:
+    """How a key reads to a user: a term as its [terms] entry is written ('pitch: M1 * sin(alpha)'), any other key
+    as it is."""
+    if not is_term(key):
+        return key
+    t = term_room.from_key(key)
+    return f"{t.axis}: {' * '.join(t.factors)}"
+
+
+def parse_terms(table: dict, where: str = "[terms]") -> tuple[BenchEffect, ...]:
+    """The ``[terms]`` table of a parameter file as BenchEffects (a term's key, its c), in the file's order:
+    ``"pitch: M1 * sin(alpha)" = c`` or ``= { c = value, from = "...", ci95 = [lo, hi] }``.  A product not written
+    from model/terms.py's factors, a missing or extra parameter raise BenchEffectError naming the entry as written."""
+    if not isinstance(table, dict):
+        raise BenchEffectError(f"{where} must be a table of \"AXIS: PRODUCT\" = {{ c = value }}")
+    out = []
+    for name, spec in table.items():
+        try:
+            key = term_room.parse_entry(name).key
+        except term_room.TermError as exc:
+            raise BenchEffectError(f"\"{name}\": {exc.reason}") from None
+        if key in {e.key for e in out}:
+            raise BenchEffectError(f"\"{name}\": the same term as an entry above (write it once, with the sum of the "
+                                   "values)")
+        try:
+            out.append(parse_effect(key, spec))
+        except BenchEffectError as exc:
+            raise BenchEffectError(str(exc).replace(f'"{key}"', f'"{name}"', 1)) from None
+    return tuple(out)
+
+
 def parse_effect(key: str, spec) -> BenchEffect:
     """One ``[effects]`` entry: ``"effect:axis" = value`` or ``= { PARAMETER = value, from = "...", ci95 = [lo,
-    hi] }``."""
+    hi] }``; a term's key (parse_terms) takes its c alike."""
+    if is_term(key):
+        try:
+            c = term_room.candidate(key)
+        except term_room.TermError as exc:
+            raise BenchEffectError(str(exc)) from None
+        return _parse_value(key, c, spec)
     effect, _, axis = key.partition(":")
     names = sorted({k.split(":")[0] for k in known_keys()})
     if effect not in names:
@@ -157,7 +220,12 @@ def parse_effect(key: str, spec) -> BenchEffect:
         why = f" ({room.UNOBSERVABLE[key]})" if key in room.UNOBSERVABLE else ""
         raise BenchEffectError(f"\"{key}\": {effect} acts on {' or '.join(axes)}, not {axis or 'no axis'!r}{why}; "
                                f"write \"{effect}:{axes[0]}\"")
-    c = room.BY_KEY[key]
+    return _parse_value(key, room.BY_KEY[key], spec)
+
+
+def _parse_value(key: str, c: room.Candidate, spec) -> BenchEffect:
+    """An entry's value, where from and interval, checked against the parameter of ``c``."""
+    effect = key.partition(":")[0]
     source, ci95 = "", None
     if isinstance(spec, dict):
         extra = sorted(set(spec) - {c.parameter, "from", "ci95"})
@@ -204,20 +272,31 @@ def describe(effects: tuple[BenchEffect, ...]) -> str:
 
 
 def to_toml_lines(effects: tuple[BenchEffect, ...]) -> list[str]:
-    """The ``[effects]`` table's lines (empty list: no effects)."""
-    if not effects:
-        return []
-    lines = ["", "# effects and structures beyond eq. (1) (docs/parameters.md): estimate, joint, simulate and design "
-             "use them", "[effects]"]
-    for e in effects:
-        c = e.candidate
-        parts = [f"{c.parameter} = {e.value!r}"]
-        if e.ci95 is not None:
-            parts.append(f"ci95 = [{e.ci95[0]!r}, {e.ci95[1]!r}]")
-        if e.source:
-            parts.append("from = " + _toml_string(e.source))
-        lines.append(f"\"{e.key}\" = {{ {', '.join(parts)} }}  # {c.unit}")
+    """The ``[effects]`` table's lines, then the ``[terms]`` table's (empty list: neither)."""
+    lines = []
+    library = [e for e in effects if not is_term(e.key)]
+    terms = [e for e in effects if is_term(e.key)]
+    if library:
+        lines += ["", "# effects and structures beyond eq. (1) (docs/parameters.md): estimate, joint, simulate and "
+                  "design use them", "[effects]"]
+        lines += [f"\"{e.key}\" = {_toml_entry(e)}  # {e.candidate.unit}" for e in library]
+    if terms:
+        lines += ["", "# torques outside the effect library, c x a product of the model's signals (docs/parameters.md)",
+                  "[terms]"]
+        for e in terms:
+            t = term_room.from_key(e.key)
+            lines.append(f"\"{shown(e.key)}\" = {_toml_entry(e)}  # " + ("c dimensionless" if t.unit == "1" else
+                                                                          f"c in {t.unit}"))
     return lines
+
+
+def _toml_entry(e: BenchEffect) -> str:
+    parts = [f"{e.candidate.parameter} = {e.value!r}"]
+    if e.ci95 is not None:
+        parts.append(f"ci95 = [{e.ci95[0]!r}, {e.ci95[1]!r}]")
+    if e.source:
+        parts.append("from = " + _toml_string(e.source))
+    return f"{{ {', '.join(parts)} }}"
 
 
 def _toml_string(s: str) -> str:
@@ -247,8 +326,16 @@ def from_findings(findings, source: str = "") -> tuple[dict, tuple, list]:
 
 
 def simulator_specs(effects: dict) -> list[dict]:
-    """Settings.effects (key -> value) as the simulator's effect list (sim.SimSettings.effects)."""
-    return [{"effect": k.split(":")[0], "axis": k.split(":")[1], "value": float(v)} for k, v in effects.items()]
+    """Settings.effects (key -> value) as the simulator's effect list (sim.SimSettings.effects; a term as
+    {"effect": "term", "product": 'M1*sin(alpha)', ...})."""
+    out = []
+    for k, v in effects.items():
+        if is_term(k):
+            t = term_room.from_key(k)
+            out.append({"effect": "term", "axis": t.axis, "product": t.product, "value": float(v)})
+        else:
+            out.append({"effect": k.split(":")[0], "axis": k.split(":")[1], "value": float(v)})
+    return out
 
 
 def model_doc(effects: dict, sources: dict, freed: dict, structure: dict | None = None) -> dict:
@@ -257,12 +344,13 @@ def model_doc(effects: dict, sources: dict, freed: dict, structure: dict | None 
     ``structure`` the bench's (model/structure.py)."""
     from .structure import phrases
 
-    items = tuple(BenchEffect(k, float(freed[k]["estimate"]) if k in freed else float(v), sources.get(k, ""))
-                  for k, v in effects.items())
+    # a freed value is this log's estimate, not the file's (its "from" would say where the start came from)
+    items = tuple(BenchEffect(k, float(freed[k]["estimate"]), "this log, estimated with J/B") if k in freed else
+                  BenchEffect(k, float(v), sources.get(k, "")) for k, v in effects.items())
     return {"equation": describe(items) + "".join(f" + {p}" for p in phrases(structure)),
             "structure": dict(structure or {}),
             "effects": {e.key: {"parameter": e.candidate.parameter, "unit": e.candidate.unit, "value": e.value,
-                                "from": e.source or None, "estimated": e.key in freed,
+                                "from": sources.get(e.key) or None, "estimated": e.key in freed,
                                 "ci95": freed[e.key]["ci95"] if e.key in freed else None,
                                 "how": ("profiled: the output-error fit repeated over its value" if
                                         freed.get(e.key, {}).get("profiled") else "estimated with J/B by the "

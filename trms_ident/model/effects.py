@@ -24,6 +24,7 @@ time constant act on both axes or on the motor's dynamics and keep their own cod
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Callable
@@ -263,8 +264,23 @@ def with_unit(value: float, unit: str) -> str:
 
 
 def by_key(key: str) -> Candidate | None:
-    """The entry of CANDIDATES with this key, read when called (BY_KEY is the library as imported)."""
+    """The entry of CANDIDATES with this key, read when called (BY_KEY is the library as imported); a term's key
+    (model/terms.py: 'term(M1*sin(alpha)):pitch') gives its entry, declared by its torque."""
+    from . import terms
+
+    if terms.is_term_key(key):
+        try:
+            return _term_candidate(key)
+        except terms.TermError:
+            return None
     return next((c for c in CANDIDATES if c.key == key), None)
+
+
+@functools.lru_cache(maxsize=256)
+def _term_candidate(key: str) -> Candidate:
+    from . import terms
+
+    return terms.candidate(key)
 
 
 def other_motor_key(c: Candidate) -> str:

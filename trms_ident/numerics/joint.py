@@ -45,6 +45,7 @@ class Run:
     start_states0: dict | None = None
     weight: float = 1.0  # the log's share of the pooled cost: 1 / its noise inflation (see noise_inflation)
     cov_jb: np.ndarray | None = None  # (4, 4) the log's own J/B covariance, as its estimate reports it (or None)
+    torques: dict | None = None  # the bench's terms on this log: key -> (n, 2) torque per unit c (refine's torques)
 
 
 @dataclass(frozen=True)
@@ -63,9 +64,11 @@ class JointFit:
 def refine_joint(runs: list[Run], params: dict, law: str, theta0: dict, window_s: float = WINDOW_S,
                  max_iterations: int = MAX_ITERATIONS, effects: dict | None = None) -> JointFit:
     """Gauss-Newton over all ``runs`` at once from ``theta0`` (J/B); see the module docstring.  ``effects``: the
-    bench's torque effects at their values (refine's), shared by every run."""
+    bench's torque effects at their values (refine's), shared by every run (a term's torque is each run's own:
+    Run.torques)."""
     setups = [setup(r.u1, r.u2, r.alpha, r.beta, r.dt, params, law, theta0, r.noise_rad, window_s, t_s=r.t_s,
-                    switch_delay_s=r.switch_delay_s, start_states0=r.start_states0, effects=effects)
+                    switch_delay_s=r.switch_delay_s, start_states0=r.start_states0, effects=effects,
+                    torques=r.torques)
               for r in runs]
     jb = np.array([theta0[k] for k in NAMES], dtype=float)
     motors = [su.theta[4:].copy() for su in setups]  # each log's start states (no freed values here)

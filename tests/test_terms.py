@@ -1,0 +1,228 @@
+"""A term (issue #76, "carried on"): physics outside the effect library written as c x a product of the model's
+signals on one axis, a bench file's [terms] entry that simulate integrates, estimate carries (held or freed),
+the joint estimate pools, export writes back, and diagnose's correction hands over.
+
+The bench: a main-rotor thrust that grows with the pitch angle, c * M1 * sin(alpha) with c = 0.3 on pitch (a
+ground effect near the stand; outside the library).  Eq. (1) alone does not fit it; under its bench file estimate
+gets J/B back, and the term's c freed from a wrong start comes back to 0.3 within its interval.
+"""
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from trms_ident.cli import app
+from trms_ident.errors import EXIT_BAD_PARAMETERS, EXIT_USAGE
+from trms_ident.model import terms
+from trms_ident.model.bench import BenchEffect, parse_terms, to_toml_lines
+from trms_ident.params import parameter_file_effects
+
+runner = CliRunner()
+
+BENCH = """# a bench whose main-rotor thrust grows with the pitch angle
+[terms]
+"pitch: M1 * sin(alpha)" = { c = 0.3, from = "the test's bench" }
+
+[identified]
+J1 = 0.068
+B1 = 0.006
+J2 = 0.02
+B2 = 0.1
+"""
+TRUTH = {"J1": 0.068, "B1": 0.006, "J2": 0.02, "B2": 0.1}
+KEY = "term(M1*sin(alpha)):pitch"
+
+
+@pytest.mark.parametrize("written, unit", [
+    ("pitch: alpha'", "N m s/rad"), ("yaw: u2", "N m/V"), ("pitch: M1 * sin(alpha)", "1"),
+    ("yaw: beta' * |beta'|", "N m s^2/rad^2"), ("pitch: 1", "N m"), ("pitch: M1*beta'*cos(alpha)", "s/rad"),
+    ("yaw: beta", "N m/rad")])
+def test_a_terms_coefficient_has_the_unit_that_makes_it_a_torque(written, unit):
+    t = terms.parse_entry(written)
+    assert t.unit == unit
+    assert terms.from_key(t.key) == t  # the model room's key reads back as the same term
+
+
+@pytest.mark.parametrize("written, message", [
+    ("pitch: M1 * sin(beta)", "unknown factor 'sin(beta)'; expected among 1, alpha, beta"),
+    ("roll: M1", 'expected "AXIS: PRODUCT" with AXIS pitch or yaw'),
+    ("pitch: M1 ** alpha", "expected a product of factors joined by '*'"),
+    ("pitch: M1 * alpha * beta * u1", "4 factors; a term is a product of at most 3"),
+    ("pitch:", "expected a product of factors joined by '*'"),
+])
+def test_a_term_not_written_from_the_factors_is_refused_saying_what_was_expected(written, message):
+    with pytest.raises(terms.TermError, match=message.replace("(", r"\(").replace(")", r"\)").replace("*", r"\*")):
+        terms.parse_entry(written)
+
+
+def test_a_terms_torque_is_the_product_of_its_factors():
+    rng = np.random.default_rng(1)
+    n = 50
+    sig = {k: rng.normal(size=n) for k in ("alpha", "beta", "dalpha", "dbeta", "tau1", "tau2", "M1", "M2", "MR",
+                                           "u1", "u2")}
+    sig.update(scale_alpha=0.01, scale_beta=0.02)
+    t = terms.parse_entry("pitch: M1 * beta' * cos(alpha)").torque(sig)
+    assert np.allclose(t, sig["M1"] * sig["dbeta"] * np.cos(sig["alpha"]), rtol=1e-15, atol=0)
+    t = terms.parse_entry("yaw: sign(beta') * u2").torque(sig)
+    assert np.allclose(t, np.tanh(sig["dbeta"] / 0.02) * sig["u2"], rtol=1e-15, atol=0)
+    assert np.array_equal(terms.parse_entry("yaw: 1").torque(sig), np.ones(n))
+
+
+def test_the_sparse_corrections_terms_are_the_bench_files_terms():
+    """diagnose's sparse correction (diagnosis/sparse.py) hands each term to the bench file as the entry that carries
+    it: the same torque, term for term (the library effect a reversed rotor's term is, checked by its key)."""
+    from trms_ident.diagnosis.sparse import LIBRARY, carried_key
+    from trms_ident.model.effects import by_key
+
+    rng = np.random.default_rng(2)
+    n = 40
+    sig = {k: rng.normal(size=n) for k in ("alpha", "beta", "dalpha", "dbeta", "tau1", "tau2", "M1", "M2", "MR",
+                                           "u1", "u2")}
+    sig.update(scale_alpha=0.01, scale_beta=0.02, gyro_factor=rng.normal(size=n))
+    for t in LIBRARY:
+        key = carried_key(t)
+        if terms.is_term_key(key):
+            assert terms.from_key(key).axis == t.axis
+            assert np.allclose(by_key(key).torque(sig), t.torque(sig), rtol=1e-14, atol=0), t.name
+        else:
+            assert key == f"thrust_asymmetry:{t.axis}" and t.name == "thrust_reverse"
+
+
+def test_a_bench_files_terms_read_back_as_written():
+    effects = parse_terms({"pitch: M1 * sin(alpha)": {"c": 0.3, "from": "a log", "ci95": [0.29, 0.31]},
+                           "yaw: beta'*|beta'|": -0.004})
+    assert [e.key for e in effects] == [KEY, "term(beta'*|beta'|):yaw"]
+    lines = to_toml_lines(effects)
+    assert lines[2] == "[terms]"
+    assert lines[3] == '"pitch: M1 * sin(alpha)" = { c = 0.3, ci95 = [0.29, 0.31], from = "a log" }  # c dimensionless'
+    assert lines[4] == "\"yaw: beta' * |beta'|\" = { c = -0.004 }  # c in N m s^2/rad^2"
+    import tomllib
+
+    again = parse_terms(tomllib.loads("\n".join(lines[2:]))["terms"])
+    assert again == effects
+    assert BenchEffect(KEY, 0.3).phrase() == "a pitch term c * M1 * sin(alpha) (c = 0.3)"
+
+
+@pytest.mark.parametrize("entry, message", [
+    ('"pitch: M1 * sin(beta)" = 0.3', 'line 3: [terms] "pitch: M1 * sin(beta)": unknown factor \'sin(beta)\''),
+    ('"pitch: M1 * sin(alpha)" = { k = 0.3 }', 'line 3: [terms] "pitch: M1 * sin(alpha)": unexpected k; expected c'),
+    ('"pitch: M1 * sin(alpha)" = "big"', 'line 3: [terms] "pitch: M1 * sin(alpha)": c must be a finite number'),
+    ('"pitch: M1*sin(alpha)" = 0.1\n"pitch: M1 * sin(alpha)" = 0.2',
+     'line 4: [terms] "pitch: M1 * sin(alpha)": the same term as an entry above'),
+])
+def test_a_bad_term_entry_is_one_line_naming_the_line(tmp_path, square_csv, entry, message):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(f"# a bench\n[terms]\n{entry}\n")
+    for cmd in (["estimate", str(square_csv), "-o", str(tmp_path / "o")], ["simulate", "-o", str(tmp_path / "s.csv")]):
+        res = runner.invoke(app, [*cmd, "--params", str(bad)])
+        assert res.exit_code == EXIT_BAD_PARAMETERS, res.output
+        lines = res.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(f"error: {bad}, {message}"), res.stderr
+        assert "Traceback" not in res.output
+
+
+@pytest.fixture(scope="module")
+def bench_log(tmp_path_factory):
+    d = tmp_path_factory.mktemp("terms")
+    (d / "bench.toml").write_text(BENCH)
+    for name, args in (("run", ["--ref", "multisine", "--duration", "60", "--rate", "200", "--seed", "4"]),
+                       ("sq", ["--ref", "square", "--duration", "40", "--rate", "500", "--seed", "7"])):
+        res = runner.invoke(app, ["simulate", *args, "--encoder-bits", "12", "--params", str(d / "bench.toml"),
+                                  "-o", str(d / f"{name}.csv")])
+        assert res.exit_code == 0, res.output
+    return d
+
+
+def _estimate(d, *args, log="run.csv"):
+    res = runner.invoke(app, ["estimate", str(d / log), "-o", str(d / "o"), "--no-report", "--json", "-", *args])
+    assert res.exit_code == 0, res.output
+    return json.loads(res.stdout), res.stderr
+
+
+def test_simulate_integrates_the_term_and_estimate_under_it_gets_the_truth_back(bench_log):
+    truth = json.loads((bench_log / "run.truth.json").read_text())
+    assert [(e["effect"], e["axis"], e["product"], e["value"]) for e in truth["settings"]["effects"]] == [
+        ("term", "pitch", "M1*sin(alpha)", 0.3)]
+    doc, err = _estimate(bench_log, "--params", str(bench_log / "bench.toml"))
+    assert doc["model"]["equation"] == "eq. (1) + a pitch term c * M1 * sin(alpha) (c = 0.3, from the test's bench)"
+    assert doc["model"]["effects"][KEY]["unit"] == "1" and doc["model"]["effects"][KEY]["parameter"] == "c"
+    assert doc["model_check"]["adequate"] is True
+    for k, v in TRUTH.items():
+        lo, hi = doc["ci95"][k]
+        assert lo <= v <= hi and abs(doc["estimates"][k] / v - 1) <= 0.005, (k, doc["estimates"][k], lo, hi)
+    # the term is what made it fit: eq. (1) alone does not, and its J1 is far off
+    plain, _ = _estimate(bench_log)
+    assert plain["model_check"]["adequate"] is False
+    assert plain["estimates"]["J1"] is None or abs(plain["estimates"]["J1"] / TRUTH["J1"] - 1) > 0.2
+
+
+def test_a_terms_value_freed_comes_back_from_a_wrong_start_and_exports_as_a_term(bench_log):
+    wrong = bench_log / "wrong.toml"
+    wrong.write_text(BENCH.replace("c = 0.3", "c = 0.2"))
+    doc, err = _estimate(bench_log, "--params", str(wrong), "--free", "pitch: M1 * sin(alpha)")
+    freed = doc["refined"]["known_values_estimated"][KEY]
+    lo, hi = freed["ci95"]
+    assert lo <= 0.3 <= hi and abs(freed["estimate"] / 0.3 - 1) <= 0.01, freed
+    assert doc["model_check"]["adequate"] is True
+    assert "pitch: M1 * sin(alpha) = 0.3" in err and "(estimated with --free; given 0.2)" in err
+    res = runner.invoke(app, ["export", str(bench_log / "o" / "result.json"), "-o", str(bench_log / "model.toml")])
+    assert res.exit_code == 0, res.output
+    (e,) = parameter_file_effects(bench_log / "model.toml")
+    assert e.key == KEY and e.value == pytest.approx(freed["estimate"]) and e.ci95 == pytest.approx(tuple(freed["ci95"]))
+    assert "estimated with --free: pitch: M1 * sin(alpha)" in (bench_log / "model.toml").read_text()
+
+
+def test_a_term_the_file_does_not_hold_cannot_be_freed_and_a_misspelt_one_says_why(bench_log):
+    res = runner.invoke(app, ["estimate", str(bench_log / "run.csv"), "-o", str(bench_log / "o2"),
+                              "--free", "yaw: beta"])
+    assert res.exit_code == EXIT_USAGE and "--free term(beta):yaw: the model has no term(beta):yaw" in res.stderr
+    res = runner.invoke(app, ["estimate", str(bench_log / "run.csv"), "-o", str(bench_log / "o2"),
+                              "--free", "yaw: gamma"])
+    assert res.exit_code == EXIT_USAGE and "--free yaw: gamma: unknown factor 'gamma'" in res.stderr
+
+
+def test_runs_of_a_bench_with_a_term_are_pooled_under_it(bench_log):
+    d = bench_log
+    res = runner.invoke(app, ["estimate", "--joint", str(d / "run.csv"), str(d / "sq.csv"), "--params",
+                              str(d / "bench.toml"), "-o", str(d / "j"), "--no-report", "--json", "-"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)["joint"]
+    assert doc["consistent"] is True and doc["adequate"] is True, doc["sentence"]
+    for k, v in TRUTH.items():
+        lo, hi = doc["ci95"][k]
+        assert abs(doc["estimates"][k] - v) <= 1.5 * (hi - lo) / 2, (k, doc["estimates"][k], lo, hi)
+
+
+def test_design_refuses_a_bench_with_a_term_rather_than_plan_without_it(bench_log):
+    res = runner.invoke(app, ["design", "--params", str(bench_log / "bench.toml"), "-o", str(bench_log / "d.csv"),
+                              "--duration", "20"])
+    assert res.exit_code == EXIT_USAGE, res.output
+    assert "the bench has terms outside the effect library (a pitch term c * M1 * sin(alpha)" in res.stderr
+    assert "Traceback" not in res.output
+
+
+def test_export_carries_diagnoses_correction_as_terms(tmp_path):
+    """A diagnosis.json whose correction describes the pitch torque with a term: export writes it under [terms] at
+    the correction's value and says how it was found; a library effect a term stands for goes under [effects]."""
+    from trms_ident.commands import bench_from_diagnosis
+
+    doc = {"verdict": "partly_explained", "findings": [], "input": {"path": "run.csv", "sha256": "ab" * 32},
+           "settings": {"known_values": {"Mg": {"value": 0.32, "source": "table"}}},
+           "estimates": {"augmented": TRUTH},
+           "corrections": [{"axis": "pitch", "sentence": "...", "terms": [
+               {"term": "gyroscopic", "coefficient": -0.01, "unit": "1", "sentence": "the gyroscopic coupling ...",
+                "key": "term(M1*beta'*cos(alpha)):pitch"},
+               {"term": "thrust_reverse", "coefficient": -0.2, "unit": "1", "sentence": "the pitch torque is short",
+                "key": "thrust_asymmetry:pitch"}]},
+               {"axis": "yaw", "sentence": "...", "terms": [
+                   {"term": "constant", "coefficient": 0.001, "unit": "N m", "sentence": "a constant yaw torque"}]}]}
+    path = tmp_path / "diagnosis.json"
+    path.write_text(json.dumps(doc))
+    bench = bench_from_diagnosis(path)
+    assert [(e.key, e.value) for e in bench["effects"]] == [("term(M1*beta'*cos(alpha)):pitch", -0.01),
+                                                            ("thrust_asymmetry:pitch", -0.2)]
+    assert bench["effects"][0].source.startswith("the equation error's correction by diagnose of run.csv")
+    said = " ".join(bench["warnings"])
+    assert "carried as the equation error's correction found it" in said
+    assert "a constant yaw torque (written before terms could be carried" in said
