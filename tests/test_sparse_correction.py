@@ -64,6 +64,14 @@ def test_outside_the_library_is_described_and_raises_the_fit(no_joint):
     for k in jb:  # the axis refitted with the correction recovers the plant's J and B
         assert c.estimates[k] == pytest.approx(truth[k], rel=0.02)
     assert "outside the library" in d.verdict_sentence.lower()
+    # the correction as the bench file carries it (a [terms] entry), fitted by output error with J/B and the start
+    # states: its c with an interval, and the held-out simulation of its axis raised (held_out.correction_fits)
+    assert c.terms[0]["key"] == "term(M1*beta'*cos(alpha)):pitch"
+    fit = c.output_error
+    v = fit["values"]["term(M1*beta'*cos(alpha)):pitch"]
+    assert v["estimate"] == pytest.approx(coefficient, rel=0.1) and v["ci95"][0] < v["estimate"] < v["ci95"][1]
+    assert fit["held_out"]["after"] > fit["held_out"]["before"] + 1.0, fit["held_out"]
+    assert fit["estimates"]["J1"] == pytest.approx(truth["J1"], rel=0.02)
 
 
 def test_clean_log_gets_no_correction():
@@ -99,6 +107,10 @@ def test_cli_reports_the_correction_in_words_and_json(tmp_path, no_joint):
     for k in ("J2", "B2"):  # the axis refitted with the correction recovers the plant's J and B
         assert c["estimates"][k] == pytest.approx(r.truth["estimated"][k], rel=0.02)
     assert "outside the library, yaw" in res.stderr
+    assert c["terms"][0]["key"] == "term(MR):yaw"  # carried as a [terms] entry, fitted by output error
+    assert c["output_error"]["values"]["term(MR):yaw"]["estimate"] == pytest.approx(0.5, rel=0.3)
+    assert c["output_error"]["held_out"]["after"] > c["output_error"]["held_out"]["before"]
+    assert "fitted by output error with the findings (J/B and the start states free): held-out yaw fit" in res.stderr
     html = (tmp_path / "out" / "report.html").read_text()
     assert "outside the library" in html and "Correction of the yaw torque" in html
 

@@ -226,3 +226,43 @@ def test_export_carries_diagnoses_correction_as_terms(tmp_path):
     said = " ".join(bench["warnings"])
     assert "carried as the equation error's correction found it" in said
     assert "a constant yaw torque (written before terms could be carried" in said
+
+
+def test_diagnose_names_a_searched_term_explains_the_log_and_export_carries_it(tmp_path):
+    """sample_logs/ground_effect.csv (0.3 M1 sin(alpha) on pitch): the term is one more hypothesis of the search
+    (model/terms.py, SEARCHED), found by the same rule as a library effect, its c refitted by output error; the
+    model with it reaches the noise floor, and export writes it as a [terms] entry that estimate then carries."""
+    from pathlib import Path
+
+    log = Path(__file__).resolve().parents[1] / "sample_logs" / "ground_effect.csv"
+    res = runner.invoke(app, ["diagnose", str(log), "-o", str(tmp_path / "d"), "--json", "-"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["verdict"] == "explained", doc["verdict_sentence"]
+    (f,) = doc["findings"]
+    assert (f["effect"], f["axis"]) == ("term(M1*sin(alpha))", "pitch")
+    assert f["parameter"]["name"] == "c" and f["parameter"]["value"] == pytest.approx(0.3, rel=0.02)
+    assert "the main rotor's thrust changes with the pitch angle" in f["explanation"]
+    assert doc["held_out_fit"]["after"]["pitch"] > doc["held_out_fit"]["before"]["pitch"] + 3.0
+    res = runner.invoke(app, ["export", str(tmp_path / "d" / "diagnosis.json"), "-o", str(tmp_path / "b.toml")])
+    assert res.exit_code == 0, res.output
+    (e,) = parameter_file_effects(tmp_path / "b.toml")
+    assert e.key == KEY and e.value == pytest.approx(0.3, rel=0.02) and e.ci95[0] < 0.3 < e.ci95[1]
+    est = runner.invoke(app, ["estimate", str(log), "--params", str(tmp_path / "b.toml"), "-o", str(tmp_path / "e"),
+                              "--no-report", "--json", "-"])
+    assert est.exit_code == 0 and json.loads(est.stdout)["model_check"]["adequate"] is True
+
+
+@pytest.mark.parametrize("value, plausible", [(0.99, True), (-0.99, True), (1.01, False), (-1.01, False)])
+def test_a_thrust_terms_plausible_range_is_a_change_of_at_most_the_whole_thrust(value, plausible):
+    """A searched term that scales a thrust (c M1 sin(alpha)) may change it by up to 100 % either way: beyond, a
+    fitted c stands in for something else (diagnose refuses it as a stand-in; a bench file's entry is refused)."""
+    from trms_ident.model.bench import BenchEffectError, parse_effect
+    from trms_ident.model.effects import BY_KEY
+
+    assert BY_KEY[KEY].plausible(value) is plausible
+    if plausible:
+        assert parse_effect(KEY, value).value == value
+    else:
+        with pytest.raises(BenchEffectError, match="is not physical for a bench; expected between -1 and 1"):
+            parse_effect(KEY, value)

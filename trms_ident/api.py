@@ -277,7 +277,7 @@ def under_findings(log, d, overrides: dict, thrust_law: str) -> dict | None:
     95 % interval; None without findings."""
     from .errors import TrmsError
     from .identify import model_name
-    from .model.bench import TORQUE_KEYS, from_findings
+    from .model.bench import from_findings, is_torque
     from .model_profile import identify_with_profiles
     from .params import ESTIMATED
     from .diagnosis.model import settings_of
@@ -286,7 +286,7 @@ def under_findings(log, d, overrides: dict, thrust_law: str) -> dict | None:
     if not d.findings:
         return None
     refits, found, _ = from_findings(d.findings)
-    free = tuple(refits) + tuple(e.key for e in found if e.key in TORQUE_KEYS)
+    free = tuple(refits) + tuple(e.key for e in found if is_torque(e.key))
     # the modifications held at their values, with their intervals: J/B's intervals carry them (as estimate's
     # under the exported file; measured: a second-order pitch motor's T2 held without its interval left J2 and
     # B1 7-8 half-widths off on diagnosed_model.py's seed 23)

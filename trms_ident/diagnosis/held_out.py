@@ -73,6 +73,53 @@ def held_out_fits(d, log: Log, p: dict, law: str) -> dict | None:
                       "findings' values held (start states fitted), both ways round; NRMSE over both halves"}
 
 
+def correction_fits(d, log: Log, p: dict, law: str, h: dict | None) -> list:
+    """Each sparse correction (d.corrections) put into the findings' model as the bench file carries it (its terms,
+    model/terms.py, as torque effects with their c free) and fitted by output error: per correction None (its terms
+    cannot be carried, or a fit fails) or {"values": key -> {"estimate", "ci95"} (the whole fitted span, J/B and the
+    start states free beside them), "held_out": {"before", "after"} [%] (its axis' held-out simulation fit, as
+    held_out_fits measures it, without and with the correction), "over_noise": angle -> error RMS over its floor,
+    "estimates": J/B}.  The equation error chose the terms; this is the fit that shows what they do to a simulation
+    of samples they were not fitted on (issue #76)."""
+    if not d.corrections or h is None:
+        return [None] * len(d.corrections)
+    model, values, changes = final_model(d.findings, p)
+    fitter = oe.Fitter(log, {**p, **changes}, law, int(MAX_SPAN_S / log.sample_time_s), d.seed_check)
+    start = jb_start(d.augmented, p)
+    before = h["after"] if h.get("after") else h["before"]
+    out = []
+    for c in d.corrections:
+        keys = [t.get("key") for t in c.terms]
+        if not all(keys) or not all(oe.carries(k) for k in keys) or set(keys) & set(model.keys):
+            out.append(None)
+            continue
+        m, v = model, dict(values)
+        for t in c.terms:
+            m, v[t["key"]] = m.with_linear(t["key"]), float(t["coefficient"])
+        ho = fitter.held_out(m, v, start)
+        r = fitter.base(m, v, start)
+        if ho is None or r is None or not all(k in r.freed for k in keys):
+            out.append(None)
+            continue
+        out.append({"values": {k: {"estimate": float(r.freed[k]["estimate"]),
+                                   "ci95": [float(x) for x in r.freed[k]["ci95"]]} for k in keys},
+                    "held_out": {"before": float(before[c.axis]), "after": float(ho["fit_percent"][c.axis])},
+                    "over_noise": {a: float(r.rms_rad[a] / fitter.noise_floor[a]) for a in fitter.noise},
+                    "estimates": {k: float(x) for k, x in r.estimate.items()}})
+    return out
+
+
+def correction_sentence(c, fit: dict | None) -> str:
+    """The output-error fit of a correction in words (correction_fits); "" without one."""
+    if fit is None:
+        return ""
+    ho = fit["held_out"]
+    rose = ho["after"] > ho["before"]
+    return (f"fitted by output error with the findings (J/B and the start states free): held-out {c.axis} fit "
+            f"{ho['before']:.1f} % -> {ho['after']:.1f} %" + ("" if rose else " (no better on samples it was not "
+                                                                          "fitted on: a description, not a model)"))
+
+
 def sentence(h: dict | None, findings: bool) -> str:
     """The held-out fits in words."""
     if h is None:

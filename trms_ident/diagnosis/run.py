@@ -54,6 +54,10 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
             if not refuse or attempt == HELD_OUT_RERUNS:
                 break
             gated += refuse  # the search again without them: a rival they hid may hold on held-out samples
+        if d.corrections:
+            progress("the corrections by output error", 0.98)
+            d = replace(d, corrections=[replace(c, output_error=f) for c, f in
+                                        zip(d.corrections, held_out.correction_fits(d, log, p, law, h))])
         refused = [{k: v for k, v in g.items() if k != "key"} for g in gated]
         held = [g for g in refused if not g["reason"].startswith(STAND_IN)]
         given = {k: {"value": p[k], "source": "override" if k in (overrides or {}) else "table"} for k in KNOWN}

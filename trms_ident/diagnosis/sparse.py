@@ -68,6 +68,29 @@ def _thrust_words(rotor: str, sign: str, axis: str, direction: str):
     return words
 
 
+def _product(axis: str, product: str, meaning: str) -> Term:
+    """A term the search tries (model/terms.py, SEARCHED) as one of this library's: its torque and unit from the
+    bench file's grammar, its sentence the term and what it means physically."""
+    from ..model.terms import parse_entry
+
+    t = parse_entry(f"{axis}: {product}")
+    return Term(t.product, axis, t.unit, t.torque,
+                lambda c, ctx: f"the {axis} torque lacks a term c * {' * '.join(t.factors)} (c = {c:.3g}"
+                               + ("" if t.unit == "1" else f" {t.unit}") + f"): {meaning}",
+                carried=t.product)
+
+
+def _products() -> tuple[Term, ...]:
+    from ..model.terms import SEARCHED
+
+    return tuple(_product(axis, product, meaning) for axis, product, meaning, _ in SEARCHED)
+
+
+#: products of two of the model's signals for physics the library has no entry for: the terms the search tries
+#: (model/terms.py, SEARCHED); here they may describe what the search's findings leave
+PRODUCTS: tuple[Term, ...] = _products()
+
+
 LIBRARY: tuple[Term, ...] = (
     Term("constant", "pitch", "N m", lambda s: np.ones_like(s["alpha"]),
          lambda c, ctx: f"a constant pitch torque of {c:+.3g} N m",
@@ -125,7 +148,7 @@ LIBRARY: tuple[Term, ...] = (
          lambda c, ctx: f"the main rotor's reaction torque on yaw is about {_pct(c)} "
                         f"{'weaker' if c > 0 else 'stronger'} than the table's M_R",
          carried='MR'),
-)
+) + PRODUCTS
 
 
 @dataclass
@@ -141,6 +164,8 @@ class Correction:
     estimates: dict  # J, B of the axis refitted with the terms
     torque_nm: np.ndarray  # the correction as a torque per sample [N m]
     prediction: np.ndarray  # the axis' multi-step predictions with the correction [rad]
+    #: its terms fitted by output error in the findings' model (held_out.correction_fits), or None
+    output_error: dict | None = None
 
 
 #: the measured and reconstructed signals the library is made of (the model room's, shared with the named effects)

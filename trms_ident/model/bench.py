@@ -314,7 +314,7 @@ def from_findings(findings, source: str = "") -> tuple[dict, tuple, list]:
             known[p["name"]] = float(p["value"])
             continue
         key = f"{effect}:{axis}"
-        if key not in known_keys():
+        if key not in known_keys() and not is_term(key):
             left.append(f"{key}: not an effect a bench file can hold; left out")
             continue
         try:

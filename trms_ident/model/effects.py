@@ -239,6 +239,16 @@ CANDIDATES: tuple[Candidate, ...] = (
                        "{value:.3g} {unit}", bounds=MOTOR_SECOND_LAG, modify=second_lag, needs_dt=True),
 )
 
+def _searched_terms() -> tuple[Candidate, ...]:
+    """The terms the search tries beside the library's effects (model/terms.py, SEARCHED): physics outside the
+    library, each a product of two of the model's signals on one axis, declared by its torque alone."""
+    from . import terms
+
+    return tuple(terms.candidate(k) for k in terms.searched_keys())
+
+
+CANDIDATES = CANDIDATES + _searched_terms()
+
 #: input nonlinearities of a motor's drive: the same kind of drive runs both motors, so one found on a motor is
 #: tried on the other after the rounds (it must pass the output-error test like any candidate)
 SIBLING_EFFECTS = ("dead_zone", "shifted_dead_zone", "input_saturation")

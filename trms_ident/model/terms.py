@@ -160,12 +160,63 @@ def term_signals(sig: dict) -> dict:
     return s
 
 
+#: a thrust scaled by a factor: c is the change of that thrust per unit of the factor, within -100 % and +100 %
+THRUST_SHARE = (-1.0, 1.0)
+
+#: the terms diagnose's search tries beside the library's effects (model/effects.py adds them to CANDIDATES;
+#: diagnosis/sparse.py's correction has them too): products of two of the model's signals for physics the library
+#: has no entry for (issue #76: a thrust that depends on the pitch angle or on the yaw rate, a torque in the yaw
+#: rate squared, a friction whose level depends on the pitch angle, a coupling of the two rates), each with what
+#: it means and the range of c a bench may have.  The forward thrusts' own products with cos(alpha) are left out, as
+#: the thrusts themselves: near alpha = 0 they are J and B scaled alike (sparse.py's yardstick)
+SEARCHED: tuple[tuple[str, str, str, tuple[float, float]], ...] = (
+    ("pitch", "M1*sin(alpha)", "the main rotor's thrust changes with the pitch angle", THRUST_SHARE),
+    ("pitch", "beta'*beta'", "a pitch torque in the yaw rate squared", (-math.inf, math.inf)),
+    ("pitch", "sign(alpha')*sin(alpha)", "a friction on pitch whose level changes with the pitch angle",
+     (-math.inf, math.inf)),
+    ("yaw", "M2*sin(alpha)", "the tail rotor's yaw torque changes with the pitch angle", THRUST_SHARE),
+    ("yaw", "M2*beta'", "the tail rotor's thrust changes with the yaw rate", (-math.inf, math.inf)),
+    ("yaw", "sign(beta')*cos(alpha)", "a friction on yaw whose level changes with the pitch angle",
+     (-math.inf, math.inf)),
+    ("yaw", "alpha'*beta'", "a yaw torque in the product of the two rates (a Coriolis-like coupling)",
+     (-math.inf, math.inf)),
+)
+
+
+def meaning(key: str) -> str:
+    """What a searched term means physically ('the main rotor's thrust changes with the pitch angle'); for any
+    other term, its factors in words."""
+    t = from_key(key)
+    for axis, product, words, _ in SEARCHED:
+        if (axis, product) == (t.axis, t.product):
+            return words
+    return " times ".join(FACTORS[f][2] for f in t.factors)
+
+
 def candidate(key: str):
-    """The model room's entry (effects.Candidate, declared by its torque) of a term's key."""
+    """The model room's entry (effects.Candidate, declared by its torque) of a term's key: its sentence says the
+    term and what it means, its bounds are SEARCHED's for a searched term (else any finite c)."""
     from .effects import Candidate
 
     t = from_key(key)
+    bounds = next((b for axis, product, _, b in SEARCHED if (axis, product) == (t.axis, t.product)),
+                  (-math.inf, math.inf))
+    c = "(c = {value:.4g})" if t.unit == "1" else "(c = {value:.4g} {unit})"
     return Candidate(f"term({t.product})", t.axis, PARAMETER, t.unit, "linear",
-                     sentence=t.sentence().replace("(c)", "(c = {value:.4g})" if t.unit == "1" else
-                                                   "(c = {value:.4g} {unit})"), regime="input",
-                     bounds=(-math.inf, math.inf), torque=t.torque)
+                     sentence=f"the {t.axis} torque has a term c * {' * '.join(t.factors)} {c}: {meaning(key)}",
+                     regime=_regime(t), bounds=bounds, torque=t.torque)
+
+
+def _regime(t: Term) -> str:
+    """What a term's shape is drawn against (effects.Candidate.regime): its own axis' rate when a factor is one,
+    else the pitch angle when a factor is made of it, else the axis' voltage."""
+    own = {"pitch": ("alpha'", "|alpha'|", "sign(alpha')"), "yaw": ("beta'", "|beta'|", "sign(beta')")}[t.axis]
+    if set(t.factors) & set(own):
+        return "velocity"
+    if set(t.factors) & {"alpha", "sin(alpha)", "cos(alpha)"}:
+        return "pitch_angle"
+    return "input"
+
+
+def searched_keys() -> tuple[str, ...]:
+    return tuple(term_key(product, axis) for axis, product, _, _ in SEARCHED)

@@ -26,7 +26,7 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                       "alternatives": f.alternatives, "estimate_shift_percent": f.shift} for f in d.findings],
         "corrections": [{"axis": c.axis, "terms": c.terms, "sentence": c.sentence, "held_out_gain": c.held_out_gain,
                          "t": c.t, "p": c.p, "fit_before": c.fit_before, "fit_after": c.fit_after,
-                         "estimates": c.estimates} for c in d.corrections],
+                         "estimates": c.estimates, "output_error": c.output_error} for c in d.corrections],
         "estimates": {"nominal": d.nominal, "augmented": d.augmented, "with_findings": d.with_findings,
                       "not_credible": {"nominal": not_credible(d.nominal), "augmented": not_credible(d.augmented)}},
         "fit": {"measure": f"NRMSE fit [%] of {d.settings['horizon_s']:g} s multi-step predictions, each window "
@@ -128,7 +128,10 @@ def to_doc(d: Diagnosis, log: Log) -> dict:
                             "halves (diagnosis/held_out.py); null when the seed model's fit failed",
             "corrections": "physics outside the library: a sparse data-driven correction of an axis' residual torque "
                            "(terms from a small library, pysindy STLSQ, kept only when it lowers the held-out "
-                           "residual beyond chance and raises the prediction fit); a description, not a named effect",
+                           "residual beyond chance and raises the prediction fit); a description, not a named effect. "
+                           "output_error: its terms put into the findings' model as the bench file's [terms] carry "
+                           "them and fitted by output error (values with 95 % intervals; the axis' held-out "
+                           "simulation fit without -> with them; null when that fit fails)",
         },
     }
 
@@ -187,6 +190,20 @@ def finding_figure(step: dict):
                  "regime (before and with this finding)" + (", and the term's shape" if sh is not None else ""))
     fig.tight_layout()
     return fig
+
+
+def _oe_note(c: dict) -> str:
+    """A correction's output-error fit in the report (held_out.correction_sentence's figures), escaped."""
+    fit = c.get("output_error")
+    if not fit:
+        return ""
+    from ..model.bench import shown
+
+    ho = fit["held_out"]
+    values = ", ".join(f"{shown(k)}: c = {v['estimate']:.4g} [{v['ci95'][0]:.4g}, {v['ci95'][1]:.4g}]"
+                       for k, v in fit["values"].items())
+    return html.escape(f"; by output error with the findings: {values}; held-out simulation fit of {c['axis']} "
+                       f"{ho['before']:.1f} % -> {ho['after']:.1f} %")
 
 
 def render(doc: dict, d: Diagnosis, log: Log) -> str:
@@ -289,7 +306,7 @@ def render(doc: dict, d: Diagnosis, log: Log) -> str:
         f"{fit_change(c['fit_before'], c['fit_after'], '&rarr;')}. <span class='note'>held-out equation-error RSS "
         f"{-100 * c['held_out_gain']:+.1f} % (t = {c['t']:.1f}, p = {c['p']:.1e}); terms: "
         + html.escape(", ".join(f"{t['term']} = {with_unit(t['coefficient'], t['unit'])}" for t in c["terms"]))
-        + "</span></li>" for c in doc["corrections"])
+        + _oe_note(c) + "</span></li>" for c in doc["corrections"])
     corrected = {k: v for c in doc["corrections"] for k, v in c["estimates"].items()}
     est = "".join(f"<tr><td>{k}</td><td>{marked(k, doc['estimates']['nominal'][k])}</td>"
                   f"<td>{marked(k, doc['estimates']['augmented'][k])}</td>"

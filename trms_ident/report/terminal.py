@@ -27,7 +27,7 @@ def _field(f, name: str):
 def finding_words(f) -> str:
     """One finding in plain words: 'a cable on yaw (k = 0.004 N m/rad)', 'Mg = 0.288 N m instead of 0.32 N m'.
     ``f``: a diagnosis.result.Finding or its diagnosis.json entry."""
-    from ..model.bench import BenchEffect, known_keys
+    from ..model.bench import BenchEffect, is_term, known_keys
 
     effect, axis, p = _field(f, "effect"), _field(f, "axis"), _field(f, "parameter")
     unit = p.get("unit", "")
@@ -35,7 +35,7 @@ def finding_words(f) -> str:
         return (f"{p['name']} = {with_unit(p['value'], unit)} instead of "
                 f"{with_unit(p['table'], unit) if p.get('table') is not None else 'the value given'}")
     key = f"{effect}:{axis}"
-    if key in known_keys():
+    if key in known_keys() or is_term(key):
         return BenchEffect(key, float(p["value"])).phrase()
     return f"{effect} on {axis} ({p['name']} = {with_unit(p['value'], unit)})"
 
@@ -130,4 +130,11 @@ def diagnosis_lines(d, source: str) -> list[str]:
         terms = ", ".join(f"{t['term']} = {with_unit(t['coefficient'], t['unit'])}" for t in c.terms)
         lines.append(f"     data-driven correction (not a named effect): prediction fit "
                      f"{fit_change(c.fit_before, c.fit_after)}; terms {terms}")
+        if c.output_error is not None:
+            from ..diagnosis.held_out import correction_sentence
+            from ..model.bench import shown
+
+            values = ", ".join(f"{shown(k)}: c = {v['estimate']:.4g} {interval_words(v['ci95'], '1', v['estimate'])}"
+                               for k, v in c.output_error["values"].items())
+            lines.append(f"     {correction_sentence(c, c.output_error)}; {values}")
     return lines
