@@ -1,7 +1,21 @@
-"""Physics outside diagnose's library (issues #12, #32): Rotondo's plant never explained; a known value off named.
+"""Physics outside diagnose's library (issues #12, #32, #76): Rotondo's plant never explained; a known value off
+named; a torque outside the effect library named as a term.
 
     python benchmarks/outside.py        # 16 logs on 2 processes, a few minutes; writes the "Outside the library"
                                         # section of RESULTS.md
+    python benchmarks/outside.py --terms --seed 7601    # 20 logs with a term (issue #76); writes "Outside the
+                                        # library: terms" (--no-write: printed only)
+
+Terms (issue #76): the simulator's bench with one torque no library effect has, c x a product of the model's
+signals (sim/ integrates it from its true states; trms_ident/model/terms.py's grammar), five kinds, c drawn from
+[seed, i]: the main rotor's thrust growing with the pitch angle (pitch M1 sin(alpha)), the tail rotor's thrust
+growing with the yaw rate (yaw M2 beta'), a pitch torque in the yaw rate squared (pitch beta'^2), a yaw friction
+whose level follows the pitch angle (yaw sign(beta') cos(alpha)), and one the search does not try (the main
+rotor's thrust changing with the pitch rate, pitch M1 alpha'); four logs each (multisine 200 Hz 12-bit from rest,
+steps 250 Hz 1 mrad from 30 s, square 500 Hz 12-bit from 20 s, chirp 100 Hz 0.5 mrad from rest), 60 s.  Judged:
+the term *named* (a finding, or a flagged look-alike of one, c within 30 %), the *held-out* simulation of its axis
+within 2x the angle's noise floor (diagnose's held-out fit, the findings' model, over the log's measured floor),
+*nothing invented* (no other finding), and no finding outside its plausible range.
 
 Logs whose physics no named effect describes, from seeds no test uses (from 7000 up):
 - the published plant of Rotondo, Nejjari and Puig (2013) (tests/plants/rotondo.py, a port nobody here shaped:
@@ -107,7 +121,113 @@ def _name(c: dict) -> str:
             + (f", from {start:g} s" if start else ", from rest"))
 
 
+#: (axis, product, drawn |c| range, sign of c or 0 for either, what it is, searched by diagnose)
+TERM_KINDS = (("pitch", "M1*sin(alpha)", (0.15, 0.4), 0, "thrust growing with the pitch angle", True),
+              ("yaw", "M2*beta'", (0.1, 0.3), 0, "tail thrust growing with the yaw rate", True),
+              ("pitch", "beta'*beta'", (0.01, 0.03), 0, "pitch torque in the yaw rate squared", True),
+              ("yaw", "sign(beta')*cos(alpha)", (0.002, 0.005), -1, "yaw friction following the pitch angle", True),
+              ("pitch", "M1*alpha'", (0.05, 0.2), 0, "thrust changing with the pitch rate (not searched)", False))
+TERM_CONDITIONS = (("multisine", 200.0, 0.0, 2 * math.pi / 4096, 0.0), ("steps", 250.0, 1e-3, 0.0, 30.0),
+                   ("square", 500.0, 0.0, 2 * math.pi / 4096, 20.0), ("chirp", 100.0, 5e-4, 0.0, 0.0))
+TERM_DURATION_S = 60.0
+
+
+def term_cases(seed: int) -> list[dict]:
+    import numpy as np
+
+    out = []
+    for k, (axis, product, (lo, hi), sign, what, searched) in enumerate(TERM_KINDS):
+        for j, cond in enumerate(TERM_CONDITIONS):
+            i = len(out)
+            rng = np.random.default_rng([seed, i])
+            c = float(rng.uniform(lo, hi)) * (sign or (1 if rng.uniform() < 0.5 else -1))
+            out.append(dict(plant="term", i=i, axis=axis, product=product, c=c, what=what, searched=searched,
+                            cond=cond, seed=seed * 100 + i))
+    return out
+
+
+def run_term(c: dict) -> dict:
+    from sim import SimSettings, simulate
+    from trms_ident.diagnosis.run import diagnose
+    from trms_ident.log import validated
+    from trms_ident.model import effects
+    from trms_ident.model.terms import term_key
+    from trms_ident.numerics.design import angle_noise_rad
+
+    ref, rate, noise, q, start = c["cond"]
+    r = simulate(SimSettings(ref=ref, sample_rate_hz=rate, duration_s=TERM_DURATION_S, noise_std_rad=noise,
+                             quantization_rad=q, seed=c["seed"], start_s=start,
+                             effects=[dict(effect="term", axis=c["axis"], product=c["product"], value=c["c"])]))
+    log = validated(r.t_s, r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, angle_unit="rad")
+    t0 = time.perf_counter()
+    d = diagnose(log)
+    seconds = time.perf_counter() - t0
+    key = term_key(c["product"], c["axis"])
+    keys = [f"{f.effect}:{f.axis}" for f in d.findings]
+    named = any(k == key and abs(f.parameter["value"] - c["c"]) <= 0.3 * abs(c["c"]) for k, f in zip(keys, d.findings))
+    flagged = any(key in f.alternatives for f in d.findings)
+    angle = "alpha" if c["axis"] == "pitch" else "beta"
+    h = d.held_out or {}
+    rms = (h.get("rms_rad") or {}).get("after") or (h.get("rms_rad") or {}).get("before") or {}
+    n = (h.get("samples") or len(log))
+    floor = angle_noise_rad(getattr(log, f"{angle}_rad")[:n])
+    implausible = [k for k, f in zip(keys, d.findings) if f.effect != "known_value" and effects.by_key(k) is not None
+                   and not effects.by_key(k).plausible(float(f.parameter["value"]))]
+    return dict(case=c, verdict=d.verdict, named=named or flagged, flagged=flagged and not named,
+                invented=[k for k in keys if k != key], implausible=implausible,
+                held_over=(rms.get(angle, math.nan) / floor if floor > 0 else math.nan),
+                findings=[f"{k}={f.parameter['value']:.4g}" for k, f in zip(keys, d.findings)],
+                corrections=[x.axis for x in d.corrections], seconds=seconds)
+
+
+def main_terms(seed: int, write: bool) -> None:
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=2) as pool:
+        results = list(pool.map(run_term, term_cases(seed)))
+    elapsed = time.perf_counter() - t0
+    rows = []
+    for r in results:
+        c = r["case"]
+        ref, rate, noise, q, start = c["cond"]
+        cond = (f"{ref} {rate:g} Hz " + ("12-bit" if q else f"{noise * 1e3:g} mrad")
+                + (f", from {start:g} s" if start else ", from rest"))
+        rows.append(f"| {c['i']} | {c['axis']}: {c['product']} = {c['c']:.4g} | {cond} | {r['verdict']} | "
+                    f"{'; '.join(r['findings']) or '-'} | {'yes' + (' (look-alike)' if r['flagged'] else '') if r['named'] else 'no'} | "
+                    f"{r['held_over']:.2f}x | {'no' if r['invented'] else 'yes'} | {r['seconds']:.0f} |")
+    searched = [r for r in results if r["case"]["searched"]]
+    held = sum(r["held_over"] <= 2.0 for r in results)
+    text = (f"## Outside the library: terms (benchmarks/outside.py --terms, seed {seed})\n\n"
+            "The simulator's bench with one torque outside the effect library, c x a product of the model's signals "
+            "(the module docstring lists the kinds; the last is a product diagnose does not try). 'named': the term "
+            "found (or a flagged look-alike), c within 30 %; 'held-out': the error RMS of the term's axis in "
+            "diagnose's held-out simulation (the findings' model) over the angle's measured noise floor; 'nothing "
+            "invented': no other finding.\n\n"
+            "| # | term | log | verdict | findings | named | held-out | nothing invented | s |\n"
+            "|---|---|---|---|---|---|---|---|---|\n" + "\n".join(rows)
+            + f"\n\nNamed: {sum(r['named'] for r in searched)}/{len(searched)} of the terms the search tries, "
+            f"{sum(r['named'] for r in results)}/{len(results)} in all; held-out within 2x the floor: "
+            f"{held}/{len(results)}; nothing invented: {sum(not r['invented'] for r in results)}/{len(results)}; a "
+            f"finding outside its plausible range: {sum(bool(r['implausible']) for r in results)}. Median "
+            f"{sorted(r['seconds'] for r in results)[len(results) // 2]:.0f} s a log, {elapsed:.0f} s in all on "
+            "2 processes.\n")
+    if write:
+        from results import update_section
+
+        update_section(Path(__file__).with_name("RESULTS.md"), "Outside the library: terms", text)
+    print(text)
+
+
 def main() -> None:
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--terms", action="store_true", help="the term benches (issue #76) instead of the library's")
+    ap.add_argument("--seed", type=int, default=7601, help="the term benches' seed (say which in RESULTS.md)")
+    ap.add_argument("--no-write", action="store_true", help="print only; leave RESULTS.md as it is")
+    args = ap.parse_args()
+    if args.terms:
+        main_terms(args.seed, not args.no_write)
+        return
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=2) as pool:
         results = list(pool.map(run_case, cases()))
