@@ -216,7 +216,11 @@ def test_export_carries_diagnoses_correction_as_terms(tmp_path):
                {"term": "thrust_reverse", "coefficient": -0.2, "unit": "1", "sentence": "the pitch torque is short",
                 "key": "thrust_asymmetry:pitch"}]},
                {"axis": "yaw", "sentence": "...", "terms": [
-                   {"term": "constant", "coefficient": 0.001, "unit": "N m", "sentence": "a constant yaw torque"}]}]}
+                   {"term": "constant", "coefficient": 0.001, "unit": "N m", "sentence": "a constant yaw torque"}]},
+               {"axis": "yaw", "sentence": "the yaw reaction is weaker", "terms": [
+                   {"term": "reaction", "coefficient": 0.5, "unit": "1", "sentence": "...", "key": "term(MR):yaw"}],
+                "output_error": {"values": {"term(MR):yaw": {"estimate": 0.48, "ci95": [0.47, 0.49]}},
+                                 "held_out": {"before": 97.0, "after": 96.5}}}]}
     path = tmp_path / "diagnosis.json"
     path.write_text(json.dumps(doc))
     bench = bench_from_diagnosis(path)
@@ -224,8 +228,15 @@ def test_export_carries_diagnoses_correction_as_terms(tmp_path):
                                                             ("thrust_asymmetry:pitch", -0.2)]
     assert bench["effects"][0].source.startswith("the equation error's correction by diagnose of run.csv")
     said = " ".join(bench["warnings"])
-    assert "carried as the equation error's correction found it" in said
+    assert "carried as diagnose's correction described it" in said
     assert "a constant yaw torque (written before terms could be carried" in said
+    # a correction its output-error refit shows no better on held-out samples is not carried
+    assert "the yaw reaction is weaker; left out (fitted by output error it simulates the yaw no better" in said
+    doc["corrections"][2]["output_error"]["held_out"]["after"] = 98.0  # better: carried at the refit's value
+    path.write_text(json.dumps(doc))
+    bench = bench_from_diagnosis(path)
+    e = next(e for e in bench["effects"] if e.key == "term(MR):yaw")
+    assert (e.value, e.ci95) == (0.48, (0.47, 0.49)) and e.source.endswith("fitted by output error")
 
 
 def test_diagnose_names_a_searched_term_explains_the_log_and_export_carries_it(tmp_path):

@@ -114,14 +114,23 @@ def bench_from_diagnosis(path: Path) -> dict | None:
                              "run trms-ident diagnose again") from None
     carried = []
     for c in doc.get("corrections") or []:  # physics outside the library: its terms go into [terms]
+        fit = c.get("output_error")  # its output-error refit with the findings (held_out.correction_fits)
+        if fit and not fit["held_out"]["after"] > fit["held_out"]["before"]:
+            warnings.append(f"outside the library: {c['sentence']}; left out (fitted by output error it simulates "
+                            f"the {c['axis']} no better on samples it was not fitted on: "
+                            f"{fit['held_out']['before']:.1f} % -> {fit['held_out']['after']:.1f} %)")
+            continue
         for t in c.get("terms") or []:
             if not t.get("key"):  # a diagnosis.json written before terms had keys
                 warnings.append(f"outside the library: {t['sentence']} (written before terms could be carried: run "
                                 "diagnose again to have it in the file)")
                 continue
+            refit = (fit or {}).get("values", {}).get(t["key"])
+            spec = ({"ci95": list(refit["ci95"]), "from": f"the correction of {where}, fitted by output error"}
+                    if refit else {"from": f"the equation error's correction by {where}"})
             try:
-                e = parse_effect(t["key"], {room.by_key(t["key"]).parameter: t["coefficient"],
-                                            "from": f"the equation error's correction by {where}"})
+                e = parse_effect(t["key"], {room.by_key(t["key"]).parameter: refit["estimate"] if refit else
+                                            t["coefficient"], **spec})
             except (BenchEffectError, AttributeError) as exc:
                 warnings.append(f"outside the library: {t['sentence']}; left out ({exc})")
                 continue
@@ -131,8 +140,9 @@ def bench_from_diagnosis(path: Path) -> dict | None:
             effects.append(e)
             carried.append(e.phrase())
     if carried:
-        warnings.append("outside the library, carried as the equation error's correction found it (J/B not refitted "
-                        "with it; estimate --params with --free on it refits its value): " + "; ".join(carried))
+        warnings.append("outside the library, carried as diagnose's correction described it (the file's J/B are the "
+                        "findings' model's without it; estimate --params refits them, --free on it its value): "
+                        + "; ".join(carried))
     if together.get("adequate") is False and verdict in ("explained", "consistent"):
         warnings.append("the findings' model fitted as one (estimates.with_findings) does not fit the log: estimate "
                         "under this file will say so")
