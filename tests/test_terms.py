@@ -277,3 +277,32 @@ def test_a_thrust_terms_plausible_range_is_a_change_of_at_most_the_whole_thrust(
     else:
         with pytest.raises(BenchEffectError, match="is not physical for a bench; expected between -1 and 1"):
             parse_effect(KEY, value)
+
+
+def test_among_look_alikes_a_library_effect_is_named_before_a_term(monkeypatch):
+    """A term that is the same torque as a library effect on the log (c sign(beta') cos(alpha) beside a yaw Coulomb
+    friction, the pitch near 0: diagnose.py row 76) and that the equation error put first gives way to the library's
+    effect, which the output-error fit cannot tell from it; the term is its flagged look-alike."""
+    from types import SimpleNamespace
+
+    from trms_ident.diagnosis import judge, oe
+    from trms_ident.diagnosis.model import Model
+    from trms_ident.model.effects import BY_KEY
+
+    term, friction = BY_KEY["term(sign(beta')*cos(alpha)):yaw"], BY_KEY["coulomb_friction:yaw"]
+    best = {"c": term, "value": -0.005, "test": SimpleNamespace(gain=0.62)}
+    rival = {"c": friction, "value": 0.005, "test": SimpleNamespace(gain=0.61)}
+    left = {term.key: 0.010, friction.key: 0.011}  # what each leaves of the misfit: within the look-alike margin
+    monkeypatch.setattr(oe, "representable", lambda *a: True)
+    monkeypatch.setattr(judge, "oe_start", lambda *a: {}, raising=False)
+    monkeypatch.setattr(judge, "effect_values", lambda *a: {})
+    monkeypatch.setattr(judge, "_fitted_first", lambda *a: None)
+    monkeypatch.setattr(judge, "oe_fit", lambda c, value, *a: (SimpleNamespace(excess_share=1 - left[c.key],
+                                                                               value=value), False))
+    got, alts, told = judge.alternatives_by_output_error(best, [], [best, rival], None, {}, "quadratic", 1.0, Model(),
+                                                         {}, None, None, None, 29, None, [])
+    assert got["c"].key == friction.key and alts == [term.key] and told is None
+    # a library effect the equation error put first stays first, the term its look-alike
+    got, alts, _ = judge.alternatives_by_output_error(rival, [], [rival, best], None, {}, "quadratic", 1.0, Model(),
+                                                      {}, None, None, None, 29, None, [])
+    assert got["c"].key == friction.key and alts == [term.key]

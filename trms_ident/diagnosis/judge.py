@@ -9,7 +9,7 @@ import math
 from dataclasses import replace
 
 from ..model import effects as room
-from ..model.bench import NATIVE_FREE_KEYS
+from ..model.bench import NATIVE_FREE_KEYS, is_term
 from ..model.effects import SIBLING_EFFECTS, Candidate
 from ..numerics.adequacy import AXIS_OF, RMS_OVER_NOISE
 from ..numerics.parallel import fan_out
@@ -84,9 +84,15 @@ def alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache,
     least = min(left.values())
     close = [r for r in pool if r["c"].key in left and left[r["c"].key] * ALIAS_GAIN_RATIO <= least]
     apart = [r["c"].key for r in pool if r not in close]
+    # among look-alikes a library effect is named before a term (model/terms.py): the term is the same torque on this
+    # log written without the physics (measured: a yaw Coulomb friction of 0.005 N m named as c sign(beta') cos(alpha)
+    # with c = -0.00501 on a log whose pitch stays near 0, diagnose.py row 76)
+    named = [q for q in close if not is_term(q["c"].key)] or close
     if not apart:  # the output-error fit cannot tell them apart either
-        return best, list(dict.fromkeys(alts + [r["c"].key for r in close if r is not best])), None
-    r = best if best in close else min(close, key=lambda q: left[q["c"].key])  # the equation error's, if it holds
+        if best in named:
+            return best, list(dict.fromkeys(alts + [r["c"].key for r in close if r is not best])), None
+        apart = []  # the term the equation error put first gives way to the library's effect below
+    r = best if best in named else min(named, key=lambda q: left[q["c"].key])  # the equation error's, if it holds
     f = fits[r["c"].key]
     if oe.profiled(r["c"].key):  # the model at the output error's value, with its regression
         res = at_value(r["c"], f.value, log, p, law, a, current, cache, ids, score_now, n_tests)
@@ -95,7 +101,8 @@ def alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache,
     res["oe"], res["value"] = f, f.value
     told = (f"the output-error fit told it apart from {', '.join(apart)} (it leaves {100 * left[r['c'].key]:.2g} % "
             "of the angle-error excess over the noise floor; they leave " + ", ".join(
-                f"{100 * left[k]:.2g} %" if k in left else "- (their test does not pass)" for k in apart) + ")")
+                f"{100 * left[k]:.2g} %" if k in left else "- (their test does not pass)" for k in apart) + ")"
+            ) if apart else None
     keep = [k for k in alts + [q["c"].key for q in close] if k not in apart and k != r["c"].key]
     return res, list(dict.fromkeys(keep)), told
 
