@@ -170,18 +170,25 @@ def model_kw(settings: Settings, values: dict | None = None, log: Log | None = N
     out = {"effects": effects} if effects else {}
     terms = tuple(k for k in settings.effects if is_term(k))
     if terms and log is not None:
-        out["torques"] = term_torques(log, params, settings.thrust_law, terms, n)
+        # the motor states a term reads see the voltages through the modifications the fit applies itself too
+        out["torques"] = term_torques(log, params, settings.thrust_law, terms, n,
+                                      {k: v for k, v in settings.effects.items() if k in inside})
     return out
 
 
-def term_torques(log: Log, params: dict, law: str, keys: tuple, n: int | None = None) -> dict:
+def term_torques(log: Log, params: dict, law: str, keys: tuple, n: int | None = None, inside: dict | None = None
+                 ) -> dict:
     """key -> (n, 2) torque per unit c [N m / unit] on pitch and yaw of each term ``keys`` names (model/terms.py), on
     the first ``n`` samples of ``log``: the signals of the whole log (its smoothed rates, the motor states its
-    voltages drive under ``params``; diagnosis.oe.unit_torques), cut after."""
+    voltages drive under ``params``; diagnosis.oe.unit_torques), cut after.  ``inside``: the modifications the
+    output-error fit applies itself (a second-order motor's lag, a freed saturation: key -> value), which the
+    voltages go through first (as diagnose's fit does)."""
+    from .diagnosis.model import modified_inputs
     from .diagnosis.oe import unit_torques
 
     n = len(log) if n is None else n
-    return {k: np.ascontiguousarray(t[:n]) for k, t in unit_torques(log, params, law, keys).items()}
+    u1, u2 = modified_inputs(log, inside)[:2] if inside else (None, None)
+    return {k: np.ascontiguousarray(t[:n]) for k, t in unit_torques(log, params, law, keys, u1, u2).items()}
 
 
 def timing(log: Log, n: int | None = None) -> dict:
