@@ -329,3 +329,20 @@ def test_a_term_on_a_second_order_motors_thrust_reads_the_motor_the_fit_simulate
     freed = doc["refined"]["known_values_estimated"]["term(M2*beta'):yaw"]
     assert abs(freed["estimate"] / 0.2 - 1) < 1e-3 and freed["ci95"][1] - freed["ci95"][0] < 1e-3 * 0.2, freed
     assert doc["model_check"]["adequate"] is True
+
+
+def test_a_term_that_leaves_the_log_unexplained_is_refused_and_said():
+    """A term is the data's description of a torque: it stands only where it brings the model to the noise floor
+    (diagnosis.run.short_terms); beside an unexplained log it is refused as a possible stand-in, a library effect
+    is not, and an explained log keeps its term."""
+    from types import SimpleNamespace
+
+    from trms_ident.diagnosis.run import TERM_SHORT, short_terms, short_terms_sentence
+
+    term = SimpleNamespace(effect="term(beta'*beta')", axis="pitch", parameter={"name": "c", "value": 0.0033})
+    cable = SimpleNamespace(effect="cable_stiffness", axis="yaw", parameter={"name": "k", "value": 0.004})
+    (r,) = short_terms(SimpleNamespace(verdict="partly_explained", findings=[term, cable]))
+    assert r["key"] == "term(beta'*beta'):pitch" and r["reason"].startswith(TERM_SHORT) and r["parameter"] == 0.0033
+    assert short_terms(SimpleNamespace(verdict="explained", findings=[term, cable])) == []
+    said = short_terms_sentence([{k: v for k, v in r.items() if k != "key"}])
+    assert "Not findings: term(beta'*beta') on pitch (c = 0.0033): a term outside the library stands only" in said

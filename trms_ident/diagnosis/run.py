@@ -9,7 +9,8 @@ from typing import Callable
 import numpy as np
 
 from ..log import Log
-from ..model.bench import given_of
+from ..model.bench import given_of, is_term
+from ..model.terms import searched_keys
 from ..model.structure import of_bench
 from ..params import KNOWN, merge
 from . import held_out, search
@@ -37,15 +38,18 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
     with np.errstate(all="ignore"):
         stops_seen = _stops_seen(log, p, law, seed)
     with np.errstate(all="ignore"):  # a model far off the log overflows its predictions: they score as misfits
+        no_terms = ()  # the searched terms, once one of them was found where the log stays unexplained
         for attempt in range(HELD_OUT_RERUNS + 1):
-            exclude = tuple(g["key"] for g in gated)
+            exclude = tuple(g["key"] for g in gated) + no_terms
             found = search.effect_search(log, overrides, law, a_rad_s, progress, exclude, seed)
             d = weigh(found, log, p, law, overrides, exclude)
             # no finding leaves diagnose with a value outside its plausible range, whichever step placed it: it
-            # stands in for physics the model lacks, and the search runs again without it
-            outside = stand_ins(d.findings)
+            # stands in for physics the model lacks, and the search runs again without it; nor does a term that
+            # leaves the log unexplained (short_terms), and the search runs again without any term
+            outside = stand_ins(d.findings) + short_terms(d)
             if outside and attempt < HELD_OUT_RERUNS:
                 gated += outside
+                no_terms = no_terms or (searched_keys() if short_terms(d) else ())
                 continue
             d = _without_inert(_without_stand_ins(d, outside), log, p, law)
             progress("held-out simulation fits", 0.97)
@@ -59,7 +63,7 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
             d = replace(d, corrections=[replace(c, output_error=f) for c, f in
                                         zip(d.corrections, held_out.correction_fits(d, log, p, law, h))])
         refused = [{k: v for k, v in g.items() if k != "key"} for g in gated]
-        held = [g for g in refused if not g["reason"].startswith(STAND_IN)]
+        held = [g for g in refused if not g["reason"].startswith((STAND_IN, TERM_SHORT))]
         given = {k: {"value": p[k], "source": "override" if k in (overrides or {}) else "table"} for k in KNOWN}
         refused = d.refused + refused
         return replace(d, held_out=h, refused=refused, settings={**d.settings, "known_values": given,
@@ -67,7 +71,7 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
                                                                   "given_effects": given_of(p),
                                                                   "stops_seen": stops_seen},
                        verdict_sentence=d.verdict_sentence + held_out.gate_sentence(held) + held_out.caution(h)
-                       + (stops_sentence(stops_seen) + stand_in_sentence(refused)
+                       + (stops_sentence(stops_seen) + stand_in_sentence(refused) + short_terms_sentence(refused)
                           if d.verdict not in ("explained", "consistent") else ""))
 
 
@@ -218,6 +222,36 @@ def fit_without(d: Diagnosis, kept: list, log: Log, p: dict, law: str) -> dict |
     as_well = all(after[a] <= max(INERT_FIT_RATIO * before[a], RMS_OVER_NOISE if before[a] <= RMS_OVER_NOISE else 0.0)
                   for a in before)
     return dict(after) if as_well else None
+
+
+#: why a term found where the log stays unexplained is refused (short_terms)
+TERM_SHORT = "a term outside the library that leaves the log unexplained"
+
+
+def short_terms(d: Diagnosis) -> list[dict]:
+    """The term findings (model/terms.py) of a diagnosis that does not explain the log, each as a refusal {"key",
+    "effect", "axis", "parameter", "reason"}: a term is the data's description of a torque, not physics the
+    library names, so it stands only where it brings the model to the noise floor; where the log stays unexplained
+    it may stand in for what the model lacks (measured: a pitch torque 0.0033 beta'^2 named for a gyroscopic coupling
+    twice the table's Kg, tests/test_sparse_correction.py; a 0.0014 N m pitch friction term for a thrust that
+    changes with the pitch rate, outside.py --terms)."""
+    if d.verdict in ("explained", "consistent"):
+        return []
+    return [{"key": f"{f.effect}:{f.axis}", "effect": f.effect, "axis": f.axis,
+             "parameter": float(f.parameter["value"]),
+             "reason": f"{TERM_SHORT} (c = {float(f.parameter['value']):.4g}): it may stand in for what the model "
+                       "lacks; searched again without the terms"}
+            for f in d.findings if is_term(f"{f.effect}:{f.axis}")]
+
+
+def short_terms_sentence(refused: list[dict]) -> str:
+    """The verdict's words for the terms short_terms refused; empty when none."""
+    told = [r for r in refused if str(r.get("reason", "")).startswith(TERM_SHORT)]
+    if not told:
+        return ""
+    names = "; ".join(f"{r['effect']} on {r['axis']} (c = {r['parameter']:.4g})" for r in told)
+    return (f" Not findings: {names}: a term outside the library stands only where it brings the model to the noise "
+            "floor; with it the log stayed unexplained, so it may describe something else the model lacks.")
 
 
 #: diagnose runs its search again without the effects whose model simulated an axis worse on held-out samples
