@@ -46,10 +46,11 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
             # no finding leaves diagnose with a value outside its plausible range, whichever step placed it: it
             # stands in for physics the model lacks, and the search runs again without it; nor does a term that
             # leaves the log unexplained (short_terms), and the search runs again without any term
-            outside = stand_ins(d.findings) + short_terms(d)
+            shorts = short_terms(d)
+            outside = stand_ins(d.findings) + shorts
             if outside and attempt < HELD_OUT_RERUNS:
                 gated += outside
-                no_terms = no_terms or (searched_keys() if short_terms(d) else ())
+                no_terms = no_terms or (searched_keys() if shorts else ())
                 continue
             d = _without_inert(_without_stand_ins(d, outside), log, p, law)
             progress("held-out simulation fits", 0.97)
