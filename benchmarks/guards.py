@@ -7,7 +7,7 @@ exercise diagnose are run on the copy; the guard is held when at least one test 
 
 A copy is a `git worktree` of HEAD (so commit first): uncommitted changes are not in it.  The tests of diagnose
 and the docs' examples run (FIRST; --all: then the rest of the default suite) with `-x` (the first red test ends
-the run) on 2 processes, the edge tests (tests/test_guards.py) first and alone, in seconds; a guard whose tests
+the run) on 2 processes, the edge tests (tests/test_guards.py, or the guard's own file) first and alone, in seconds; a guard whose tests
 all pass took the whole run (about 6 minutes on this 2-core machine)."""
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 from results import publish  # noqa: E402
 
-#: (file, constant, broken value, what breaking it lets through)
+#: (file, constant, broken value, what breaking it lets through[, its edge tests' file when not EDGE])
 GUARDS = [
     ("trms_ident/diagnosis/select.py", "FAMILY_ALPHA", "0.9", "the family-wise level: nearly any candidate passes"),
     ("trms_ident/diagnosis/select.py", "MIN_REL_GAIN", "0.0", "the equation error's practical size"),
@@ -47,13 +47,23 @@ GUARDS = [
     ("trms_ident/known_values.py", "PRACTICAL_CHANGE", "0.0", "a known value that barely moves explains"),
     ("trms_ident/known_values.py", "PLAUSIBLE_VALUE_FACTOR", "1e6", "a known value any distance off the table"),
     ("trms_ident/known_values.py", "JOINT_MIN_SHARE", "0.0", "known values together on any share"),
+    # the search for physics outside the library (issue #76): terms and the sparse correction
+    ("trms_ident/model/terms.py", "THRUST_SHARE", "(-1e9, 1e9)", "a thrust term changing its thrust any number of times",
+     "tests/test_terms.py"),
+    ("trms_ident/diagnosis/run.py", "TERM_STANDS_UNDER",
+     '("explained", "consistent", "partly_explained", "unexplained")', "a term standing in beside an unexplained log",
+     "tests/test_terms.py"),
+    ("trms_ident/diagnosis/judge.py", "LIBRARY_BEFORE_TERM", "False", "a term named before the library effect it "
+     "cannot be told from", "tests/test_terms.py"),
+    ("trms_ident/diagnosis/sparse.py", "MAX_JB_CHANGE", "1e9", "a correction that replaces J or B",
+     "tests/test_sparse_correction.py"),
 ]
 
 #: the guards' edge tests: each guard just inside and just outside its edge (run first, alone)
 EDGE = "tests/test_guards.py"
 #: the tests that exercise diagnose's rule (and the docs' runnable examples, whose printed lines are checked);
 #: with --all the rest of the default suite after them
-FIRST = ["tests/test_guards.py", "tests/test_known_values.py", "tests/test_compound.py", "tests/test_both_motors.py",
+FIRST = ["tests/test_guards.py", "tests/test_terms.py", "tests/test_sparse_correction.py", "tests/test_known_values.py", "tests/test_compound.py", "tests/test_both_motors.py",
          "tests/test_diagnose.py", "tests/test_held_out.py", "tests/test_second_order_motor.py",
          "tests/test_sensor_lag.py", "tests/test_model_room.py", "tests/test_real_recordings.py", "tests/test_docs.py"]
 
@@ -70,13 +80,14 @@ def broken(tree: Path, path: str, name: str, value: str) -> str:
     return found[0]
 
 
-def run_tests(tree: Path, timeout_s: float, everything: bool) -> tuple[str, float]:
-    """The first failing test's id ('' when all passed) and the seconds it took."""
+def run_tests(tree: Path, timeout_s: float, everything: bool, edge: str = EDGE) -> tuple[str, float]:
+    """The first failing test's id ('' when all passed) and the seconds it took; ``edge`` the file of the guard's edge
+    tests, run first."""
     t0 = time.perf_counter()
     rest = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "tests").glob("test_*.py")
                   if str(p.relative_to(ROOT)) not in FIRST) if everything else []
     # the edge tests first, alone and in one process (seconds): most guards are held there, and the run ends
-    for files, workers in (([EDGE], []), ([f for f in FIRST if f != EDGE] + rest, ["-n", "2"])):
+    for files, workers in (([edge], []), ([f for f in FIRST if f != edge] + rest, ["-n", "2"])):
         cmd = [sys.executable, "-m", "pytest", "-x", "-q", *workers, "-p", "no:cacheprovider", *files]
         proc = subprocess.Popen(cmd, cwd=tree, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                 env={**os.environ, "PYTHONPATH": str(tree)}, start_new_session=True)
@@ -103,7 +114,7 @@ def main() -> None:
                           check=True).stdout.strip()
     rows, held, t_all = [], 0, time.perf_counter()
     chosen = [g for g in GUARDS if not args.only or g[1] in args.only]
-    for path, name, value, what in chosen:
+    for path, name, value, what, *edge in chosen:
         with tempfile.TemporaryDirectory(prefix="guard-") as tmp:
             tree = Path(tmp) / "tree"
             subprocess.run(["git", "worktree", "add", "-q", "--detach", str(tree), "HEAD"], cwd=ROOT, check=True)
@@ -114,7 +125,7 @@ def main() -> None:
                 (tree.parent / "shared").symlink_to(shared)  # the real recordings' tests read ../shared
             try:
                 was = broken(tree, path, name, value)
-                first, seconds = run_tests(tree, args.timeout, args.all)
+                first, seconds = run_tests(tree, args.timeout, args.all, *edge)
             finally:
                 subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT, check=False)
         ok = bool(first) and not first.startswith("(")  # a red test named (not a time-out or a crash)

@@ -88,6 +88,15 @@ def test_library_cannot_rebuild_the_right_hand_side():
     assert sparse._keeps_physics(np.array([0.02, 0.1]), np.array([-0.17, 0.15]))  # repairs a non-physical fit
 
 
+@pytest.mark.parametrize("ratio, kept", [(1.49, True), (0.51, True), (1.51, False), (0.49, False)])
+def test_a_correction_may_move_j_or_b_by_at_most_half(ratio, kept):
+    """A correction describes a torque the model misses; one whose joint fit moves J or B by more than half their
+    values with the named effects (sparse.MAX_JB_CHANGE) replaces the model's inertia or damping instead."""
+    before = np.array([0.068, 0.006])
+    assert sparse._keeps_physics(before * np.array([1.0, ratio]), before) is kept
+    assert sparse._keeps_physics(before * np.array([ratio, 1.0]), before) is kept
+
+
 def test_cli_reports_the_correction_in_words_and_json(tmp_path, no_joint):
     # the reaction moment half the table's: the correction gives back +0.5 M_R (40 s: diagnose takes 20 s on it, 130 s
     # on 120 s, where the profile scans of the input modifications run over a longer misfit)

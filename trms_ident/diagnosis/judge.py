@@ -87,7 +87,7 @@ def alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache,
     # among look-alikes a library effect is named before a term (model/terms.py): the term is the same torque on this
     # log written without the physics (measured: a yaw Coulomb friction of 0.005 N m named as c sign(beta') cos(alpha)
     # with c = -0.00501 on a log whose pitch stays near 0, diagnose.py row 76)
-    named = [q for q in close if not is_term(q["c"].key)] or close
+    named = [q for q in close if not (LIBRARY_BEFORE_TERM and is_term(q["c"].key))] or close
     if not apart:  # the output-error fit cannot tell them apart either
         if best in named:
             return best, list(dict.fromkeys(alts + [r["c"].key for r in close if r is not best])), None
@@ -110,6 +110,8 @@ def alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache,
 #: per round, this many candidates (the equation error's best first) are fitted by output error when the
 #: equation error passes none; the equation error only orders them
 OE_TOP_K = 3
+#: among the output-error fit's look-alikes a library effect is named before a term (alternatives_by_output_error)
+LIBRARY_BEFORE_TERM = True
 
 
 def oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, n_tests, fitter, tested,

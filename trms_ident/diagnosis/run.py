@@ -227,6 +227,8 @@ def fit_without(d: Diagnosis, kept: list, log: Log, p: dict, law: str) -> dict |
 
 #: why a term found where the log stays unexplained is refused (short_terms)
 TERM_SHORT = "a term outside the library that leaves the log unexplained"
+#: the verdicts under which a term found stands: the model with it at the noise floor (short_terms' guard)
+TERM_STANDS_UNDER = ("explained", "consistent")
 
 
 def short_terms(d: Diagnosis) -> list[dict]:
@@ -236,7 +238,7 @@ def short_terms(d: Diagnosis) -> list[dict]:
     it may stand in for what the model lacks (measured: a pitch torque 0.0033 beta'^2 named for a gyroscopic coupling
     twice the table's Kg, tests/test_sparse_correction.py; a 0.0014 N m pitch friction term for a thrust that
     changes with the pitch rate, outside.py --terms)."""
-    if d.verdict in ("explained", "consistent"):
+    if d.verdict in TERM_STANDS_UNDER:
         return []
     return [{"key": f"{f.effect}:{f.axis}", "effect": f.effect, "axis": f.axis,
              "parameter": float(f.parameter["value"]),
