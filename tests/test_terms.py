@@ -346,3 +346,27 @@ def test_a_term_that_leaves_the_log_unexplained_is_refused_and_said():
     assert short_terms(SimpleNamespace(verdict="explained", findings=[term, cable])) == []
     said = short_terms_sentence([{k: v for k, v in r.items() if k != "key"}])
     assert "Not findings: term(beta'*beta') on pitch (c = 0.0033): a term outside the library stands only" in said
+
+
+def test_a_terms_motor_states_start_where_the_fits_do_on_a_log_cut_mid_run(tmp_path):
+    """A term's torque is computed outside the fit from the motor states the voltages drive; on a log cut mid-run
+    those start where the fit's own start states are (diagnosis.oe.settled_starts), not at the steady state of the
+    first voltages: the tail thrust growing with the yaw rate, -0.24 M2 beta', on a square wave 20 s into the run
+    fits and c freed from 0.7x comes back (measured: from the steady state, the yaw 25x its noise level and J2 3 %
+    off; with the fit's start states, c -0.2398013 for -0.2398)."""
+    bench = tmp_path / "b.toml"
+    bench.write_text('[terms]\n"yaw: M2 * beta\'" = -0.24\n')
+    res = runner.invoke(app, ["simulate", "--ref", "square", "--duration", "40", "--rate", "200", "--encoder-bits", "12",
+                              "--start", "20", "--seed", "6", "--params", str(bench), "-o", str(tmp_path / "s.csv")])
+    assert res.exit_code == 0, res.output
+    wrong = tmp_path / "w.toml"
+    wrong.write_text(bench.read_text().replace("-0.24", "-0.168"))
+    res = runner.invoke(app, ["estimate", str(tmp_path / "s.csv"), "--params", str(wrong), "--free", "yaw: M2 * beta'",
+                              "-o", str(tmp_path / "o"), "--no-report", "--json", "-"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["model_check"]["adequate"] is True, res.stderr
+    freed = doc["refined"]["known_values_estimated"]["term(M2*beta'):yaw"]
+    assert abs(freed["estimate"] / -0.24 - 1) < 2e-3, freed
+    for k, v in TRUTH.items():
+        assert abs(doc["estimates"][k] / v - 1) < 5e-3, (k, doc["estimates"][k])

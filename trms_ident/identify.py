@@ -154,13 +154,14 @@ def refined_free(settings: Settings) -> tuple:
 
 
 def model_kw(settings: Settings, values: dict | None = None, log: Log | None = None, params: dict | None = None,
-             n: int | None = None) -> dict:
+             n: int | None = None, start: dict | None = None) -> dict:
     """refine's ``effects``: the bench's torque effects at their values (``values``: freed ones' estimates in
     their place), the modifications the kernel integrates (model.bench.KERNEL_KEYS, and the saturations freed:
     NATIVE_FREE_KEYS, on voltages from under_model(..., kernel=True, free=settings.free)) and the bench's structure
     (model.structure.slot_values); empty under eq. (1) alone.  With the bench's terms (model/terms.py) and ``log``
     (the refinement's, its first ``n`` samples) and ``params``, refine's ``torques`` too: each term's torque per
-    unit c from the log's angles, smoothed rates and the motor states its voltages drive (term_torques)."""
+    unit c from the log's angles, smoothed rates and the motor states its voltages drive (term_torques) from
+    ``start`` (a fit's start_states) when given."""
     from .model.bench import inside_fit, is_term, is_torque
     from .model.structure import slot_values
 
@@ -172,23 +173,25 @@ def model_kw(settings: Settings, values: dict | None = None, log: Log | None = N
     if terms and log is not None:
         # the motor states a term reads see the voltages through the modifications the fit applies itself too
         out["torques"] = term_torques(log, params, settings.thrust_law, terms, n,
-                                      {k: v for k, v in settings.effects.items() if k in inside})
+                                      {k: v for k, v in settings.effects.items() if k in inside}, start)
     return out
 
 
-def term_torques(log: Log, params: dict, law: str, keys: tuple, n: int | None = None, inside: dict | None = None
-                 ) -> dict:
+def term_torques(log: Log, params: dict, law: str, keys: tuple, n: int | None = None, inside: dict | None = None,
+                 start: dict | None = None) -> dict:
     """key -> (n, 2) torque per unit c [N m / unit] on pitch and yaw of each term ``keys`` names (model/terms.py), on
     the first ``n`` samples of ``log``: the signals of the whole log (its smoothed rates, the motor states its
     voltages drive under ``params``; diagnosis.oe.unit_torques), cut after.  ``inside``: the modifications the
     output-error fit applies itself (a second-order motor's lag, a freed saturation: key -> value), which the
-    voltages go through first (as diagnose's fit does)."""
+    voltages go through first (as diagnose's fit does).  ``start``: the motor states' start (a fit's start_states;
+    default: the steady state of the first voltages)."""
     from .diagnosis.model import modified_inputs
     from .diagnosis.oe import unit_torques
 
     n = len(log) if n is None else n
     u1, u2 = modified_inputs(log, inside)[:2] if inside else (None, None)
-    return {k: np.ascontiguousarray(t[:n]) for k, t in unit_torques(log, params, law, keys, u1, u2).items()}
+    return {k: np.ascontiguousarray(t[:n])
+            for k, t in unit_torques(log, params, law, keys, u1, u2, start=start).items()}
 
 
 def timing(log: Log, n: int | None = None) -> dict:
@@ -447,10 +450,28 @@ def _usable_start(offline: dict) -> bool:
 def refine_first(log: Log, n: int, params: dict, settings: Settings, start: dict, noise: dict,
                  free: tuple = (), **options) -> Refined:
     """The refinement on the log's first n samples, with its stamps and voltage switch times; ``options``:
-    refine's (window_s, start_states0)."""
-    return refine(log.u1_v[:n], log.u2_v[:n], log.alpha_rad[:n], log.beta_rad[:n], log.sample_time_s, params,
-                  settings.thrust_law, start, noise, free=free, **model_kw(settings, log=log, params=params, n=n),
-                  **timing(log, n), **options)
+    refine's (window_s, start_states0).  Under a bench's terms (model/terms.py), whose torques are computed outside
+    the fit from the motor states the voltages drive, those motor states start where the fit's own do
+    (diagnosis.oe.settled_starts)."""
+    def run(s, kw, **o):
+        return refine(log.u1_v[:n], log.u2_v[:n], log.alpha_rad[:n], log.beta_rad[:n], log.sample_time_s, params,
+                      settings.thrust_law, s, noise, free=free, **kw, **timing(log, n), **o)
+
+    kw = model_kw(settings, log=log, params=params, n=n)
+    r = run(start, kw, **options)
+    if "torques" not in kw:
+        return r
+    from .diagnosis.oe import settled_starts, steady_start
+
+    def again(at, prev):
+        first = {k: prev.estimate[k] for k in ESTIMATED}
+        if not _usable_start(first):
+            return None
+        return run(first, model_kw(settings, log=log, params=params, n=n, start=at),
+                   **{**options, "start_states0": at})
+
+    return settled_starts(again, r, steady_start(log.u1_v, log.u2_v, params))
+
 
 
 #: motor and reaction-lag start states at rest, a second way into the fit when the steady state of the first
@@ -678,7 +699,7 @@ def _with_rounding(log: Log, settings: Settings, params: dict, r: Refined, noise
         cov, _ = rounding_covariance(log.u1_v, log.u2_v, r.prediction, log.sample_time_s, {**params, **known},
                                      settings.thrust_law, r.estimate, noise, quantum, free=tuple(freed),
                                      start_states0=r.start_states, window_starts=r.fit.starts,
-                                     **model_kw(settings, freed, log=log, params=params),
+                                     **model_kw(settings, freed, log=log, params=params, start=r.start_states),
                                      **timing(log, len(log)))
     except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
         return r, "; the encoder's rounding spread could not be evaluated (intervals: batch means only)"

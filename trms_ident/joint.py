@@ -180,7 +180,9 @@ def _pooled(logs: list[Log], verdicts: list[LogVerdict], pool: list[int], params
         runs.append(Run(log.u1_v, log.u2_v, log.alpha_rad, log.beta_rad, log.sample_time_s, noise_floors(log, len(log)),
                         tm["t_s"], tm["switch_delay_s"], starts0,
                         1.0 / max(noise_inflation(r if res.headline == "refined" else None), 1e-6),
-                        _own_cov(verdicts[i], res), model_kw(settings, log=log, params=params).get("torques")))
+                        _own_cov(verdicts[i], res),
+                        model_kw(settings, log=log, params=params,
+                                 start=starts0 if r is not None and r.converged else None).get("torques")))
     effects = model_kw(settings).get("effects")
     failed = None
     # from where the logs agree, then from the table's J/B: a start among far-apart logs' estimates (the CE150's

@@ -50,8 +50,9 @@ from scipy.special import stdtr, stdtrit
 from ..log import Log
 from ..model import effects as room
 from ..model.plant import EFFECT_SLOTS, thrust_law
-from ..model.bench import KERNEL_KEYS, NATIVE_FREE_KEYS, given_of, inside_fit
+from ..model.bench import KERNEL_KEYS, NATIVE_FREE_KEYS, given_of, inside_fit, is_term
 from ..numerics import safe
+from ..params import ESTIMATED
 from ..numerics.parallel import fan_out
 from ..numerics.adequacy import judging_floors
 from ..numerics.design import angle_noise_rad
@@ -206,10 +207,13 @@ def torque_share(key: str, value: float, log: Log, p: dict, law: str) -> float:
     return torque / scale if scale > 0 else 0.0
 
 
-def unit_torques(log: Log, p: dict, law: str, keys, u1=None, u2=None, cache: dict | None = None) -> dict:
+def unit_torques(log: Log, p: dict, law: str, keys, u1=None, u2=None, cache: dict | None = None,
+                 start: dict | None = None) -> dict:
     """key -> (n, 2) torque per unit parameter [N m / unit] on pitch and yaw of each effect the model room
     declares by its torque (model/effects.py), from the log's measured states and the motor states that the
-    voltages (u1, u2: the log's unless given, e.g. through input modifications) drive in the seed model ``p``."""
+    voltages (u1, u2: the log's unless given, e.g. through input modifications) drive in the seed model ``p``,
+    from ``start`` (a fit's start_states: tau1_0, tau2_0, zeta_0) when given, else from the steady state of the
+    first voltages."""
     from ..numerics.fused import plant_signals
 
     keys = [k for k in keys if room.generic(k)]
@@ -217,7 +221,8 @@ def unit_torques(log: Log, p: dict, law: str, keys, u1=None, u2=None, cache: dic
         return {}
     u1 = log.u1_v if u1 is None else u1
     u2 = log.u2_v if u2 is None else u2
-    ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, log.sample_time_s, p, law, rows="all")
+    ps = plant_signals(u1, u2, log.alpha_rad, log.beta_rad, log.sample_time_s, p, law, rows="all",
+                       start=None if start is None else {k: start[k] for k in ("tau1_0", "tau2_0", "zeta_0")})
     sig = {**state_signals(log, ps, p, {} if cache is None else cache), "u1": u1, "u2": u2}
     out = {}
     for k in keys:
@@ -225,6 +230,58 @@ def unit_torques(log: Log, p: dict, law: str, keys, u1=None, u2=None, cache: dic
         t[:, 0 if room.by_key(k).axis == "pitch" else 1] = room.by_key(k).torque(sig)
         out[k] = t
     return out
+
+
+#: settled_starts: passes at most, and the change of a motor's start state [model units of tau] below which the
+#: start states have settled (a motor's state runs to about 1 at the controller's 2.5 V)
+TERM_START_PASSES = 6
+TERM_START_SETTLED = 1e-3
+TERM_STARTS = ("tau1_0", "tau2_0", "zeta_0")
+
+
+def settled_starts(fit, r, used: dict | None = None):
+    """A fit whose exogenous torques (a term's, model/terms.py: computed outside the fit from the motor states the
+    voltages drive) read the motor states from the fit's own start states: ``fit(at, prev)`` refits with the
+    torques' motor states started at ``at``, from the previous pass' fit (None: it cannot), passes until the start states settle, the fixed point
+    at = fit(at).start_states, Aitken's extrapolation of every three passes speeding its linear convergence (a log
+    cut mid-run otherwise begins them at the steady state of the first voltages: measured, 0.24 M2 beta' on a
+    square wave 20 s in, the yaw 25x its noise level with the motors started there; at the floor after three
+    passes, settled after five; without the extrapolation 1.1x after six).  ``used``: where r's torques' motor
+    states started (steady_start): when r's own start states are there already, r is settled."""
+    def settled(a, b):
+        return all(abs(a[k] - b[k]) <= TERM_START_SETTLED * max(abs(b[k]), 1.0) for k in TERM_STARTS)
+
+    if used is not None and settled(r.start_states, used):
+        return r
+    seen, at = [r.start_states], dict(r.start_states)
+    for _ in range(TERM_START_PASSES):
+        try:
+            nxt = fit(at, r)
+        except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError, ValueError):
+            return r
+        if nxt is None:
+            return r
+        r = nxt
+        if settled(r.start_states, at):
+            break
+        seen.append(r.start_states)
+        at = dict(r.start_states)
+        if len(seen) >= 3:
+            s0, s1, s2 = seen[-3:]
+            for k in TERM_STARTS:
+                den = s2[k] - 2.0 * s1[k] + s0[k]
+                if abs(den) > 1e-12:
+                    at[k] = s2[k] - (s2[k] - s1[k]) ** 2 / den
+            seen = [at]
+    return r
+
+
+def steady_start(u1: np.ndarray, u2: np.ndarray, p: dict) -> dict:
+    """The motor states unit_torques starts from without ``start``: the steady state of the first voltages."""
+    from ..model.plant import steady_motor_states
+    from ..model.structure import of_bench, reaction_voltage
+
+    return dict(zip(TERM_STARTS, steady_motor_states(float(u1[0]), float(u2[0]), p, reaction_voltage(of_bench(p)))))
 
 
 def _steady_thrust(u: np.ndarray, pitch: bool, p: dict, law: str) -> tuple[np.ndarray, np.ndarray]:
@@ -344,6 +401,18 @@ class Fitter:
         r = oe_refine(u1, u2, part.alpha_rad, part.beta_rad, log.sample_time_s, p, self.law, theta0,
                       noise, free=free, effects={**effects, **kernel}, torques=torques or None, hold=hold,
                       start_states0=start, **kw)
+        terms = [k for k in generic if is_term(k)]
+        if terms:  # their motor states from the fit's own start states (settled_starts)
+            signals = {} if span is not None or lag is not None else self._signals
+
+            def again(at, prev):
+                tq = {**torques, **unit_torques(part, p, self.law, terms, t1, t2, signals, start=at)}
+                th = theta0 if hold else {k: prev.estimate[k] for k in ESTIMATED}
+                return oe_refine(u1, u2, part.alpha_rad, part.beta_rad, log.sample_time_s, p, self.law, th,
+                                 noise, free=free, effects={**effects, **kernel}, torques=tq, hold=hold,
+                                 start_states0=at, **kw)
+
+            r = settled_starts(again, r, steady_start(t1, t2, p))
         return r if lag is None else self._lagged(r, measured, lag)
 
     def _lagged(self, r, measured: Log, lag: float):
