@@ -57,6 +57,8 @@ GUARDS = [
      "cannot be told from", "tests/test_terms.py"),
     ("trms_ident/diagnosis/sparse.py", "MAX_JB_CHANGE", "1e9", "a correction that replaces J or B",
      "tests/test_sparse_correction.py"),
+    ("trms_ident/diagnosis/run.py", "INERT_FIT_RATIO", "1e9", "a finding dropped (inert, or beside a term) however "
+     "much the fit needs it"),
 ]
 
 #: the guards' edge tests: each guard just inside and just outside its edge (run first, alone)

@@ -363,3 +363,17 @@ def test_findings_whose_refitted_j_is_over_100x_off_the_table_are_leads_not_an_e
     got, sentence = credible("explained", "s.", {**jb, "J2": factor * jb["J2"]})
     assert got == verdict
     assert ("read the findings and their values as leads to check" in sentence) is (verdict != "explained")
+
+
+@pytest.mark.parametrize("before, after, as_well", [
+    (3.0, 3.03, True), (3.0, 3.031, False),  # far from the floor: within 1 % of the findings' model (INERT_FIT_RATIO)
+    (1.1, 1.199, True), (1.1, 1.201, False),  # at the floor: within the verdict's threshold (RMS_OVER_NOISE 1.2)
+    (1.3, 1.19, True), (1.3, 1.32, False)])
+def test_a_model_with_fewer_findings_fits_as_well_within_1_percent_or_within_the_verdicts_threshold(before, after,
+                                                                                                    as_well):
+    """diagnose drops a finding (an input modification of no practical size, a library effect a term makes
+    unnecessary) only where the model without it fits the log as well: each angle's error RMS over its floor within
+    1 % of the findings' model's, or under 1.2x where that model was."""
+    from trms_ident.diagnosis.run import fits_as_well
+
+    assert fits_as_well({"alpha": 1.0, "beta": before}, {"alpha": 1.0, "beta": after}) is as_well

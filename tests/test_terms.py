@@ -370,3 +370,39 @@ def test_a_terms_motor_states_start_where_the_fits_do_on_a_log_cut_mid_run(tmp_p
     assert abs(freed["estimate"] / -0.24 - 1) < 2e-3, freed
     for k, v in TRUTH.items():
         assert abs(doc["estimates"][k] / v - 1) < 5e-3, (k, doc["estimates"][k])
+
+
+def test_a_library_effect_a_term_makes_unnecessary_is_dropped_and_one_the_fit_needs_is_kept(monkeypatch):
+    """Beside a term found, a library effect whose removal leaves the model fitting the log as well (run.fit_without)
+    is dropped and said (issue #76: no library effect as a stand-in); one the fit needs, a known value and the term
+    itself stay; without a term nothing is tried."""
+    from types import SimpleNamespace
+
+    from trms_ident.diagnosis import run
+
+    def finding(effect, axis, value):
+        return SimpleNamespace(effect=effect, axis=axis, parameter={"name": "c", "value": value})
+
+    term = finding("term(M1*sin(alpha))", "pitch", 0.3)
+    offset = finding("com_offset", "pitch", 0.01)  # the term's look-alike: unnecessary beside it
+    cable = finding("cable_stiffness", "yaw", 0.004)  # needed
+    kv = finding("known_value", "pitch", 0.3)
+    tried = []
+
+    def fit_without(d, kept, log, p, law):
+        gone = [f for f in d.findings if f not in kept]
+        tried.append(gone[0].effect)
+        return {"alpha": 1.0, "beta": 1.0} if gone == [offset] else None
+
+    monkeypatch.setattr(run, "fit_without", fit_without)
+    d = SimpleNamespace(findings=[term, offset, cable, kv], steps=[{"key": "com_offset:pitch"}, {"key": "x"}],
+                        refused=[])
+    monkeypatch.setattr(run, "replace", lambda obj, **kw: SimpleNamespace(**{**vars(obj), **kw}))
+    got = run._without_unneeded(d, None, {}, "quadratic")
+    assert got.findings == [term, cable, kv] and tried == ["com_offset", "cable_stiffness"]
+    assert got.steps == [{"key": "x"}]
+    (r,) = got.refused
+    assert r["effect"] == "com_offset" and r["reason"].startswith(run.UNNEEDED)
+    tried.clear()
+    d = SimpleNamespace(findings=[offset, cable], steps=[], refused=[])
+    assert run._without_unneeded(d, None, {}, "quadratic") is d and tried == []

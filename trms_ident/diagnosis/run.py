@@ -52,7 +52,7 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
                 gated += outside
                 no_terms = no_terms or (searched_keys() if shorts else ())
                 continue
-            d = _without_inert(_without_stand_ins(d, outside), log, p, law)
+            d = _without_unneeded(_without_inert(_without_stand_ins(d, outside), log, p, law), log, p, law)
             progress("held-out simulation fits", 0.97)
             h = held_out.held_out_fits(d, log, p, law)
             refuse = held_out.lowering(d.findings, h)
@@ -190,6 +190,35 @@ def _without_inert(d: Diagnosis, log: Log, p: dict, law: str) -> Diagnosis:
                    refused=d.refused + refused)
 
 
+#: why a library effect found beside a term is dropped (_without_unneeded)
+UNNEEDED = "a term found beside it makes it unnecessary"
+
+
+def _without_unneeded(d: Diagnosis, log: Log, p: dict, law: str) -> Diagnosis:
+    """Beside a term found (model/terms.py), each library effect found is dropped, one at a time, when the model
+    without it fits the log as well (fit_without): the term makes it unnecessary, and it would stand in for nothing
+    (issue #76).  Known values are not tried (the fit without one is another bench's); the verdict stands, the
+    fit being as good."""
+    if not any(is_term(f"{f.effect}:{f.axis}") for f in d.findings):
+        return d
+    kept, refused = list(d.findings), []
+    for f in d.findings:
+        key = f"{f.effect}:{f.axis}"
+        if f.effect == "known_value" or is_term(key):
+            continue
+        rest = [g for g in kept if g is not f]
+        if fit_without(replace(d, findings=kept), rest, log, p, law) is None:
+            continue
+        kept = rest
+        refused.append({"effect": f.effect, "axis": f.axis, "parameter": float(f.parameter["value"]),
+                        "reason": f"{UNNEEDED}: the model without it fits the log as well"})
+    if not refused:
+        return d
+    keys = {f"{r['effect']}:{r['axis']}" for r in refused}
+    return replace(d, findings=kept, steps=[s for s in d.steps if s.get("key") not in keys],
+                   refused=d.refused + refused)
+
+
 #: the model without a finding of no practical size fits "as well" when each angle's error RMS over its floor is at
 #: most this factor of the findings' model's, or within the verdict's threshold (adequacy.RMS_OVER_NOISE) where the
 #: findings' model was (measured: the CE150's tail-motor lag kept, 25 000x without it against 0.0066x; a dead zone
@@ -202,7 +231,6 @@ def fit_without(d: Diagnosis, kept: list, log: Log, p: dict, law: str) -> dict |
     as d's findings' model (INERT_FIT_RATIO), else None.  Both by diagnose's output-error check (oe.Fitter.check:
     J/B, the torque terms and the start states refitted, the floors the seed check says); None when either cannot
     be fitted (nothing is refused on an assumption)."""
-    from ..numerics.adequacy import RMS_OVER_NOISE
     from .held_out import final_model
     from .oe import Fitter
     from .trials import jb_start
@@ -220,9 +248,17 @@ def fit_without(d: Diagnosis, kept: list, log: Log, p: dict, law: str) -> dict |
         before, after = ratios(d.findings), ratios(kept)
     if before is None or after is None:
         return None
-    as_well = all(after[a] <= max(INERT_FIT_RATIO * before[a], RMS_OVER_NOISE if before[a] <= RMS_OVER_NOISE else 0.0)
-                  for a in before)
-    return dict(after) if as_well else None
+    return dict(after) if fits_as_well(before, after) else None
+
+
+def fits_as_well(before: dict, after: dict) -> bool:
+    """Does a model with fewer findings (its error RMS over the floors ``after``, angle -> ratio) fit as well as
+    the findings' (``before``): within INERT_FIT_RATIO of it on each angle, or within the verdict's threshold
+    (adequacy.RMS_OVER_NOISE) where the findings' model was?"""
+    from ..numerics.adequacy import RMS_OVER_NOISE
+
+    return all(after[a] <= max(INERT_FIT_RATIO * before[a], RMS_OVER_NOISE if before[a] <= RMS_OVER_NOISE else 0.0)
+               for a in before)
 
 
 #: why a term found where the log stays unexplained is refused (short_terms)
