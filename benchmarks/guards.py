@@ -7,8 +7,8 @@ exercise diagnose are run on the copy; the guard is held when at least one test 
 
 A copy is a `git worktree` of HEAD (so commit first): uncommitted changes are not in it.  The tests of diagnose
 and the docs' examples run (FIRST; --all: then the rest of the default suite) with `-x` (the first red test ends
-the run) on 2 processes, the edge tests (tests/test_guards.py, or the guard's own file) first and alone, in seconds; a guard whose tests
-all pass took the whole run (about 6 minutes on this 2-core machine)."""
+the run) on 2 processes, the edge tests (tests/test_guards.py, or the guard's own file) first and alone, in
+seconds; a guard whose tests all pass took the whole run (about 6 minutes on this 2-core machine)."""
 from __future__ import annotations
 
 import argparse
@@ -48,8 +48,8 @@ GUARDS = [
     ("trms_ident/known_values.py", "PLAUSIBLE_VALUE_FACTOR", "1e6", "a known value any distance off the table"),
     ("trms_ident/known_values.py", "JOINT_MIN_SHARE", "0.0", "known values together on any share"),
     # the search for physics outside the library (issue #76): terms and the sparse correction
-    ("trms_ident/model/terms.py", "THRUST_SHARE", "(-1e9, 1e9)", "a thrust term changing its thrust any number of times",
-     "tests/test_terms.py"),
+    ("trms_ident/model/terms.py", "THRUST_SHARE", "(-1e9, 1e9)",
+     "a thrust term changing its thrust any number of times", "tests/test_terms.py"),
     ("trms_ident/diagnosis/run.py", "TERM_STANDS_UNDER",
      '("explained", "consistent", "partly_explained", "unexplained")', "a term standing in beside an unexplained log",
      "tests/test_terms.py"),
@@ -65,7 +65,8 @@ GUARDS = [
 EDGE = "tests/test_guards.py"
 #: the tests that exercise diagnose's rule (and the docs' runnable examples, whose printed lines are checked);
 #: with --all the rest of the default suite after them
-FIRST = ["tests/test_guards.py", "tests/test_terms.py", "tests/test_sparse_correction.py", "tests/test_known_values.py", "tests/test_compound.py", "tests/test_both_motors.py",
+FIRST = ["tests/test_guards.py", "tests/test_terms.py", "tests/test_sparse_correction.py",
+         "tests/test_known_values.py", "tests/test_compound.py", "tests/test_both_motors.py",
          "tests/test_diagnose.py", "tests/test_held_out.py", "tests/test_second_order_motor.py",
          "tests/test_sensor_lag.py", "tests/test_model_room.py", "tests/test_real_recordings.py", "tests/test_docs.py"]
 

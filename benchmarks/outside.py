@@ -163,7 +163,8 @@ def term_run(c: dict):
     from sim import SimSettings, simulate
 
     ref, rate, noise, q, start = c["cond"]
-    (lo, hi), sign = next((r, s) for axis, product, r, s, *_ in TERM_KINDS if (axis, product) == (c["axis"], c["product"]))
+    (lo, hi), sign = next((r, s) for axis, product, r, s, *_ in TERM_KINDS
+                          if (axis, product) == (c["axis"], c["product"]))
     value = c["c"]
     for k in range(TERM_DRAWS):
         if k:

@@ -356,8 +356,8 @@ def test_a_terms_motor_states_start_where_the_fits_do_on_a_log_cut_mid_run(tmp_p
     off; with the fit's start states, c -0.2398013 for -0.2398)."""
     bench = tmp_path / "b.toml"
     bench.write_text('[terms]\n"yaw: M2 * beta\'" = -0.24\n')
-    res = runner.invoke(app, ["simulate", "--ref", "square", "--duration", "40", "--rate", "200", "--encoder-bits", "12",
-                              "--start", "20", "--seed", "6", "--params", str(bench), "-o", str(tmp_path / "s.csv")])
+    res = runner.invoke(app, ["simulate", "--ref", "square", "--duration", "40", "--rate", "200",
+                              "--encoder-bits", "12", "--start", "20", "--seed", "6", "--params", str(bench), "-o", str(tmp_path / "s.csv")])
     assert res.exit_code == 0, res.output
     wrong = tmp_path / "w.toml"
     wrong.write_text(bench.read_text().replace("-0.24", "-0.168"))

@@ -241,13 +241,14 @@ TERM_STARTS = ("tau1_0", "tau2_0", "zeta_0")
 
 def settled_starts(fit, r, used: dict | None = None):
     """A fit whose exogenous torques (a term's, model/terms.py: computed outside the fit from the motor states the
-    voltages drive) read the motor states from the fit's own start states: ``fit(at, prev)`` refits with the
-    torques' motor states started at ``at``, from the previous pass' fit (None: it cannot), passes until the start states settle, the fixed point
-    at = fit(at).start_states, Aitken's extrapolation of every three passes speeding its linear convergence (a log
-    cut mid-run otherwise begins them at the steady state of the first voltages: measured, 0.24 M2 beta' on a
-    square wave 20 s in, the yaw 25x its noise level with the motors started there; at the floor after three
-    passes, settled after five; without the extrapolation 1.1x after six).  ``used``: where r's torques' motor
-    states started (steady_start): when r's own start states are there already, r is settled."""
+    voltages drive) read the motor states from the fit's own start states.  ``fit(at, prev)`` refits, from the
+    previous pass' fit ``prev``, with the torques' motor states started at ``at`` (None: it cannot); passes run
+    until the start states settle at the fixed point at = fit(at).start_states, Aitken's extrapolation of every
+    three passes speeding its linear convergence (a log cut mid-run otherwise begins them at the steady state of
+    the first voltages: measured, 0.24 M2 beta' on a square wave 20 s in, the yaw 25x its noise level with the
+    motors started there; at the floor after three passes, settled after five; without the extrapolation 1.1x
+    after six).  ``used``: where r's torques' motor states started (steady_start): when r's own start states are
+    there already, r is settled."""
     def settled(a, b):
         return all(abs(a[k] - b[k]) <= TERM_START_SETTLED * max(abs(b[k]), 1.0) for k in TERM_STARTS)
 
