@@ -57,6 +57,8 @@ GUARDS = [
      "cannot be told from", "tests/test_terms.py"),
     ("trms_ident/diagnosis/sparse.py", "MAX_JB_CHANGE", "1e9", "a correction that replaces J or B",
      "tests/test_sparse_correction.py"),
+    ("trms_ident/diagnosis/oe.py", "UNCONVERGED_BASE_OVER_NOISE", "1e9", "a candidate judged by its drop from a "
+     "current model whose fit did not converge"),
     ("trms_ident/diagnosis/run.py", "INERT_FIT_RATIO", "1e9", "a finding dropped (inert, or beside a term) however "
      "much the fit needs it"),
 ]

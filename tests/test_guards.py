@@ -377,3 +377,16 @@ def test_a_model_with_fewer_findings_fits_as_well_within_1_percent_or_within_the
     from trms_ident.diagnosis.run import fits_as_well
 
     assert fits_as_well({"alpha": 1.0, "beta": before}, {"alpha": 1.0, "beta": after}) is as_well
+
+
+@pytest.mark.parametrize("over_noise, judged", [(1.19, True), (1.21, False)])
+def test_a_candidate_beside_a_current_model_that_did_not_converge_is_judged_only_at_1_2x_the_floor(over_noise,
+                                                                                                  judged):
+    """When the current model's output-error fit does not converge (far from the log), a candidate's fit is judged
+    only when it brings both angles within 1.2x their floors (oe.UNCONVERGED_BASE_OVER_NOISE): else its drop from
+    an unconverged cost means nothing."""
+    from trms_ident.diagnosis.oe import judged_beside_unconverged
+
+    floors = {"alpha": 4e-4, "beta": 5e-4}
+    assert judged_beside_unconverged({"alpha": 4e-4, "beta": over_noise * 5e-4}, floors) is judged
+    assert judged_beside_unconverged({"alpha": over_noise * 4e-4, "beta": 5e-4}, floors) is judged
