@@ -315,20 +315,26 @@ def test_a_term_on_a_second_order_motors_thrust_reads_the_motor_the_fit_simulate
     motor state: 0.292, 46 % off).  Its interval is 1e-5 wide and may miss the truth by that much: the term's torque
     is computed from the logged angle's smoothed rate, not the simulated one (measured: 0.199998, [0.1999960,
     0.1999999])."""
-    bench = tmp_path / "b.toml"
-    bench.write_text('[effects]\n"motor_second_lag:yaw" = 0.3\n[terms]\n"yaw: M2 * beta\'" = 0.2\n')
-    res = runner.invoke(app, ["simulate", "--ref", "multisine", "--duration", "60", "--rate", "200", "--encoder-bits",
-                              "12", "--seed", "9", "--params", str(bench), "-o", str(tmp_path / "s.csv")])
-    assert res.exit_code == 0, res.output
-    wrong = tmp_path / "w.toml"
-    wrong.write_text(bench.read_text().replace("= 0.2", "= 0.1"))
-    res = runner.invoke(app, ["estimate", str(tmp_path / "s.csv"), "--params", str(wrong), "--free", "yaw: M2 * beta'",
-                              "-o", str(tmp_path / "o"), "--no-report", "--json", "-"])
-    assert res.exit_code == 0, res.output
-    doc = json.loads(res.stdout)
-    freed = doc["refined"]["known_values_estimated"]["term(M2*beta'):yaw"]
+    doc, freed = _freed_from_a_wrong_start(tmp_path, '[effects]\n"motor_second_lag:yaw" = 0.3\n', 0.2, 0.1,
+                                           ["--ref", "multisine", "--duration", "60", "--seed", "9"])
     assert abs(freed["estimate"] / 0.2 - 1) < 1e-3 and freed["ci95"][1] - freed["ci95"][0] < 1e-3 * 0.2, freed
     assert doc["model_check"]["adequate"] is True
+
+
+def _freed_from_a_wrong_start(tmp_path, bench: str, c: float, start: float, sim_args: list) -> tuple[dict, dict]:
+    """A 200 Hz 12-bit log simulated (``sim_args``) under ``bench`` with the tail thrust's term c M2 beta', then
+    estimated with that c freed from ``start``: estimate's JSON and the freed term's entry."""
+    entry = 'yaw: M2 * beta\''
+    (tmp_path / "b.toml").write_text(f'{bench}[terms]\n"{entry}" = {c}\n')
+    (tmp_path / "w.toml").write_text(f'{bench}[terms]\n"{entry}" = {start}\n')
+    res = runner.invoke(app, ["simulate", *sim_args, "--rate", "200", "--encoder-bits", "12",
+                              "--params", str(tmp_path / "b.toml"), "-o", str(tmp_path / "s.csv")])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["estimate", str(tmp_path / "s.csv"), "--params", str(tmp_path / "w.toml"),
+                              "--free", entry, "-o", str(tmp_path / "o"), "--no-report", "--json", "-"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    return doc, doc["refined"]["known_values_estimated"]["term(M2*beta'):yaw"]
 
 
 def test_a_term_that_leaves_the_log_unexplained_is_refused_and_said():
@@ -354,19 +360,9 @@ def test_a_terms_motor_states_start_where_the_fits_do_on_a_log_cut_mid_run(tmp_p
     first voltages: the tail thrust growing with the yaw rate, -0.24 M2 beta', on a square wave 20 s into the run
     fits and c freed from 0.7x comes back (measured: from the steady state, the yaw 25x its noise level and J2 3 %
     off; with the fit's start states, c -0.2398013 for -0.2398)."""
-    bench = tmp_path / "b.toml"
-    bench.write_text('[terms]\n"yaw: M2 * beta\'" = -0.24\n')
-    res = runner.invoke(app, ["simulate", "--ref", "square", "--duration", "40", "--rate", "200",
-                              "--encoder-bits", "12", "--start", "20", "--seed", "6", "--params", str(bench), "-o", str(tmp_path / "s.csv")])
-    assert res.exit_code == 0, res.output
-    wrong = tmp_path / "w.toml"
-    wrong.write_text(bench.read_text().replace("-0.24", "-0.168"))
-    res = runner.invoke(app, ["estimate", str(tmp_path / "s.csv"), "--params", str(wrong), "--free", "yaw: M2 * beta'",
-                              "-o", str(tmp_path / "o"), "--no-report", "--json", "-"])
-    assert res.exit_code == 0, res.output
-    doc = json.loads(res.stdout)
-    assert doc["model_check"]["adequate"] is True, res.stderr
-    freed = doc["refined"]["known_values_estimated"]["term(M2*beta'):yaw"]
+    doc, freed = _freed_from_a_wrong_start(tmp_path, "", -0.24, -0.168,
+                                           ["--ref", "square", "--duration", "40", "--start", "20", "--seed", "6"])
+    assert doc["model_check"]["adequate"] is True, doc["model_check"]
     assert abs(freed["estimate"] / -0.24 - 1) < 2e-3, freed
     for k, v in TRUTH.items():
         assert abs(doc["estimates"][k] / v - 1) < 5e-3, (k, doc["estimates"][k])
