@@ -14,7 +14,9 @@ bench is off Table 1: J1, B1, J2, B2 drawn in 0.6-1.6x the table's and Mg, a1, b
 log's seed); diagnose is given those known values (as a user passes --params), never J/B.  A log whose yaw
 winds past 8 pi is refused by the unit check ("... degrees, or a yaw that drifted; ... --angle-unit rad if they
 are radians"); the benchmark then says rad, as that message asks a user to, and counts such logs.
-`--rerun-errors` runs again only the saved results' logs that ended in an error and rewrites the section.  Nulls: clean
+`--rerun-errors` runs again only the saved results' logs that ended in an error and rewrites the section.
+`--factors 1` runs only those sizes' logs and the nulls and prints the table (RESULTS.md, the saved results and the
+figure left as they are): a shorter check of the size asked.  Nulls: clean
 logs at 250 Hz with 1 mrad noise and 12-bit encoders, from rest and mid-run; any finding on them is a false
 alarm.  diagnose sees the log only.
 """
@@ -160,12 +162,14 @@ def main() -> None:
         saved.write_text(json.dumps(results, indent=1, default=str))
         timed = f"The {len(again)} logs that had ended in an error run again:"
     else:
-        cs = cases()
+        factors = _factors()
+        cs = [c for c in cases() if factors is None or c["effect"] is None or c["factor"] in factors]
         t0 = time.perf_counter()
         with ProcessPoolExecutor(max_workers=2) as pool:
             results = list(pool.map(run_case, cs))
         elapsed = time.perf_counter() - t0
-        saved.write_text(json.dumps(results, indent=1, default=str))
+        if factors is None:
+            saved.write_text(json.dumps(results, indent=1, default=str))
     rows, curves = [], {}
     for effect, axis, size, unit in EFFECTS:
         rates = []
@@ -200,11 +204,26 @@ def main() -> None:
             f"check asked for it (yaw past 8 pi): {sum(1 for r in results if r['case'].get('unit_stated'))}. "
             f"{timed} {elapsed:.0f} s on 2 processes.\n"
             "Figure: benchmarks/power_curve.png.\n")
+    if _factors() is not None:  # a part of the sizes: printed only
+        print(text)
+        return
     _figure(curves, Path(__file__).with_name("power_curve.png"))
     if "--replot" not in sys.argv:  # the saved run's section stays as it was written
         from results import update_section
         update_section(Path(__file__).with_name("RESULTS.md"), "Diagnose power", text)
     print(text)
+
+
+def _factors() -> tuple[float, ...] | None:
+    """The sizes --factors names (multiples of the size asked), or None: all of FACTORS."""
+    if "--factors" not in sys.argv:
+        return None
+    i = sys.argv.index("--factors") + 1
+    out = []
+    while i < len(sys.argv) and not sys.argv[i].startswith("--"):
+        out.append(float(sys.argv[i]))
+        i += 1
+    return tuple(out)
 
 
 def _figure(curves: dict, path: Path) -> None:
