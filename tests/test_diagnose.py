@@ -2,7 +2,6 @@
 import dataclasses
 import json
 import math
-import re
 
 import numpy as np
 import pytest
@@ -438,8 +437,7 @@ def test_output_error_fit_decides_between_close_rivals():
     assert set(named) == {("cable_stiffness", "yaw"), ("coulomb_friction", "yaw")}, list(named)
     assert named["cable_stiffness", "yaw"].parameter["value"] == pytest.approx(0.01, rel=0.1)
     assert named["coulomb_friction", "yaw"].parameter["value"] == pytest.approx(0.004, rel=0.1)
-    assert re.search(r"the output-error fit told it apart from [^(]*motor_lag:yaw", named["cable_stiffness", "yaw"]
-                     .evidence), named["cable_stiffness", "yaw"].evidence
+    assert "the output-error fit told it apart from motor_lag:yaw" in named["cable_stiffness", "yaw"].evidence
     assert d.verdict == "explained", d.verdict_sentence
 
 
@@ -838,32 +836,6 @@ def test_the_rescue_fits_candidates_on_an_axis_left_above_its_floor_first():
     assert judge._misfit_axes(Checked({"alpha": 1.3, "beta": 1.1}), None, {}, {}) == {"pitch"}
     assert judge._misfit_axes(Checked({"alpha": math.nan, "beta": 1.0}), None, {}, {}) == {"pitch"}
     assert judge._misfit_axes(Checked(None), None, {}, {}) == {"pitch", "yaw"}  # the fit cannot say
-
-
-def test_the_forms_of_one_dead_zone_share_a_place_among_the_output_error_fits():
-    # power benchmark log 5174 (a yaw friction and cable, square wave at 1 kHz, mid-run): a form added to the library
-    # (the shifted dead zone beside the cut-off one) pushed the cable out of the fitted places; the forms of one
-    # motor's dead zone are one physics, so they take one place, each fitted, and the next physics keeps its place
-    from trms_ident.diagnosis import judge
-    from trms_ident.diagnosis.select import Test
-    from trms_ident.model.effects import by_key, physics_key
-
-    def res(key, gain):
-        return {"c": by_key(key), "test": Test(gain=gain, t=3.0, p=0.01, share=0.0, passed=True)}
-
-    ranked = [res("shifted_dead_zone:yaw", 0.80), res("input_saturation:yaw", 0.78), res("dead_zone:yaw", 0.77),
-              res("thrust_asymmetry:yaw", 0.76), res("cable_stiffness:yaw", 0.73), res("quadratic_drag:yaw", 0.7)]
-    keys = [r["c"].key for r in judge.top_distinct(ranked, 3)]
-    assert keys == ["shifted_dead_zone:yaw", "input_saturation:yaw", "dead_zone:yaw", "thrust_asymmetry:yaw"]
-    # beside the best (a place taken), its other form is fitted without taking one of the rivals' places
-    keys = [r["c"].key for r in judge.top_distinct(ranked[1:], 2, taken={physics_key(ranked[0]["c"])})]
-    assert keys == ["input_saturation:yaw", "dead_zone:yaw", "thrust_asymmetry:yaw"]
-    # a later form of a physics already placed is fitted too; without forms it is the first k
-    keys = [r["c"].key for r in judge.top_distinct([ranked[0], ranked[1], ranked[3], ranked[2]], 2)]
-    assert keys == ["shifted_dead_zone:yaw", "input_saturation:yaw", "dead_zone:yaw"]
-    plain = [ranked[1], ranked[3], ranked[4], ranked[5]]
-    assert judge.top_distinct(plain, judge.OE_RIVALS) == plain[:judge.OE_RIVALS]
-    assert judge.top_distinct(plain, 2) == plain[:2]
 
 
 def test_a_profile_on_a_log_cut_mid_run_starts_where_the_current_models_fit_did():

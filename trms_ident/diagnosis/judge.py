@@ -49,7 +49,7 @@ def alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache,
     ALIAS_GAIN_RATIO of its gain (``alts``, its look-alikes, among them).  The equation error only orders them
     (measured: a yaw motor time constant 2-3 % off its table value named before a 0.01 N m/rad yaw cable, with
     gains 0.62 and 0.60).  When the output-error fit can carry the current model and the best with at least one
-    rival, the best and its OE_RIVALS closest rivals (top_distinct) are each fitted by output error.  Those whose test passes
+    rival, the best and its OE_TOP_K closest rivals are each fitted by output error.  Those whose test passes
     leaving at most 1 / ALIAS_GAIN_RATIO times the least angle-error excess over the noise floor are close: the
     equation error's best stays the finding if it is among them, else the one that leaves the least; the other
     close ones become alternatives (beside look-alikes the fit cannot carry), the rest are told apart.
@@ -62,7 +62,7 @@ def alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache,
                              key=lambda r: -r["test"].gain)
     if not oe.fittable(best["c"].key) or not rivals or not oe.representable(current, decided):
         return best, alts, None
-    pool = [best] + top_distinct(rivals, OE_RIVALS, taken={room.physics_key(best["c"])})
+    pool = [best] + rivals[:OE_TOP_K]
     theta0 = oe_start(score_now, reg_now, p)
     values = effect_values(current, score_now, reg_now)
     fits, fitted = {}, []
@@ -110,31 +110,6 @@ def alternatives_by_output_error(best, alts, ok, log, p, law, a, current, cache,
 #: per round, this many candidates (the equation error's best first) are fitted by output error when the
 #: equation error passes none; the equation error only orders them
 OE_TOP_K = 3
-
-
-def top_distinct(ranked, k: int, taken: set = frozenset()) -> list:
-    """``ranked`` (equation-error results, best first) as far as they fill ``k`` places of distinct physics beside
-    those ``taken`` (effects.physics_key): the forms of one effect share a place and are each fitted, so a form
-    added to the library takes no place from other physics (the places are what the fits cost); a superset of
-    ``ranked[:k]``."""
-    out, seen = [], set(taken)
-    for r in ranked:
-        key = room.physics_key(r["c"])
-        if key not in seen and len(seen) - len(taken) >= k:
-            continue  # it needs a place of its own, and none is left
-        seen.add(key)
-        out.append(r)
-    return out
-
-
-#: the equation error's best and this many of its close rivals (places of distinct physics, top_distinct) are
-#: fitted by output error (alternatives_by_output_error).  Measured (power.py seed 5174: a yaw friction and a
-#: 0.02 N m/rad yaw cable, square wave at 1 kHz cut mid-run): the tail motor's time constant was the equation
-#: error's best (gain 0.81) and the cable fifth (0.73), behind a shifted dead zone, a saturation and a thrust
-#: asymmetry; with three places the cable was never fitted and a time constant 4 % off was named beside the
-#: friction, "partly explained" (before the shifted dead zone joined the library the cable was fourth, fitted
-#: and named).  A place is one more output-error fit where rivals come close (fitted two at a time on 2 cores)
-OE_RIVALS = 4
 #: among the output-error fit's look-alikes a library effect is named before a term (alternatives_by_output_error)
 LIBRARY_BEFORE_TERM = True
 
@@ -364,18 +339,18 @@ PAIR_GN_SETTLED = 1e-6
 
 
 def _rescue_order(results, off: set) -> list:
-    """The candidates of OE_TOP_K places (top_distinct) the rescue fits: the equation error's best by held-out
-    gain; when the current model leaves one axis above its floor (``off``) and fits the other, first those that
-    act on that axis (directly, or through the reaction torque a pitch input modification changes on yaw: axes_of)
-    and whose held-out blocks improve on the whole (t > 0).  Measured: on a log whose pitch fitted at 1.00x and yaw at
+    """The OE_TOP_K candidates the rescue fits: the equation error's best by held-out gain; when the current
+    model leaves one axis above its floor (``off``) and fits the other, first those that act on that axis
+    (directly, or through the reaction torque a pitch input modification changes on yaw: axes_of) and whose
+    held-out blocks improve on the whole (t > 0).  Measured: on a log whose pitch fitted at 1.00x and yaw at
     1.89x, two pitch motor lags with gains 0.16-0.18 at t = -262 and -38 took two of the three places and the
     0.1 V yaw dead zone (gain 0.0036, t = 2.7) was never fitted; a pitch saturation that left the pitch at its
     floor and the yaw at 3.7x (gain 0.90, t = 2.5) acts on yaw through the reaction torque and stays first.  With
     both axes off, gain alone (t > 0 first there let a 1.07 s yaw motor lag stand in for a halved kc)."""
     if len(off) != 1:
-        return top_distinct(sorted(results, key=lambda r: -r["test"].gain), OE_TOP_K)
-    return top_distinct(sorted(results, key=lambda r: (not _acts_on(r["c"], off), not r["test"].t > 0,
-                                                       -r["test"].gain)), OE_TOP_K)
+        return sorted(results, key=lambda r: -r["test"].gain)[:OE_TOP_K]
+    return sorted(results, key=lambda r: (not _acts_on(r["c"], off), not r["test"].t > 0,
+                                          -r["test"].gain))[:OE_TOP_K]
 
 
 def _misfit_axes(fitter, model: Model, values: dict, theta0: dict) -> set:

@@ -260,11 +260,6 @@ def other_form_key(c: Candidate) -> str | None:
     """The same effect on the same axis in its other form: dead_zone:pitch -> "shifted_dead_zone:pitch"."""
     return f"{FORMS[c.effect]}:{c.axis}" if c.effect in FORMS else None
 
-
-def physics_key(c: Candidate) -> str:
-    """The physics a candidate names, its form aside: both forms of a motor's dead zone -> "dead_zone:<axis>"."""
-    return f"dead_zone:{c.axis}" if c.effect in FORMS else c.key
-
 #: sensor_offset on yaw: the yaw equation has no term in beta itself, so an encoder zero offset
 #: leaves no trace in it (unless a cable is also present); it is not a candidate.
 UNOBSERVABLE = {"sensor_offset:yaw": "the yaw equation contains no term in beta, so a yaw encoder offset "
