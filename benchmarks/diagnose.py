@@ -93,9 +93,20 @@ def run_case(c):
             exercised = min(exercised, float(np.mean(np.abs(u) > e["value"])))
     nominal_err = max(abs(d.nominal[k] / truth[k] - 1) for k in truth)
     return dict(case=c, seconds=el, mismatch=d.mismatch, exercised=exercised, nominal_max_err=nominal_err,
-                fit_before=d.fit_before, findings=[dict(effect=f.effect, axis=f.axis, value=f.parameter["value"],
+                fit_before=d.fit_before, findings=[dict(**named_as(f), value=f.parameter["value"],
                                                         fit_before=f.fit_before, fit_after=f.fit_after,
                                                         alternatives=f.alternatives) for f in d.findings])
+
+
+def named_as(f) -> dict:
+    """A finding's effect and axis; a known value that is a library effect under another name (a motor's time
+    constant T11 or T21 is motor_lag on its axis: diagnosis.compound.SAME, as compound.py reads it) as that effect."""
+    from trms_ident.diagnosis.compound import SAME
+
+    as_effect = {name: key.split(":") for key, name in SAME.items()}
+    effect, axis = as_effect.get(f.parameter.get("name"), (f.effect, f.axis)) if f.effect == "known_value" \
+        else (f.effect, f.axis)
+    return dict(effect=effect, axis=axis)
 
 
 def judge(res):
