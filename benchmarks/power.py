@@ -148,7 +148,7 @@ def detected(res: dict) -> bool:
 
 def main() -> None:
     saved = Path(__file__).with_name("power_results.json")
-    timed = "Total"
+    timed, factors = "Total", _factors()
     if "--replot" in sys.argv:  # the table and figure again from the saved results (no new runs)
         results, elapsed = json.loads(saved.read_text()), math.nan
     elif "--rerun-errors" in sys.argv:  # the saved results' errors run again (a harness that refused them)
@@ -162,7 +162,6 @@ def main() -> None:
         saved.write_text(json.dumps(results, indent=1, default=str))
         timed = f"The {len(again)} logs that had ended in an error run again:"
     else:
-        factors = _factors()
         cs = [c for c in cases() if factors is None or c["effect"] is None or c["factor"] in factors]
         t0 = time.perf_counter()
         with ProcessPoolExecutor(max_workers=2) as pool:
@@ -204,7 +203,7 @@ def main() -> None:
             f"check asked for it (yaw past 8 pi): {sum(1 for r in results if r['case'].get('unit_stated'))}. "
             f"{timed} {elapsed:.0f} s on 2 processes.\n"
             "Figure: benchmarks/power_curve.png.\n")
-    if _factors() is not None:  # a part of the sizes: printed only
+    if factors is not None:  # a part of the sizes: printed only
         print(text)
         return
     _figure(curves, Path(__file__).with_name("power_curve.png"))
