@@ -42,7 +42,6 @@ GUARDS = [
     ("trms_ident/numerics/adequacy.py", "RMS_OVER_NOISE", "50.0", "'fits' and 'explained' by simulation"),
     ("trms_ident/params.py", "PLAUSIBLE_FACTOR", "1e9", "'explained' with J/B any distance off the table"),
     ("trms_ident/diagnosis/discriminate.py", "MIN_COST_GAP", "0.0", "the two pitch offsets told apart on any gap"),
-    ("trms_ident/diagnosis/compound.py", "LEAD_OVER_NOISE", "1000.0", "a known value leads far from the floor"),
     ("trms_ident/diagnosis/compound.py", "VALUE_FIRST_OVER_NOISE", "1e9", "value-first on any misfit"),
     ("trms_ident/known_values.py", "PRACTICAL_CHANGE", "0.0", "a known value that barely moves explains"),
     ("trms_ident/known_values.py", "PLAUSIBLE_VALUE_FACTOR", "1e6", "a known value any distance off the table"),

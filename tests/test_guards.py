@@ -239,19 +239,6 @@ def _kv_fit(name: str, worst: float, cost: float = 10.0) -> dict:
             "over_noise": {"alpha": worst, "beta": 1.0}}
 
 
-@pytest.mark.parametrize("worst, leads", [(1.9, True), (2.1, False)])
-def test_a_known_value_whose_refit_leaves_2_1x_the_floor_is_no_lead_beside_a_modification(worst, leads):
-    """compound.lead_of: beside an input modification, the best-ranked known value is freed too only when its
-    refit alone left the angles within LEAD_OVER_NOISE (2x) of their floors."""
-    from trms_ident.diagnosis.compound import lead_of
-
-    kv = {"fits": [_kv_fit("Mg", worst, cost=5.0), _kv_fit("kc", 1.5, cost=9.0)]}
-    got = lead_of(kv, "dead_zone:yaw")
-    assert (got is not None and got["name"] == "Mg") is leads
-    if not leads:
-        assert got is None  # the best-ranked is no lead: the second is not tried in its place
-
-
 @pytest.mark.parametrize("worst, seed_worst, led", [(9.0, 100.0, True), (11.0, 100.0, False), (9.0, 17.0, False)])
 def test_a_known_value_leads_the_search_only_within_10x_its_floor_and_half_the_seed_models_misfit(worst, seed_worst,
                                                                                                  led):
