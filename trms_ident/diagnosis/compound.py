@@ -277,9 +277,7 @@ def lead_of(kv: dict, key: str) -> dict | None:
     # 0.269 V pitch dead zone held at 0.2689 V, on a log whose pitch command hovers at the zone's edge: b1's refit
     # 0.12097 for 0.12101 left the yaw at 4.7x over the standard windows, Mg's shooting cost was the lower)
     shot = [f for f in fits if f.get("stage") == "windows"]
-    if shot:
-        return min(shot, key=lambda f: f["cost"])
-    return min(fits, key=lambda f: f["cost"])
+    return min(shot or fits, key=lambda f: f["cost"])
 
 
 def best(tried: list[Hypothesis]) -> tuple[Hypothesis | None, list[Hypothesis]]:
