@@ -34,6 +34,7 @@ from .errors import IdentificationError, SettingsError, TrmsError
 from .identify import identify, noise_floors, refine_first, refined_interval, under_model
 from .model.bench import KERNEL_KEYS, MIN_KERNEL_LAG_S, MODIFICATION_KEYS, NATIVE_FREE_KEYS
 from .model.effects import BY_KEY, SENSOR_LAG
+from .numerics.parallel import fan_out
 from .params import ESTIMATED, merge
 
 #: the profile searches within this factor of the file's value either way
@@ -204,7 +205,7 @@ def _held_slopes(log, settings, r0, held: dict) -> dict:
         (step, half), v0 = step_half, _held(settings, key)
         fit, _ = _profile_fit(log, settings, key, r0)
         try:  # (a known value stepped out of its physical range is refused by merge: no slope there either)
-            lo_fit, hi_fit = fit(v0 - step), fit(v0 + step)
+            lo_fit, hi_fit = fan_out(fit, (v0 - step, v0 + step))
         except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError, TrmsError):
             failed.append(key)
             continue
@@ -304,8 +305,9 @@ def _search(fit, x0: float, span: float) -> tuple[float, float]:
     # it, the yaw at 1.95x its floor; at 0.2512 V 1.02x).  So a grid near the best so far, then Brent between
     # the best grid point's neighbours
     near = min(span, NEAR_SPAN)
-    grid = x + near * np.linspace(-1.0, 1.0, 2 * NEAR_POINTS + 1)
-    xg = float(min(grid, key=cost))
+    grid = [float(v) for v in x + near * np.linspace(-1.0, 1.0, 2 * NEAR_POINTS + 1)]
+    fan_out(cost, grid)  # the grid's fits are independent: on both cores (each kept in costs, read by min)
+    xg = min(grid, key=cost)
     step = float(grid[1] - grid[0])
     fine = minimize_scalar(cost, bounds=(xg - step, xg + step), method="bounded", options={"xatol": LOG_TOLERANCE})
     return float(min([float(fine.x), xg, x], key=cost)), x0
