@@ -484,3 +484,23 @@ def test_fan_out_keeps_order_and_does_not_nest():
             assert all(busy for _, busy, _ in row)
             assert len({name for _, _, name in row}) == 1  # the inner items ran in their outer item's thread
     assert not parallel.in_worker()
+
+
+@pytest.mark.parametrize("freed", [(), ("input_saturation:yaw",)])
+def test_a_trial_fit_without_its_interval_has_the_same_values_cost_and_predictions(freed):
+    """refine's ``interval`` False (a profile's or a screen's trial fit) integrates no sensitivity on its last
+    step: the same estimates, start states, cost and predictions bit for bit as the fit with its interval, which
+    it does not report (NaN); with J/B alone and with a freed level (a differenced column)."""
+    r = sim_cached("multisine", 200.0, 30.0, 5e-4, 0.0, 3,
+                   effects=((("axis", "yaw"), ("effect", "input_saturation"), ("value", 1.5)),))
+    start = {k: v * f for (k, v), f in zip(r.truth["estimated"].items(), (1.05, 0.7, 0.95, 1.1))}
+    kw = dict(free=freed, effects={"input_saturation:yaw": 1.53}, max_iterations=3)
+    fits = [R.refine(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, 1 / 200.0, defaults(), "quadratic", start,
+                     {"alpha": 5e-4, "beta": 5e-4}, interval=i, **kw) for i in (True, False)]
+    full, trial = fits
+    assert trial.iterations == full.iterations == 3  # the last step was taken: the case that skips a pass
+    assert trial.estimate == full.estimate and trial.start_states == full.start_states
+    assert trial.cost == full.cost and np.array_equal(trial.prediction, full.prediction)
+    assert {k: v["estimate"] for k, v in trial.freed.items()} == {k: v["estimate"] for k, v in full.freed.items()}
+    assert all(math.isnan(lo) and math.isnan(hi) for lo, hi in trial.ci95.values())
+    assert all(math.isfinite(lo) and math.isfinite(hi) for lo, hi in full.ci95.values())

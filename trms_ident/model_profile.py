@@ -266,7 +266,8 @@ def _held(settings, key: str) -> float:
 
 def _profile_fit(log, settings, key: str, r0):
     """(value -> the output-error fit with ``key`` (an effect's key, or a known value's name) at that value, from
-    ``r0``'s J/B and start states; the angles' noise floors)."""
+    ``r0``'s J/B and start states, its values, cost and predictions without an interval; the angles' noise
+    floors)."""
     n, noise = len(log), noise_floors(log, len(log))
 
     def fit(v: float):
@@ -276,7 +277,7 @@ def _profile_fit(log, settings, key: str, r0):
         params0 = merge(at.overrides, source="parameter overrides")
         lg, pp = under_model(log, params0, at.effects, kernel=True, free=at.free)
         return refine_first(lg, n, pp, at, r0.estimate, noise, tuple(settings.free),
-                            max_iterations=ITERATIONS, start_states0=r0.start_states)
+                            max_iterations=ITERATIONS, start_states0=r0.start_states, interval=False)
 
     return fit, noise
 

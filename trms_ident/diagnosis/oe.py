@@ -368,7 +368,7 @@ class Fitter:
 
     def _fit(self, model: Model, values: dict, theta0: dict, extra_key: str | None, mods: dict | None = None,
              max_iterations: int | None = None, span: tuple[int, int] | None = None, hold: bool = False,
-             start: dict | None = None, levels: tuple = ()):
+             start: dict | None = None, levels: tuple = (), interval: bool = True):
         """The refinement of the log's first n samples with the model's torque effects (linear ones and the
         centre-of-mass offset, all free) and, when given, ``extra_key`` free from 0; the voltages go through the
         model's input modifications at their values, ``mods`` (key -> value) added or replacing them (fixed).
@@ -378,7 +378,9 @@ class Fitter:
         J/B; default: the motors' steady state for the first voltages, refine's, which a log cut mid-run can be far
         from: measured, a steps log cut 30 s in, restarted there from the current model's J/B, stayed at ~1000x its
         noise level in angle error).  ``levels``: the model's saturations (NATIVE_FREE_KEYS) whose levels are fitted
-        too, from their values in the model (the fit transforms the voltages itself: numerics.refine.INPUT_SLOTS)."""
+        too, from their values in the model (the fit transforms the voltages itself: numerics.refine.INPUT_SLOTS).
+        ``interval`` False: the fit's values, cost and predictions alone (refine's: a trial fit of a profile or a
+        screen, whose last step then integrates no sensitivity)."""
         n, log = self.n, self.log
         effects = {k: values[k] for k in model.linear}
         effects.update({k: values.get(k, v) if hold else v for k, v in model.mods if k in OFFSETS})
@@ -398,7 +400,8 @@ class Fitter:
         if mods:
             u1, u2, changes = modified_inputs(part, {k: v for k, v in mods.items() if k not in kernel})
             p = {**p, **changes}
-        kw = {} if max_iterations is None else {"max_iterations": max_iterations}
+        kw = {"interval": interval} if max_iterations is None else {"max_iterations": max_iterations,
+                                                                     "interval": interval}
         torques = {}
         generic = [k for k in free if room.generic(k)]
         # the voltages the torque effects' motor states see: through every modification, the kernel's lags too
@@ -640,7 +643,7 @@ class Fitter:
             if v not in tried:
                 try:
                     r = self._fit(model, values, base.estimate, None, {key: v}, PROFILE_ITERATIONS,
-                                  start=base.start_states, levels=lags)
+                                  start=base.start_states, levels=lags, interval=False)
                     tried[v] = ((r.cost, self._block_costs(r.prediction, base.prediction), r.rms_rad, r.estimate,
                                  motor_start(r))
                                 if math.isfinite(r.cost) else None)  # not the fit itself (memory on long logs)
@@ -744,7 +747,7 @@ class Fitter:
         def blocks_at(v: float):
             try:
                 r = self._fit(model, values, base.estimate, None, {key: v}, PROFILE_ITERATIONS,
-                              start=base.start_states)
+                              start=base.start_states, interval=False)
             except _FAILED:
                 return None
             return self._block_costs(r.prediction) if math.isfinite(r.cost) else None
@@ -770,7 +773,7 @@ class Fitter:
             if v not in tried:
                 try:
                     r = self._fit(model, values, base.estimate, None, {k: v for k in keys}, PROFILE_ITERATIONS,
-                                  start=base.start_states)
+                                  start=base.start_states, interval=False)
                     tried[v] = float(r.cost) if math.isfinite(r.cost) else math.inf
                 except _FAILED:
                     tried[v] = math.inf
@@ -810,7 +813,7 @@ class Fitter:
         def at(v: float) -> tuple[float, float] | None:
             try:
                 r = self._fit(model, values, theta0, None, {k: float(v) for k in keys}, PROFILE_SCAN_ITERATIONS,
-                              start=start, levels=lags)
+                              start=start, levels=lags, interval=False)
             except _FAILED:
                 return None
             return (float(r.cost), float(v)) if math.isfinite(r.cost) else None

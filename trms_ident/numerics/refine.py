@@ -860,7 +860,8 @@ class _Problem:
             cols[:, :, c] = (tmp - pred) / step
         return cols
 
-    def evaluate(self, th, st, out, max_sub=None, more=(), cost_only=False, rounding=None, known=None):
+    def evaluate(self, th, st, out, max_sub=None, more=(), cost_only=False, rounding=None, known=None,
+                 predict_only=False):
         """Cost, normal equations and scores at th, st; predictions in ``out``.  The unknowns in the order J/B,
         start states, the freed values (free_idx's order), the model values at ``more`` (a score test's
         candidates), then each window's start.  ``cost_only``: the cost and predictions are all the caller
@@ -868,8 +869,12 @@ class _Problem:
         ``rounding``: gauss_newton_pass's; its right-hand sides and scores per grid follow, in the same order.
         ``known``: this point's predictions from a cost_only call at the same th, st and max_sub (a line search's
         accepted trial): the differenced columns start from them instead of a pass of their own (the same pass,
-        so the same numbers; a differenced fit's iteration had spent a quarter of its passes on it)."""
+        so the same numbers; a differenced fit's iteration had spent a quarter of its passes on it).
+        ``predict_only``: the cost and predictions of a pass that integrates no sensitivity (the normal equations
+        and scores come back zero): a last trial whose step no further one follows."""
         max_sub = self.max_sub if max_sub is None else max_sub
+        if predict_only:
+            return self._pass(self.vector(th), th, st, out, max_sub, None, sens=False)
         idx = list(self.free_idx) + list(more)
         exact = [i for i in idx if _exact(i)]
         diff = [i for i in idx if not _exact(i)]
@@ -982,7 +987,8 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
            window_s: float = WINDOW_S, gravity_offset_rad: float = 0.0, t_s: np.ndarray | None = None,
            free: tuple[str, ...] = (), switch_delay_s: np.ndarray | None = None,
            effects: dict | None = None, max_iterations: int = MAX_ITERATIONS,
-           torques: dict | None = None, start_states0: dict | None = None, hold: bool = False) -> Refined:
+           torques: dict | None = None, start_states0: dict | None = None, hold: bool = False,
+           interval: bool = True) -> Refined:
     """Gauss-Newton on the noise-weighted angle errors, from theta0 (DREM's estimate).
 
     ``t_s``: the sample stamps [s] when they are not uniform (default: uniform steps of ``dt`` [s]); the
@@ -1005,7 +1011,11 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     start (the motor's effect ``motor_second_lag:...`` in ``effects`` with T2 > 0) is estimated with the others and
     reported among ``start_states``.  ``hold``: J/B and the freed values stay at theta0 and their starts, only the start
     states (the motors' and each window's) are fitted: a model fitted elsewhere simulated on these samples (a
-    held-out check); the intervals are then those of the values held, not estimates."""
+    held-out check); the intervals are then those of the values held, not estimates.  ``interval`` False: the
+    caller needs the values, cost and predictions alone (a profile's or a screen's trial fit, ``max_iterations``
+    steps): the last step's trial pass integrates no sensitivity, and when that step is taken the fit has no
+    interval (ci95, standard errors, pending_decrease NaN; fit and cov_jb None).  The same values, cost and
+    predictions: the states are integrated alike with or without their sensitivities."""
     su = setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s, gravity_offset_rad, t_s, free,
                switch_delay_s, effects, torques, start_states0)
     prob, starts, theta, scale, win, block, n, nw, y = (su.prob, su.starts, su.theta, su.scale, su.win, su.block,
@@ -1035,6 +1045,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
             break  # normal equations (and so the interval) were evaluated
         lam, accepted = 1.0, None
         trial = np.empty((n, 2))
+        last = not interval and it == max_iterations  # no step follows: its normal equations are never used
         slope = -2.0 * (float(step @ b[:, :ng].sum(axis=0)) + float(np.sum(step_starts * b[:, ng:])))
         while lam >= 1e-4:  # backtracking keeps every iteration downhill
             th_new, st_new = theta + lam * step, starts + lam * step_starts
@@ -1042,7 +1053,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
             # a trial far out (a step of an ill-conditioned fit) may overflow: it is a failed trial, not a warning
             if np.all(th_new[:4] > 0) and np.all(np.isfinite(th_new)) and np.all(np.isfinite(st_new)):
                 with np.errstate(all="ignore"):
-                    res = prob.evaluate(th_new, st_new, trial, cost_only=True)
+                    res = prob.evaluate(th_new, st_new, trial, cost_only=True, predict_only=last)
                 if res[0] <= cost:
                     accepted = th_new, st_new, res
                     break
@@ -1056,6 +1067,8 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
             converged = su.kinked or bool(np.all(np.abs(step[:4]) <= np.maximum(1e-6 * theta[:4], 0.1 * se[:4])))
             break
         theta, starts, res = accepted
+        if last:
+            return _without_interval(su, theta, starts, res[0], trial, it, free)
         if prob.differenced:  # the differenced columns need their own passes, from the trial's predictions
             cost, a, b, scores = prob.evaluate(theta, starts, out, known=trial)
         else:  # the trial pass was the full pass at the accepted point: keep it
@@ -1092,6 +1105,21 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
                    converged, it, rms, float(cost), win * step_s, nw, substeps(step_s, prob.max_sub), nb,
                    {k: float(integration[i]) for i, k in enumerate(NAMES)}, start_states, start_se, out, freed,
                    _Fit(prob, theta, starts, a, b), pending, cov[:4, :4].copy())
+
+
+def _without_interval(su, theta, starts, cost: float, out: np.ndarray, it: int, free: tuple) -> Refined:
+    """refine's result at ``theta``, ``starts`` (cost, predictions ``out``) after its last step, taken with no
+    normal equations (refine's ``interval`` False): every interval and standard error NaN."""
+    nan2 = (math.nan, math.nan)
+    names = START_NAMES + su.lags
+    start_states = {**dict(zip(names, map(float, theta[su.start_idx]))),
+                    "alpha_dot_0_rad_s": float(starts[0, 1]), "beta_dot_0_rad_s": float(starts[0, 3])}
+    freed = {k: {"estimate": float(theta[NG + j]), "ci95": list(nan2), "se": math.nan,
+                 "table_or_file_value": su.given[j]} for j, k in enumerate(free)}
+    return Refined(dict(zip(NAMES, map(float, theta[:4]))), {k: nan2 for k in NAMES}, False, it,
+                   angle_rms(su.y, out), float(cost), su.win * su.step_s, su.windows,
+                   substeps(su.step_s, su.prob.max_sub), max(su.n // su.block, 1), {k: 0.0 for k in NAMES},
+                   start_states, {k: math.nan for k in names}, out, freed, None, math.nan, None)
 
 
 def start_step(s_mat: np.ndarray, s_rhs: np.ndarray, held: np.ndarray) -> np.ndarray:
