@@ -504,3 +504,29 @@ def test_a_trial_fit_without_its_interval_has_the_same_values_cost_and_predictio
     assert {k: v["estimate"] for k, v in trial.freed.items()} == {k: v["estimate"] for k, v in full.freed.items()}
     assert all(math.isnan(lo) and math.isnan(hi) for lo, hi in trial.ci95.values())
     assert all(math.isfinite(lo) and math.isfinite(hi) for lo, hi in full.ci95.values())
+
+
+def test_a_trial_fits_longer_sub_steps_move_the_angles_far_below_any_noise_floor():
+    """TRIAL_SUBSTEP_S (one RK4 step a sample at 100 Hz, where MAX_SUBSTEP_S takes four): the predictions of a
+    100 Hz log, with a 0.05 s second-order motor (the fastest dynamics the library adds without a friction), stay
+    within 1e-7 rad of the fine sub-step's, and the cost within 1e-6 of it; with a Coulomb friction the trial
+    keeps COULOMB_SUBSTEP_S (the same numbers as without ``substep_s``); a log with hardly any noise keeps the
+    fine sub-step (trial_substep)."""
+    r = sim_cached("multisine", 100.0, 30.0, 5e-4, 0.0, 3)
+    truth = r.truth["estimated"]
+
+    def fit(effects, **kw):
+        return R.refine(r.u1_v, r.u2_v, r.alpha_rad, r.beta_rad, 1 / 100.0, defaults(), "quadratic", truth,
+                        {"alpha": 5e-4, "beta": 5e-4}, effects=effects, max_iterations=0, **kw)
+
+    lag = {"motor_second_lag:pitch": 0.05}
+    fine, coarse = fit(lag), fit(lag, substep_s=R.TRIAL_SUBSTEP_S)
+    assert coarse.substeps == 1 and fine.substeps == 4
+    err = float(np.max(np.abs(coarse.prediction - fine.prediction)))
+    assert 0.0 < err < 1e-7, err
+    assert coarse.cost == pytest.approx(fine.cost, rel=1e-6)
+    friction = {"coulomb_friction:yaw": 0.002}
+    a, b = fit(friction), fit(friction, substep_s=R.TRIAL_SUBSTEP_S)
+    assert a.substeps == b.substeps > 4 and np.array_equal(a.prediction, b.prediction)
+    assert R.trial_substep({"alpha": 5e-4, "beta": 2e-5}) == R.TRIAL_SUBSTEP_S
+    assert R.trial_substep({"alpha": 5e-4, "beta": 5e-6}) is None

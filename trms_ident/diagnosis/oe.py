@@ -56,7 +56,7 @@ from ..params import ESTIMATED
 from ..numerics.parallel import fan_out
 from ..numerics.adequacy import judging_floors
 from ..numerics.design import angle_noise_rad
-from ..numerics.refine import BLOCK_S, substeps
+from ..numerics.refine import BLOCK_S, substeps, trial_substep
 from ..numerics.refine import refine as oe_refine
 from .model import (Model, dead_zone_levels, delag_noise_gain, modified_inputs, observed_log, smoothed_velocity,
                     state_signals)
@@ -368,7 +368,7 @@ class Fitter:
 
     def _fit(self, model: Model, values: dict, theta0: dict, extra_key: str | None, mods: dict | None = None,
              max_iterations: int | None = None, span: tuple[int, int] | None = None, hold: bool = False,
-             start: dict | None = None, levels: tuple = (), interval: bool = True):
+             start: dict | None = None, levels: tuple = (), trial: bool = False):
         """The refinement of the log's first n samples with the model's torque effects (linear ones and the
         centre-of-mass offset, all free) and, when given, ``extra_key`` free from 0; the voltages go through the
         model's input modifications at their values, ``mods`` (key -> value) added or replacing them (fixed).
@@ -379,8 +379,9 @@ class Fitter:
         from: measured, a steps log cut 30 s in, restarted there from the current model's J/B, stayed at ~1000x its
         noise level in angle error).  ``levels``: the model's saturations (NATIVE_FREE_KEYS) whose levels are fitted
         too, from their values in the model (the fit transforms the voltages itself: numerics.refine.INPUT_SLOTS).
-        ``interval`` False: the fit's values, cost and predictions alone (refine's: a trial fit of a profile or a
-        screen, whose last step then integrates no sensitivity)."""
+        ``trial``: a profile's or a screen's trial fit, whose values, cost and predictions alone are used: no
+        interval (refine's ``interval`` False: the last step integrates no sensitivity) and RK4 sub-steps up to
+        numerics.refine.TRIAL_SUBSTEP_S where the noise floors allow (trial_substep)."""
         n, log = self.n, self.log
         effects = {k: values[k] for k in model.linear}
         effects.update({k: values.get(k, v) if hold else v for k, v in model.mods if k in OFFSETS})
@@ -400,8 +401,9 @@ class Fitter:
         if mods:
             u1, u2, changes = modified_inputs(part, {k: v for k, v in mods.items() if k not in kernel})
             p = {**p, **changes}
-        kw = {"interval": interval} if max_iterations is None else {"max_iterations": max_iterations,
-                                                                     "interval": interval}
+        kw = {"interval": False, "substep_s": trial_substep(noise)} if trial else {}
+        if max_iterations is not None:
+            kw["max_iterations"] = max_iterations
         torques = {}
         generic = [k for k in free if room.generic(k)]
         # the voltages the torque effects' motor states see: through every modification, the kernel's lags too
@@ -643,7 +645,7 @@ class Fitter:
             if v not in tried:
                 try:
                     r = self._fit(model, values, base.estimate, None, {key: v}, PROFILE_ITERATIONS,
-                                  start=base.start_states, levels=lags, interval=False)
+                                  start=base.start_states, levels=lags, trial=True)
                     tried[v] = ((r.cost, self._block_costs(r.prediction, base.prediction), r.rms_rad, r.estimate,
                                  motor_start(r))
                                 if math.isfinite(r.cost) else None)  # not the fit itself (memory on long logs)
@@ -747,7 +749,7 @@ class Fitter:
         def blocks_at(v: float):
             try:
                 r = self._fit(model, values, base.estimate, None, {key: v}, PROFILE_ITERATIONS,
-                              start=base.start_states, interval=False)
+                              start=base.start_states, trial=True)
             except _FAILED:
                 return None
             return self._block_costs(r.prediction) if math.isfinite(r.cost) else None
@@ -773,7 +775,7 @@ class Fitter:
             if v not in tried:
                 try:
                     r = self._fit(model, values, base.estimate, None, {k: v for k in keys}, PROFILE_ITERATIONS,
-                                  start=base.start_states, interval=False)
+                                  start=base.start_states, trial=True)
                     tried[v] = float(r.cost) if math.isfinite(r.cost) else math.inf
                 except _FAILED:
                     tried[v] = math.inf
@@ -813,7 +815,7 @@ class Fitter:
         def at(v: float) -> tuple[float, float] | None:
             try:
                 r = self._fit(model, values, theta0, None, {k: float(v) for k in keys}, PROFILE_SCAN_ITERATIONS,
-                              start=start, levels=lags, interval=False)
+                              start=start, levels=lags, trial=True)
             except _FAILED:
                 return None
             return (float(r.cost), float(v)) if math.isfinite(r.cost) else None

@@ -64,6 +64,16 @@ MAX_SUBSTEP_S = 2.5e-3
 #: out 4.8 % low, 5.6 half-widths of its interval off (a 200 Hz square wave cut mid-run); at 0.5 ms 0.54 % low
 #: (0.73 half-widths), at 0.1 ms 0.42 % (measured, benchmarks/freed_coverage.py)
 COULOMB_SUBSTEP_S = 5e-4
+#: the RK4 sub-step's bound [s] in a trial fit (a profile's or a screen's, whose values, cost and predictions alone
+#: are used: refine's ``substep_s``), one step a sample on logs at 100 Hz and faster: the angles move by 6e-9 rad
+#: against MAX_SUBSTEP_S's (measured on a 100 Hz steps log and a multisine with a 0.05 s second-order motor), 1e-5
+#: of a noise floor, and a 100 Hz log's trial fit integrates 4x fewer steps.  Not with a Coulomb friction in the
+#: model (COULOMB_SUBSTEP_S: stiff)
+TRIAL_SUBSTEP_S = 0.01
+#: ... where the angles' noise floors are both at least this [rad] (trial_substep): 1e3 times the trial's own error,
+#: so the trial fits' costs stand beside a fine fit's (a profile's drops are measured from one); a log with hardly
+#: any noise (a noise-free simulation) keeps the fine sub-step
+TRIAL_MIN_FLOOR_RAD = 1e-5
 COULOMB_KEYS = ("coulomb_friction:pitch", "coulomb_friction:yaw")
 MAX_ITERATIONS = 25  # typical logs take 3-4; a start far off (DREM on a log cut mid-run) needed 12
 #: Gauss-Newton stops when the next step would move every unknown by less than this fraction of its value, or
@@ -927,7 +937,8 @@ class _Setup:
 
 
 def setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s=WINDOW_S, gravity_offset_rad=0.0,
-          t_s=None, free=(), switch_delay_s=None, effects=None, torques=None, start_states0=None) -> _Setup:
+          t_s=None, free=(), switch_delay_s=None, effects=None, torques=None, start_states0=None,
+          substep_s=None) -> _Setup:
     """refine's arguments (see there) as a ready problem: shared by refine and the joint fit over several logs."""
     n = alpha.size
     t = np.arange(n) * dt if t_s is None else np.asarray(t_s, dtype=float)
@@ -978,7 +989,7 @@ def setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s=WIND
                     torques=_held(torques, n) if exogenous else None,
                     clips={i: v for i, v in clips.items() if i not in [INPUT_SLOTS.get(k) for k in free]},
                     max_sub=(COULOMB_SUBSTEP_S if any(k in free or effects.get(k) for k in COULOMB_KEYS)
-                             else MAX_SUBSTEP_S),
+                             else substep_s or MAX_SUBSTEP_S),
                     lag0=tuple(lag0))
     return _Setup(prob, starts, theta, scale, win, block, n, nw, step_s, y, given, lags)
 
@@ -988,7 +999,7 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
            free: tuple[str, ...] = (), switch_delay_s: np.ndarray | None = None,
            effects: dict | None = None, max_iterations: int = MAX_ITERATIONS,
            torques: dict | None = None, start_states0: dict | None = None, hold: bool = False,
-           interval: bool = True) -> Refined:
+           interval: bool = True, substep_s: float | None = None) -> Refined:
     """Gauss-Newton on the noise-weighted angle errors, from theta0 (DREM's estimate).
 
     ``t_s``: the sample stamps [s] when they are not uniform (default: uniform steps of ``dt`` [s]); the
@@ -1013,11 +1024,12 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     states (the motors' and each window's) are fitted: a model fitted elsewhere simulated on these samples (a
     held-out check); the intervals are then those of the values held, not estimates.  ``interval`` False: the
     caller needs the values, cost and predictions alone (a profile's or a screen's trial fit, ``max_iterations``
-    steps): the last step's trial pass integrates no sensitivity, and when that step is taken the fit has no
-    interval (ci95, standard errors, pending_decrease NaN; fit and cov_jb None).  The same values, cost and
-    predictions: the states are integrated alike with or without their sensitivities."""
+    steps): the last step's trial pass integrates no sensitivity and no interval is computed (ci95, standard
+    errors, pending_decrease NaN; fit and cov_jb None).  The same values, cost and predictions: the states are
+    integrated alike with or without their sensitivities.  ``substep_s``: the RK4 sub-step's bound [s] instead of
+    MAX_SUBSTEP_S (a trial fit's TRIAL_SUBSTEP_S; not with a Coulomb friction: COULOMB_SUBSTEP_S)."""
     su = setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s, gravity_offset_rad, t_s, free,
-               switch_delay_s, effects, torques, start_states0)
+               switch_delay_s, effects, torques, start_states0, substep_s)
     prob, starts, theta, scale, win, block, n, nw, y = (su.prob, su.starts, su.theta, su.scale, su.win, su.block,
                                                         su.n, su.windows, su.y)
     step_s, given = su.step_s, su.given
@@ -1068,11 +1080,13 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
             break
         theta, starts, res = accepted
         if last:
-            return _without_interval(su, theta, starts, res[0], trial, it, free)
+            return _without_interval(su, theta, starts, res[0], trial, it, free, False)
         if prob.differenced:  # the differenced columns need their own passes, from the trial's predictions
             cost, a, b, scores = prob.evaluate(theta, starts, out, known=trial)
         else:  # the trial pass was the full pass at the accepted point: keep it
             (cost, a, b, scores), out = res, trial
+    if not interval:
+        return _without_interval(su, theta, starts, cost, out, it, free, converged)
     s_mat, s_rhs, per_window = schur(a, b, ng)
     cov = batch_covariance(s_mat, per_window, scores, win, block)
     pending = float(scaled_inverse(s_mat) @ s_rhs @ s_rhs) + sum(float(b[w, ng:] @ k[:, ng])
@@ -1107,7 +1121,14 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
                    _Fit(prob, theta, starts, a, b), pending, cov[:4, :4].copy())
 
 
-def _without_interval(su, theta, starts, cost: float, out: np.ndarray, it: int, free: tuple) -> Refined:
+def trial_substep(noise_rad: dict) -> float | None:
+    """A trial fit's ``substep_s`` on a log whose angles' noise floors are ``noise_rad`` [rad]: TRIAL_SUBSTEP_S
+    where both are at least TRIAL_MIN_FLOOR_RAD, else None (MAX_SUBSTEP_S)."""
+    return TRIAL_SUBSTEP_S if min(noise_rad.values()) >= TRIAL_MIN_FLOOR_RAD else None
+
+
+def _without_interval(su, theta, starts, cost: float, out: np.ndarray, it: int, free: tuple,
+                      converged: bool) -> Refined:
     """refine's result at ``theta``, ``starts`` (cost, predictions ``out``) after its last step, taken with no
     normal equations (refine's ``interval`` False): every interval and standard error NaN."""
     nan2 = (math.nan, math.nan)
@@ -1116,7 +1137,7 @@ def _without_interval(su, theta, starts, cost: float, out: np.ndarray, it: int, 
                     "alpha_dot_0_rad_s": float(starts[0, 1]), "beta_dot_0_rad_s": float(starts[0, 3])}
     freed = {k: {"estimate": float(theta[NG + j]), "ci95": list(nan2), "se": math.nan,
                  "table_or_file_value": su.given[j]} for j, k in enumerate(free)}
-    return Refined(dict(zip(NAMES, map(float, theta[:4]))), {k: nan2 for k in NAMES}, False, it,
+    return Refined(dict(zip(NAMES, map(float, theta[:4]))), {k: nan2 for k in NAMES}, converged, it,
                    angle_rms(su.y, out), float(cost), su.win * su.step_s, su.windows,
                    substeps(su.step_s, su.prob.max_sub), max(su.n // su.block, 1), {k: 0.0 for k in NAMES},
                    start_states, {k: math.nan for k in names}, out, freed, None, math.nan, None)
