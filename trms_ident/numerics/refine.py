@@ -1030,9 +1030,8 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     MAX_SUBSTEP_S (a trial fit's TRIAL_SUBSTEP_S; not with a Coulomb friction: COULOMB_SUBSTEP_S)."""
     su = setup(u1, u2, alpha, beta, dt, params, law, theta0, noise_rad, window_s, gravity_offset_rad, t_s, free,
                switch_delay_s, effects, torques, start_states0, substep_s)
-    prob, starts, theta, scale, win, block, n, nw, y = (su.prob, su.starts, su.theta, su.scale, su.win, su.block,
-                                                        su.n, su.windows, su.y)
-    step_s, given = su.step_s, su.given
+    prob, starts, theta, scale, win, block, n = su.prob, su.starts, su.theta, su.scale, su.win, su.block, su.n
+    step_s = su.step_s
     ng = theta.size
     held = su.start_idx
     out = np.empty((n, 2))
@@ -1095,7 +1094,6 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
     se = np.sqrt(np.maximum(np.diag(cov), 0.0))
     tq = float(stdtrit(max(nb - 1, 1), 0.975))
     half = tq * se[:4]
-    rms = angle_rms(y, out)
     integration = np.zeros(4)
     sub_s = step_s / substeps(step_s, prob.max_sub)  # the RK4 sub-step of a median sample interval [s]
     if np.any(half < RICHARDSON_BELOW * (sub_s / MAX_SUBSTEP_S) ** 4 * theta[:4]):
@@ -1106,19 +1104,29 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
         integration = np.abs(scaled_inverse(s_mat) @ (rhs_fine - s_rhs))[:4] * 16.0 / 15.0
         half = half + 2.0 * integration
     half = np.maximum(half, 10.0 * TOLERANCE * theta[:4])  # no claim finer than the convergence test
+    return _refined(su, theta, starts, cost, out, it, free, converged, se, tq, half, integration,
+                    _Fit(prob, theta, starts, a, b), pending, cov[:4, :4].copy())
+
+
+def _refined(su, theta, starts, cost: float, out: np.ndarray, it: int, free: tuple, converged: bool,
+             se: np.ndarray, tq: float, half: np.ndarray, integration: np.ndarray, fit, pending: float, cov_jb
+             ) -> Refined:
+    """refine's result at ``theta``, ``starts`` (cost, predictions ``out``): ``se`` every unknown's standard
+    error, ``tq`` the Student quantile of the freed values' intervals, ``half`` J/B's half-widths."""
     names = START_NAMES + su.lags
+    held = su.start_idx
     start_states = {**dict(zip(names, map(float, theta[held]))),
                     "alpha_dot_0_rad_s": float(starts[0, 1]), "beta_dot_0_rad_s": float(starts[0, 3])}
-    start_se = dict(zip(names, map(float, se[held])))
     freed = {k: {"estimate": float(theta[NG + j]), "ci95": [float(theta[NG + j] - tq * se[NG + j]),
                                                             float(theta[NG + j] + tq * se[NG + j])],
-                 "se": float(se[NG + j]), "table_or_file_value": given[j]}
+                 "se": float(se[NG + j]), "table_or_file_value": su.given[j]}
              for j, k in enumerate(free)}
     return Refined(dict(zip(NAMES, map(float, theta[:4]))),
                    {k: (float(theta[i] - half[i]), float(theta[i] + half[i])) for i, k in enumerate(NAMES)},
-                   converged, it, rms, float(cost), win * step_s, nw, substeps(step_s, prob.max_sub), nb,
-                   {k: float(integration[i]) for i, k in enumerate(NAMES)}, start_states, start_se, out, freed,
-                   _Fit(prob, theta, starts, a, b), pending, cov[:4, :4].copy())
+                   converged, it, angle_rms(su.y, out), float(cost), su.win * su.step_s,
+                   su.windows, substeps(su.step_s, su.prob.max_sub), max(su.n // su.block, 1),
+                   {k: float(integration[i]) for i, k in enumerate(NAMES)}, start_states,
+                   dict(zip(names, map(float, se[held]))), out, freed, fit, pending, cov_jb)
 
 
 def trial_substep(noise_rad: dict) -> float | None:
@@ -1131,16 +1139,8 @@ def _without_interval(su, theta, starts, cost: float, out: np.ndarray, it: int, 
                       converged: bool) -> Refined:
     """refine's result at ``theta``, ``starts`` (cost, predictions ``out``) after its last step, taken with no
     normal equations (refine's ``interval`` False): every interval and standard error NaN."""
-    nan2 = (math.nan, math.nan)
-    names = START_NAMES + su.lags
-    start_states = {**dict(zip(names, map(float, theta[su.start_idx]))),
-                    "alpha_dot_0_rad_s": float(starts[0, 1]), "beta_dot_0_rad_s": float(starts[0, 3])}
-    freed = {k: {"estimate": float(theta[NG + j]), "ci95": list(nan2), "se": math.nan,
-                 "table_or_file_value": su.given[j]} for j, k in enumerate(free)}
-    return Refined(dict(zip(NAMES, map(float, theta[:4]))), {k: nan2 for k in NAMES}, converged, it,
-                   angle_rms(su.y, out), float(cost), su.win * su.step_s, su.windows,
-                   substeps(su.step_s, su.prob.max_sub), max(su.n // su.block, 1), {k: 0.0 for k in NAMES},
-                   start_states, {k: math.nan for k in names}, out, freed, None, math.nan, None)
+    return _refined(su, theta, starts, cost, out, it, free, converged, np.full(theta.size, math.nan), 1.0,
+                    np.full(4, math.nan), np.zeros(4), None, math.nan, None)
 
 
 def start_step(s_mat: np.ndarray, s_rhs: np.ndarray, held: np.ndarray) -> np.ndarray:
