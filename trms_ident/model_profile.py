@@ -35,7 +35,7 @@ from .identify import identify, noise_floors, refine_first, refined_interval, un
 from .model.bench import KERNEL_KEYS, MIN_KERNEL_LAG_S, MODIFICATION_KEYS, NATIVE_FREE_KEYS
 from .model.effects import BY_KEY, SENSOR_LAG
 from .numerics.parallel import fan_out
-from .numerics.refine import trial_substep
+from .numerics.refine import trial_options
 from .params import ESTIMATED, merge
 
 #: the profile searches within this factor of the file's value either way
@@ -278,8 +278,7 @@ def _profile_fit(log, settings, key: str, r0):
         params0 = merge(at.overrides, source="parameter overrides")
         lg, pp = under_model(log, params0, at.effects, kernel=True, free=at.free)
         return refine_first(lg, n, pp, at, r0.estimate, noise, tuple(settings.free),
-                            max_iterations=ITERATIONS, start_states0=r0.start_states, interval=False,
-                            substep_s=trial_substep(noise))
+                            max_iterations=ITERATIONS, start_states0=r0.start_states, **trial_options(noise))
 
     return fit, noise
 

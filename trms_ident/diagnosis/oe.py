@@ -56,7 +56,7 @@ from ..params import ESTIMATED
 from ..numerics.parallel import fan_out
 from ..numerics.adequacy import judging_floors
 from ..numerics.design import angle_noise_rad
-from ..numerics.refine import BLOCK_S, substeps, trial_substep
+from ..numerics.refine import BLOCK_S, substeps, trial_options
 from ..numerics.refine import refine as oe_refine
 from .model import (Model, dead_zone_levels, delag_noise_gain, modified_inputs, observed_log, smoothed_velocity,
                     state_signals)
@@ -381,7 +381,7 @@ class Fitter:
         too, from their values in the model (the fit transforms the voltages itself: numerics.refine.INPUT_SLOTS).
         ``trial``: a profile's or a screen's trial fit, whose values, cost and predictions alone are used: no
         interval (refine's ``interval`` False: the last step integrates no sensitivity) and RK4 sub-steps up to
-        numerics.refine.TRIAL_SUBSTEP_S where the noise floors allow (trial_substep)."""
+        numerics.refine.TRIAL_SUBSTEP_S where the noise floors allow (trial_options)."""
         n, log = self.n, self.log
         effects = {k: values[k] for k in model.linear}
         effects.update({k: values.get(k, v) if hold else v for k, v in model.mods if k in OFFSETS})
@@ -401,7 +401,7 @@ class Fitter:
         if mods:
             u1, u2, changes = modified_inputs(part, {k: v for k, v in mods.items() if k not in kernel})
             p = {**p, **changes}
-        kw = {"interval": False, "substep_s": trial_substep(noise)} if trial else {}
+        kw = trial_options(noise) if trial else {}
         if max_iterations is not None:
             kw["max_iterations"] = max_iterations
         torques = {}

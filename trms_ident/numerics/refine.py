@@ -1078,14 +1078,16 @@ def refine(u1, u2, alpha, beta, dt: float, params: dict, law: str, theta0: dict,
             converged = su.kinked or bool(np.all(np.abs(step[:4]) <= np.maximum(1e-6 * theta[:4], 0.1 * se[:4])))
             break
         theta, starts, res = accepted
-        if last:
-            return _without_interval(su, theta, starts, res[0], trial, it, free, False)
+        if last:  # the loop ends here: refine's result without an interval, below
+            cost, out = res[0], trial
+            break
         if prob.differenced:  # the differenced columns need their own passes, from the trial's predictions
             cost, a, b, scores = prob.evaluate(theta, starts, out, known=trial)
         else:  # the trial pass was the full pass at the accepted point: keep it
             (cost, a, b, scores), out = res, trial
-    if not interval:
-        return _without_interval(su, theta, starts, cost, out, it, free, converged)
+    if not interval:  # no normal equations read: every interval and standard error NaN
+        return _refined(su, theta, starts, cost, out, it, free, converged, np.full(theta.size, math.nan), 1.0,
+                        np.full(4, math.nan), np.zeros(4), None, math.nan, None)
     s_mat, s_rhs, per_window = schur(a, b, ng)
     cov = batch_covariance(s_mat, per_window, scores, win, block)
     pending = float(scaled_inverse(s_mat) @ s_rhs @ s_rhs) + sum(float(b[w, ng:] @ k[:, ng])
@@ -1135,12 +1137,10 @@ def trial_substep(noise_rad: dict) -> float | None:
     return TRIAL_SUBSTEP_S if min(noise_rad.values()) >= TRIAL_MIN_FLOOR_RAD else None
 
 
-def _without_interval(su, theta, starts, cost: float, out: np.ndarray, it: int, free: tuple,
-                      converged: bool) -> Refined:
-    """refine's result at ``theta``, ``starts`` (cost, predictions ``out``) after its last step, taken with no
-    normal equations (refine's ``interval`` False): every interval and standard error NaN."""
-    return _refined(su, theta, starts, cost, out, it, free, converged, np.full(theta.size, math.nan), 1.0,
-                    np.full(4, math.nan), np.zeros(4), None, math.nan, None)
+def trial_options(noise_rad: dict) -> dict:
+    """refine's options for a trial fit (a profile's or a screen's, whose values, cost and predictions alone are
+    used) on a log whose angles' noise floors are ``noise_rad`` [rad]: no interval, trial_substep's sub-step."""
+    return {"interval": False, "substep_s": trial_substep(noise_rad)}
 
 
 def start_step(s_mat: np.ndarray, s_rhs: np.ndarray, held: np.ndarray) -> np.ndarray:
