@@ -197,11 +197,9 @@ def estimate_with(log, settings: Settings, *, truth: dict | None = None, truth_s
     """:func:`estimate` with ready (validated) Settings: the one path of the library and the command line.
 
     ``truth_source``: where the truth came from (the report names it); ``on_stage(name)`` is told "reading"
-    and "identifying" as they begin.  When ``log`` is a file, the compiled kernels load in threads while it is
-    read (they need the GIL little: the read is pyarrow's, the kernels come from numba's cache)."""
-    from .model_profile import identify_with_profiles
-    from .report.summary import summarize
-
+    and "identifying" as they begin.  When ``log`` is a file, the identification's modules (numba, scipy.special:
+    a quarter of a second) and its compiled kernels load in a thread while it is read (they need the GIL little:
+    the read is pyarrow's, the kernels come from numba's cache); the read itself imports none of them."""
     stage = on_stage or (lambda _: None)
     refinement = isinstance(log, (str, Path)) and (settings.refine == "on" or (
         settings.refine == "auto" and _size(log) <= REFINE_WARM_UP_BYTES))
@@ -210,12 +208,17 @@ def estimate_with(log, settings: Settings, *, truth: dict | None = None, truth_s
         _load_numerics()  # compiling in two threads at once aborted the process (LLVM) in this project's tests
         if refinement:
             _load_refinement()
+        from . import model_profile  # noqa: F401  (identify and its imports, before the main thread needs them)
+        from .report import summary  # noqa: F401
 
     warm = threading.Thread(target=load, daemon=True)
     warm.start()
     stage("reading")
     data = with_inputs_unit(_as_log(log, read), settings.inputs_unit)
     warm.join()
+    from .model_profile import identify_with_profiles
+    from .report.summary import summarize
+
     stage("identifying")
     result = identify_with_profiles(data, settings)  # identify, and --free input modifications by their profiles
     return Estimate(data, result, summarize(result, data, truth, truth_source or ("given" if truth else None)))
