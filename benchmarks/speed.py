@@ -29,18 +29,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 LENGTHS_S = {"10min": 600.0, "1h": 3600.0, "4h": 14400.0}
 
-CHILD = """
-import resource, runpy, sys, time
-t0 = time.perf_counter()
-sys.argv = ["trms-ident", "estimate", sys.argv[1], "-o", sys.argv[2], "--no-report"]
-try:
-    runpy.run_module("trms_ident", run_name="__main__")
-except SystemExit as exc:
-    if exc.code:
-        raise
-print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)
-"""
-
 
 def make_log(path: Path, seconds: float) -> int:
     """The log written by a child process (ratios.make_logs: the same simulation and rounding); its rows."""
@@ -52,12 +40,11 @@ def make_log(path: Path, seconds: float) -> int:
 
 
 def end_to_end(path: Path, out: Path) -> tuple[float, float]:
-    t0 = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-c", CHILD, str(path), str(out)], capture_output=True, text=True)
-    wall = time.perf_counter() - t0
-    if proc.returncode:
-        raise RuntimeError(proc.stderr)
-    return wall, int(proc.stderr.strip().splitlines()[-1]) / 1024.0
+    """(wall [s], peak RSS [MB]) of `python -m trms_ident estimate PATH -o OUT --no-report`, a fresh process timed
+    from outside (ratios.timed: os.wait4), its start-up and exit included."""
+    from ratios import estimate_cmd, timed
+
+    return timed(estimate_cmd(path, out))
 
 
 def estimation_only(path: Path, refine: str = "auto") -> tuple[float, float, str]:

@@ -96,8 +96,9 @@ def test_estimate_leaves_the_slow_imports_out(tmp_path):
     from pathlib import Path
 
     log = Path(__file__).resolve().parents[1] / "sample_logs" / "paper_square.csv"
-    code = ("import sys, runpy; sys.argv = ['trms-ident', 'estimate', sys.argv[1], '-o', sys.argv[2], '--no-report']\n"
-            "try:\n    runpy.run_module('trms_ident', run_name='__main__')\nexcept SystemExit as e:\n"
+    # the command's own app (the console script's run() ends the process without returning to this check)
+    code = ("import sys\nfrom trms_ident.cli import app\n"
+            "try:\n    app(['estimate', sys.argv[1], '-o', sys.argv[2], '--no-report'])\nexcept SystemExit as e:\n"
             "    assert not e.code, e.code\n"
             "print(sorted(m for m in ('scipy.stats', 'scipy.optimize', 'pandas', 'matplotlib') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code, str(log), str(tmp_path)], capture_output=True, text=True,

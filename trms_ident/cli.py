@@ -1051,7 +1051,25 @@ def export(
 
 
 def run() -> None:
+    """The console script: the command, then the process ends without the interpreter's teardown (modules, numba,
+    the log's arrays freed one by one: 0.1 s of an hour's estimate, measured, for memory the system takes back at
+    once).  Every output file is written and closed by then; standard output and error are flushed here, and a
+    closed pipe exits as the commands' own handler does (EXIT_PIPE_CLOSED)."""
     from ._memory import map_large_blocks
 
     map_large_blocks()  # the command's own process: long logs' columns mapped, returned when freed (_memory.py)
-    app()
+    try:
+        app()
+        code = 0
+    except SystemExit as done:
+        code = done.code
+    if isinstance(code, str):  # SystemExit("message"): Python prints it and exits 1
+        print(code, file=sys.stderr)
+        code = 1
+    code = 0 if code is None else code
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except BrokenPipeError:
+        code = EXIT_PIPE_CLOSED
+    os._exit(code)
