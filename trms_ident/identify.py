@@ -18,7 +18,7 @@ from .numerics.fused import drem_summaries
 from .numerics.adequacy import NOT_CONVERGED, RMS_OVER_NOISE, UNMEASURABLE, judging_floors, model_check
 from . import known_values
 from .known_values import over_noise as _over_noise
-from .numerics.refine import WINDOW_S, Refined, refine, substeps
+from .numerics.refine import SHOOTING_WINDOW_S, WINDOW_S, Refined, refine, substeps
 from .numerics.stats import (IDENTIFIABLE_REL_HALF_WIDTH, MIN_BLOCKS, Z95, Interval, block_length,
                              interval_from_sums)
 from .params import ESTIMATED, merge
@@ -477,10 +477,6 @@ def refine_first(log: Log, n: int, params: dict, settings: Settings, start: dict
 #: motor and reaction-lag start states at rest, a second way into the fit when the steady state of the first
 #: voltages leads to a wrong basin
 MOTORS_AT_REST = {"tau1_0": 0.0, "tau2_0": 0.0, "zeta_0": 0.0, "lag1_0": 0.0, "lag2_0": 0.0}
-
-#: multiple shooting's window [s]: one interval block, about a motor time constant (2 s left a 6 s log cut
-#: mid-run in a wrong basin of the tail motor's start state; 0.5-1 s found the optimum)
-SHOOTING_WINDOW_S = 1.0
 
 
 def _settled(r: Refined, noise: dict) -> bool:

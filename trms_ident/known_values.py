@@ -39,7 +39,7 @@ from scipy.special import ndtr  # the normal CDF: scipy.stats costs 0.26 s of im
 from .numerics.adequacy import NUMERICAL_FLOOR_RAD, RMS_OVER_NOISE
 from .numerics.parallel import fan_out
 from .numerics.stats import Z95
-from .numerics.refine import Refined, known_value_scores, suspect_known_values
+from .numerics.refine import SHOOTING_WINDOW_S, Refined, known_value_scores, suspect_known_values
 from .params import BY_NAME, ESTIMATED, KNOWN, not_credible
 
 #: every known value of eq. (1) (Table 1's "known" rows), each a hypothesis
@@ -47,8 +47,6 @@ HYPOTHESES = KNOWN
 #: the angle a known value acts on first (the equation it enters; the main motor's values drive the pitch)
 AXIS = {"a1": "pitch", "b1": "pitch", "Mg": "pitch", "Kg": "pitch", "k1": "pitch", "T11": "pitch", "T10": "pitch",
         "a2": "yaw", "b2": "yaw", "k2": "yaw", "T21": "yaw", "T20": "yaw", "kc": "yaw", "T0": "yaw", "Tp": "yaw"}
-#: the windows of the multiple-shooting fits [s]: about one motor time constant (identify's fallback uses the same)
-SHOOTING_WINDOW_S = 1.0
 #: a refitted value within this fraction of the value given is that value: it explains nothing (measured: a2
 #: 0.06 % off its table value brought the yaw of a log with a 0.1 V yaw dead zone from 1.9x to 1.17x its floor,
 #: just inside 1.2x, and was named instead of the dead zone)

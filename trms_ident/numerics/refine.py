@@ -56,6 +56,11 @@ from ..model.plant import (FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, GYRO_VOLT
 #: noise seeds of a 120 s multisine at 200 Hz, 1 mrad: J1 rms error 0.023 % with 10 s windows, 0.018 % with
 #: 20 s, 0.012 % with 40 s or one window), and windows stop model errors piling up over a whole log
 WINDOW_S = 40.0
+#: multiple shooting's window [s]: one interval block, about a motor time constant (2 s left a 6 s log cut
+#: mid-run in a wrong basin of the tail motor's start state; 0.5-1 s found the optimum).  Each window restarts
+#: from its own fitted angles and rates, so a start state's error cannot pile up: the fallback of estimate's
+#: refinement (identify), the known values' search and diagnose's lost fits (diagnosis/oe.py) start there
+SHOOTING_WINDOW_S = 1.0
 #: RK4 sub-step: the integrator's error on noise-free logs is ~1e-10 relative at 2.5 ms (measured)
 MAX_SUBSTEP_S = 2.5e-3
 #: RK4 sub-step while a Coulomb friction is in the model (in its effects or freed): its smoothed sign,
