@@ -1063,10 +1063,11 @@ def run() -> None:
         code = 0
     except SystemExit as done:
         code = done.code
-    if isinstance(code, str):  # SystemExit("message"): Python prints it and exits 1
+    if code is None:
+        code = 0
+    elif not isinstance(code, int):  # SystemExit("message"): Python prints it and exits 1
         print(code, file=sys.stderr)
         code = 1
-    code = 0 if code is None else code
     try:
         sys.stdout.flush()
         sys.stderr.flush()

@@ -58,8 +58,8 @@ from ..model.plant import (FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, GYRO_VOLT
 WINDOW_S = 40.0
 #: multiple shooting's window [s]: one interval block, about a motor time constant (2 s left a 6 s log cut
 #: mid-run in a wrong basin of the tail motor's start state; 0.5-1 s found the optimum).  Each window restarts
-#: from its own fitted angles and rates, so a start state's error cannot pile up: the fallback of estimate's
-#: refinement (identify), the known values' search and diagnose's lost fits (diagnosis/oe.py) start there
+#: from its own fitted angles and rates, so a start state's error cannot pile up: estimate's refinement falls back
+#: to it (identify) and the known values' search starts there (known_values)
 SHOOTING_WINDOW_S = 1.0
 #: RK4 sub-step: the integrator's error on noise-free logs is ~1e-10 relative at 2.5 ms (measured)
 MAX_SUBSTEP_S = 2.5e-3
