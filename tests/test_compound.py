@@ -1,4 +1,5 @@
 """Two differences at once (issue #47): an effect the search found together with a known value off its table."""
+import dataclasses
 import math
 
 import numpy as np
@@ -118,6 +119,24 @@ def test_the_second_order_motor_grown_from_a_time_constant_is_a_finding_of_its_o
     f = compound._effect_finding(d, h, [])
     assert (f.effect, f.axis, f.parameter["value"], f.alternatives) == ("motor_second_lag", "pitch", 0.069, [])
     assert "that motor of second order in place of the search's motor_lag:pitch" in f.evidence and "T11" in f.evidence
+
+
+def test_a_finding_estimated_again_beside_a_known_value_says_its_new_value_in_words():
+    """The search's second-order tail motor at 0.451 s, estimated again with T21 free beside it at 0.232 s (seed
+    9367 bench 14 of benchmarks/independent.py: the truth 0.232 s and T21 1.134): the finding's value, its
+    explanation and its evidence say 0.232; the explanation had kept the search's 0.451 s."""
+    f0 = _finding("motor_second_lag", "yaw", "T2", 0.451)
+    f0 = dataclasses.replace(f0, explanation="the tail motor is second order: its drive follows the voltage "
+                                             "through a further lag of 0.451 s", evidence="best at 0.4477")
+    h = compound.Hypothesis("motor_second_lag:yaw", 0.451, 0, fitted=0.232, fitted_ci95=(0.2319, 0.2321),
+                            value_fit={"name": "T21", "value": 1.134, "table": 1.0})
+    f = compound._effect_finding(_diagnosis([f0]), h, [])
+    assert f.parameter["value"] == 0.232 and f.parameter["ci95"] == [0.2319, 0.2321]
+    assert f.explanation == ("the tail motor is second order: its drive follows the voltage through a further lag "
+                             "of 0.232 s")
+    assert f.evidence == "best at 0.4477; estimated again in the model with T21 free beside it: 0.232"
+    same = compound._effect_finding(_diagnosis([f0]), dataclasses.replace(h, fitted=0.451), [])
+    assert same.explanation == f0.explanation and same.evidence == f0.evidence  # not moved: as the search said
 
 
 def test_a_second_order_motor_is_estimated_under_with_both_its_time_constants_free():

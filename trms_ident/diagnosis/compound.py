@@ -384,19 +384,23 @@ def value_first(d, log: Log, p: dict, law: str, overrides: dict | None, kv: dict
 def _effect_finding(d, h: Hypothesis, alikes: list[Hypothesis]) -> Finding:
     """The effect's finding: the search's own (its value the estimate's when freed), or the look-alike's new one."""
     others = [a.label() for a in alikes]
+    c = room.BY_KEY[h.key]
     if h.finding is not None:
         f = d.findings[h.finding]
         value = h.fitted if math.isfinite(h.fitted) else f.parameter["value"]
+        moved = float(value) != f.parameter["value"]
         again = (f"; estimated again in the model with {h.value_fit['name']} free beside it: {value:.4g}"
-                 if h.value_fit is not None and h.key in TORQUE_KEYS else "")
+                 if h.value_fit is not None and (h.key in TORQUE_KEYS or moved) else "")
         param = {**f.parameter, "value": float(value)}
-        if float(value) != f.parameter["value"]:  # the search's interval was for its own value: the estimate's
+        if moved:  # the search's interval was for its own value: the estimate's
             param.pop("ci95", None)  # (an interval that bench files carry, so estimate widens J/B's by it)
             if h.fitted_ci95 is not None and math.isfinite(h.fitted):  # value is then h.fitted
                 param["ci95"] = list(h.fitted_ci95)
-        return replace(f, parameter=param, evidence=f.evidence + again,
+        # the sentence says the value the finding reports (it said the search's: "T2 = 0.232 s" above "a further
+        # lag of 0.451 s", a second-order tail motor estimated again beside T21)
+        said = c.sentence.format(value=value, unit=c.unit) if moved and c.sentence else f.explanation
+        return replace(f, parameter=param, evidence=f.evidence + again, explanation=said,
                        alternatives=list(dict.fromkeys(f.alternatives + others)))
-    c = room.BY_KEY[h.key]
     value = h.fitted if math.isfinite(h.fitted) else h.value  # an input modification applied at its value
     beside = f" and {h.value_fit['name']}" if h.value_fit is not None else ""
     param = {"name": c.parameter, "value": float(value), "unit": c.unit,
