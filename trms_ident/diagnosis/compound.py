@@ -398,14 +398,14 @@ def _effect_finding(d, h: Hypothesis, alikes: list[Hypothesis]) -> Finding:
                 param["ci95"] = list(h.fitted_ci95)
         # the sentence says the value the finding reports (it said the search's: "T2 = 0.232 s" above "a further
         # lag of 0.451 s", a second-order tail motor estimated again beside T21)
-        said = c.sentence.format(value=value, unit=c.unit) if moved and c.sentence else f.explanation
-        return replace(f, parameter=param, evidence=f.evidence + again, explanation=said,
+        return replace(f, parameter=param, evidence=f.evidence + again,
+                       explanation=c.said(value) if moved else f.explanation,
                        alternatives=list(dict.fromkeys(f.alternatives + others)))
     value = h.fitted if math.isfinite(h.fitted) else h.value  # an input modification applied at its value
     beside = f" and {h.value_fit['name']}" if h.value_fit is not None else ""
     param = {"name": c.parameter, "value": float(value), "unit": c.unit,
              **({"ci95": list(h.fitted_ci95)} if h.fitted_ci95 is not None and math.isfinite(h.fitted) else {})}
-    explanation = c.sentence.format(value=value, unit=c.unit) if c.sentence else c.effect
+    explanation = c.said(value)
     if h.ranked_by is not None:  # proposed by the equation error's ranking (ranked()), not by the search's rounds
         t = h.ranked_by
         alone = ("it passed there but the search did not take it" if t.get("passed") else

@@ -511,8 +511,7 @@ def _report(run: _Run, found: _Found, kept: _Kept, base_reg, base, nominal: dict
             param["ci95"] = [v - Z95 * fit.se, v + Z95 * fit.se]  # its profile's batch-means standard error
             if widths.get(c.key) is not None:
                 param["ci95"] = [float(x) for x in widths[c.key]]
-        out.append(Finding(c.effect, c.axis, param, fb, fa, evidence,
-                           c.sentence.format(value=v, unit=c.unit), best["test"].gain, best["test"].t,
+        out.append(Finding(c.effect, c.axis, param, fb, fa, evidence, c.said(v), best["test"].gain, best["test"].t,
                            best["test"].p, alts, shift))
     seg, reg_stats = {}, {}
     residual = {}

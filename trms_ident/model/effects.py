@@ -70,6 +70,10 @@ class Candidate:
     def plausible(self, value: float) -> bool:
         return math.isfinite(value) and self.bounds[0] < value < self.bounds[1]
 
+    def said(self, value: float) -> str:
+        """Its sentence at ``value`` (the effect's name where it has none)."""
+        return self.sentence.format(value=value, unit=self.unit) if self.sentence else self.effect
+
 
 #: positive parameters (a torque's size, a width, a delay)
 POSITIVE = (0.0, INF)
