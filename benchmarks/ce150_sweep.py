@@ -10,8 +10,8 @@ each file holding u1, u2, psi and phi (100 Hz, degrees):
   model turns at those inputs, (Tau_2(u2) - K_r u1) / B_phi (the azimuth has no other torque in that model);
 - the azimuth simulated on its own (it does not depend on the elevation in that model) with the ported equations,
   its start states fitted (rate, the tail motor's two states, the reaction lag's), then with B_phi free, then with
-  K_r, B_phi and I_phi free, then with the published values and a Coulomb friction fc sign(phi') added, fc free
-  (scipy.optimize.least_squares): the error RMS [deg] each leaves;
+  K_r, B_phi and I_phi free, then with the published values and a Coulomb friction F_c sign(phi') added (the
+  port's F_c, 0 in the published model), F_c free (scipy.optimize.least_squares): the error RMS [deg] each leaves;
 - the elevation simulated with the published values, driven by the measured azimuth rate (a cubic spline's
   derivative) in its gyroscopic term, from the file's first angle and rate with the motor settled at u1: the
   error's maximum and RMS [deg] (not on a file whose elevation rests on its 45 degree stop: no stop here).
@@ -31,7 +31,6 @@ from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 from scipy.io import loadmat
 from scipy.io.matlab import MatReadError
-from numba import njit
 from scipy.optimize import least_squares
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -65,9 +64,9 @@ def steady(c: dict) -> tuple[float, float]:
     return rate, math.degrees(torque / P["B_phi"])
 
 
-def yaw_fit(c: dict, free: tuple) -> tuple[float, dict]:
+def yaw_fit(c: dict, free: tuple, first: dict | None = None) -> tuple[float, dict]:
     """(error RMS [deg], the free values) of the azimuth simulated by the ported model, its start states and the
-    values in ``free`` fitted."""
+    values in ``free`` fitted, from the published values or ``first``."""
     phi = np.radians(c["phi"])
     t, u1, u2 = c["t"], c["u1"], c["u2"]
     dphi0 = (phi[1] - phi[0]) * RATE_HZ
@@ -78,62 +77,16 @@ def yaw_fit(c: dict, free: tuple) -> tuple[float, dict]:
         x0[3], x0[6], x0[7], x0[8] = x[0], x[1], x[2], x[3]  # phi', the tail motor's two states, the reaction lag
         return ce150.open_loop(t, u1, u2, x0, p)[:, 1]
 
-    x0 = np.array([dphi0, u2[0], u2[0], u1[0]] + [P[k] for k in free])
+    x0 = np.array([dphi0, u2[0], u2[0], u1[0]] + [{**P, **(first or {})}[k] for k in free])
     r = least_squares(lambda x: np.degrees(sim(x) - phi), x0, x_scale="jac")
     return float(np.sqrt(np.mean(r.fun ** 2))), dict(zip(free, r.x[4:]))
 
 
-#: the Coulomb friction's sign smoothed over this rate [rad/s] (tanh), so that least squares has a slope to follow
-SMOOTH_RAD_S = 1e-3
-
-
-@njit(cache=True)
-def _yaw_coulomb(u1, u2, q, x0, h_sub, out):
-    """The ported azimuth (tests/plants/ce150.py's equations) with a Coulomb friction fc sign(phi') besides B_phi:
-    phi [rad] at each sample, the inputs linear between samples, RK4 sub-steps of h_sub [s]."""
-    a2, b2, b_phi, i_phi, k_r, t0r, tpr, t2, fc = q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8]
-    x = x0.copy()
-    dt = 1.0 / 100.0
-    ns = int(round(dt / h_sub))
-    h = dt / ns
-    k = np.empty((4, 5))
-    for i in range(u1.size):
-        out[i] = x[0]
-        if i == u1.size - 1:
-            break
-        for j in range(ns):
-            for stage in range(4):
-                tm = (j + (0.0, 0.5, 0.5, 1.0)[stage]) / ns
-                v1 = u1[i] + tm * (u1[i + 1] - u1[i])
-                v2 = u2[i] + tm * (u2[i + 1] - u2[i])
-                y = x.copy()
-                if stage > 0:
-                    y += (0.5 if stage < 3 else 1.0) * h * k[stage - 1]
-                torque = a2 * y[3] * y[3] + b2 * y[3] - k_r * (y[4] + t0r * (v1 - y[4]) / tpr)
-                k[stage, 0] = y[1]
-                k[stage, 1] = (torque - b_phi * y[1] - fc * math.tanh(y[1] / SMOOTH_RAD_S)) / i_phi
-                k[stage, 2] = (v2 - y[2]) / t2
-                k[stage, 3] = (y[2] - y[3]) / t2
-                k[stage, 4] = (v1 - y[4]) / tpr
-            x += h / 6.0 * (k[0] + 2.0 * k[1] + 2.0 * k[2] + k[3])
-    return out
-
-
 def yaw_coulomb_fit(c: dict) -> tuple[float, float]:
-    """(error RMS [deg], fc [N m]) of the azimuth with the published values and a Coulomb friction fc, fc and the
-    start states fitted."""
-    phi = np.radians(c["phi"])
-    u1, u2 = c["u1"], c["u2"]
-    q = np.array([P[k] for k in ("a_2", "b_2", "B_phi", "I_phi", "K_r", "T_0r", "T_pr", "T_2")] + [0.0])
-    out = np.empty(phi.size)
-
-    def res(x):
-        q[8] = x[4]
-        return np.degrees(_yaw_coulomb(u1, u2, q, np.array([phi[0], *x[:4]]), 1e-3, out) - phi)
-
-    x0 = np.array([(phi[1] - phi[0]) * RATE_HZ, u2[0], u2[0], u1[0], 3e-4])
-    r = least_squares(res, x0, x_scale="jac")
-    return float(np.sqrt(np.mean(r.fun ** 2))), float(r.x[4])
+    """(error RMS [deg], fc [N m]) of the azimuth with the published values and a Coulomb friction F_c (the ported
+    model's, its sign smoothed), F_c and the start states fitted."""
+    rms, values = yaw_fit(c, ("F_c",), {"F_c": 3e-4})
+    return rms, values["F_c"]
 
 
 def pitch_driven(c: dict) -> tuple[float, float]:

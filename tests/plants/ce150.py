@@ -9,6 +9,7 @@ It is not the plant of eq. (1):
     Tau_i = a_i w_i^2 + b_i w_i                        thrust torques [N m]
     I psi''       = Tau_1 - B_psi psi' - K_Gyro cos(psi) phi' u1 - Tau_g sin(psi)   (elevation)
     I_phi phi''   = Tau_2 - B_phi phi' - K_r (T_0r s + 1)/(T_pr s + 1) u1             (azimuth)
+                    [- F_c sign(phi'): not in the published model, F_c 0 unless given]
 
 The gyroscopic torque and the reaction torque are driven by the input u1 itself, not by a motor state; the
 elevation runs between end stops at 45 and 135 degrees and the azimuth between -130 and +130 degrees (Simulink's
@@ -25,9 +26,13 @@ import math
 import numpy as np
 from numba import njit
 
-#: Param_HeliCE150_PID_FFCwithNN.m
+#: Param_HeliCE150_PID_FFCwithNN.m; F_c [N m], a Coulomb friction on the azimuth, is not in it (0: the published
+#: model), but the authors' azimuth sweeps show one of ~4e-4 N m (benchmarks/ce150_sweep.py)
 P = dict(a_1=0.105, b_1=0.00936, a_2=0.033, b_2=0.0294, B_psi=0.00184, I=0.00437, B_phi=0.00869, I_phi=0.00414,
-         T_1=0.3, T_2=0.25, K_r=0.00162, T_0r=2.7, T_pr=0.75, K_Gyro=0.015, Tau_g=0.0383)
+         T_1=0.3, T_2=0.25, K_r=0.00162, T_0r=2.7, T_pr=0.75, K_Gyro=0.015, Tau_g=0.0383, F_c=0.0)
+#: F_c's sign smoothed as tanh(phi' / FRICTION_SMOOTH_RAD_S) [rad/s] (a smooth right side for RK4 and for least
+#: squares; the tool's own friction uses the same width)
+FRICTION_SMOOTH_RAD_S = 1e-3
 _ORDER = tuple(P)
 #: the integrators' position limits [rad]: elevation 45-135 deg, azimuth +-130 deg
 PSI_STOPS = (math.pi / 4, 3 * math.pi / 4)
@@ -42,8 +47,8 @@ def vector(p: dict | None = None) -> np.ndarray:
 
 @njit(cache=True)
 def _deriv(x, u1, u2, q, d):
-    a1, b1, a2, b2, b_psi, inertia, b_phi, i_phi, t1, t2, k_r, t0r, tpr, k_gyro, tau_g = (
-        q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8], q[9], q[10], q[11], q[12], q[13], q[14])
+    a1, b1, a2, b2, b_psi, inertia, b_phi, i_phi, t1, t2, k_r, t0r, tpr, k_gyro, tau_g, f_c = (
+        q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8], q[9], q[10], q[11], q[12], q[13], q[14], q[15])
     psi, dpsi, phi, dphi, z1, w1, z2, w2, r = x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7], x[8]
     tau1 = a1 * w1 * w1 + b1 * w1
     tau2 = a2 * w2 * w2 + b2 * w2
@@ -51,7 +56,7 @@ def _deriv(x, u1, u2, q, d):
     d[0] = dpsi
     d[1] = (tau1 - b_psi * dpsi - k_gyro * math.cos(psi) * dphi * u1 - tau_g * math.sin(psi)) / inertia
     d[2] = dphi
-    d[3] = (tau2 - b_phi * dphi - reaction) / i_phi
+    d[3] = (tau2 - b_phi * dphi - reaction - f_c * math.tanh(dphi / FRICTION_SMOOTH_RAD_S)) / i_phi
     d[4] = (u1 - z1) / t1  # 1/(T s + 1)^2 as two lags in cascade
     d[5] = (z1 - w1) / t1
     d[6] = (u2 - z2) / t2
