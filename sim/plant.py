@@ -16,6 +16,8 @@ import math
 import numpy as np
 from numba import njit
 
+from trms_ident.numerics.kernel_args import HELPER
+
 # Order of the plant parameter vector.
 PARAM_ORDER = ("J1", "B1", "J2", "B2", "a1", "b1", "a2", "b2", "Mg", "Kg",
                "k1", "k2", "T11", "T10", "T21", "T20", "kc", "T0", "Tp")
@@ -80,7 +82,7 @@ def _factor(code, al, dal, be, dbe, tau1, tau2, M1, M2, MR, u1, u2):
     return 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, **HELPER)  # no reference counting (trms_ident/numerics/kernel_args.py)
 def _deriv(x, u1, u2, p, law, fx, dx):
     J1, B1, J2, B2 = p[0], p[1], p[2], p[3]
     a1, b1, a2, b2, Mg, Kg = p[4], p[5], p[6], p[7], p[8], p[9]

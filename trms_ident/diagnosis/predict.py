@@ -19,7 +19,7 @@ from numba import njit
 
 from ..model.plant import (centrifugal_pitch, coriolis_yaw, coulomb_sign, friction, pitch_torque, reversed_gain, thrust,
                            yaw_torque)
-from ..numerics.kernel_args import readonly
+from ..numerics.kernel_args import HELPER, readonly
 
 HORIZON_S = 2.0
 #: the entries of a prediction's effect vector ``fx`` (_rhs: the effects' values, the gyroscope's drive, the stops)
@@ -34,7 +34,7 @@ def _checked(fx: np.ndarray) -> np.ndarray:
     return fx
 
 
-@njit(cache=True)
+@njit(cache=True, **HELPER)
 def _rhs(pitch, x, v, tau_m, other, s2, scw, ext, th, fx):
     # th: J, B, a, b, Mg, Kg, signed;  fx: Fc, c, k_cable, com_delta, sensor_delta, thrust asymmetry s, yaw dJ,
     # the gyroscope driven by the voltage (1: the bench's structure, ``other`` is then u1 beta'; 0: eq. 1), the

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from .kernel_args import HELPER
 
 
 @dataclass(frozen=True)
@@ -42,7 +43,7 @@ def extend_and_mix(g: np.ndarray, m: np.ndarray, dt_s: float, b_rad_s: float,
     return MixedRegression(phi, eps, rms(phi) / scale if scale > 0 else 0.0)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, **HELPER)
 def gradient_step(q, j, e, ph, gamma, norm, rate, dt):
     """eq. (8) over one sample for q[j]: q moves towards e/ph by the fraction 1 - exp(-g ph^2 dt).
 

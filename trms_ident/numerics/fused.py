@@ -20,20 +20,20 @@ from ..model.plant import pitch_torque, reaction_moment, thrust, yaw_torque
 from ..model.structure import gyroscope_voltage, of_bench, reaction_voltage
 from .coefficients import bilinear_second_order, zoh_first_order, zoh_lead_lag, zoh_reaction
 from .drem import gradient_step
-from .kernel_args import readonly
+from .kernel_args import HELPER, readonly
 
 # filter slots: motor lag, M_R path, F, F s^2, F s, H on g, H on m1, H on m2
 TAU, MR, F0, F2, F1, HG, HM1, HM2 = range(8)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, **HELPER)
 def _init(b, a, i, x0, z):
     y0 = (b[i, 0] + b[i, 1] + b[i, 2]) / (a[i, 0] + a[i, 1] + a[i, 2]) * x0
     z[i, 1] = b[i, 2] * x0 - a[i, 2] * y0
     z[i, 0] = b[i, 1] * x0 - a[i, 1] * y0 + z[i, 1]
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, **HELPER)
 def _step(b, a, i, x, z):
     y = b[i, 0] * x + z[i, 0]  # direct form II transposed, as scipy.signal.lfilter
     z[i, 0] = b[i, 1] * x - a[i, 1] * y + z[i, 1]
@@ -41,7 +41,7 @@ def _step(b, a, i, x, z):
     return y
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, **HELPER)
 def _angle_part(k, x, b, a, z):
     """Sample k of the regressor m = F [s^2 x, s x] (eq. 3) and H m (eq. 5): (m1, m2, Hm1, Hm2)."""
     if k == 0:
@@ -55,7 +55,7 @@ def _angle_part(k, x, b, a, z):
     return m1, m2, _step(b, a, HM1, m1, z), _step(b, a, HM2, m2, z)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, **HELPER)
 def _sample(k, pitch, u_tau, u1, x, beta, dt, b, a, th_a, th_b, signed, mg, kg, gv, z):
     """Sample k of one axis' mixed regression: (phi, eps_J, eps_B); the filters' states z advance one step.
     u1: the main motor's voltage (pitch: the gyroscope's drive when ``gv``, the bench's structure) or, on the yaw,

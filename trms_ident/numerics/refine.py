@@ -44,7 +44,7 @@ from numba import njit
 from scipy.special import stdtrit
 
 from . import parallel, safe
-from .kernel_args import readonly
+from .kernel_args import HELPER, readonly
 from ..model.structure import of_bench, slot_values
 from ..model.plant import (FRICTION_SMOOTH_RAD_S, GRAVITY_OFFSET_SLOT, GYRO_VOLTAGE_SLOT, LAG1_SLOT, LAG2_SLOT,
                            N_SLOTS, PARAM_ORDER, REACTION_VOLTAGE_SLOT, SENSOR_OFFSET_SLOT, STOP_SLOT,
@@ -219,7 +219,7 @@ def _lag_drive_rate(u, lag, t2):
     return (u - lag) / t2 if t2 > 0.0 else 0.0
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
+@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, **HELPER)
 def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe, sens=True):
     """Paper eq. (1) with the motor lags, M_R's lag state and the effects in p's slots, and the exact forward
     sensitivities (layout above): for every unknown c, d/dt S_c = A(t) S_c + df/dtheta_c, with A the Jacobian
@@ -333,7 +333,7 @@ def _lag_start_rates(x, i, p, d):
     d[i + 4] = (p[11] * l2 - p[15] * x[i + 4]) / p[14]
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
+@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, **HELPER)
 def _rk4(x, xt, k1, k2, k3, k4, v1, v2, e1, e2, p, signed, dur, max_sub, fs, fe, sens=True):
     """Advance x (with its sensitivities) by dur [s] with the voltages v1, v2 and exogenous torques e1, e2 held,
     RK4 sub-steps <= max_sub; fs, fe, sens: see _rhs (sens False: only the states 0..6 and the further lags
@@ -356,7 +356,7 @@ def _rk4(x, xt, k1, k2, k3, k4, v1, v2, e1, e2, p, signed, dur, max_sub, fs, fe,
             _at_stops(x, k1, k2, k3, k4, hs, v1, v2, e1, e2, p, signed, fs, fe, sens)
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
+@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, **HELPER)
 def _at_stops(x, k1, k2, k3, k4, hs, v1, v2, e1, e2, p, signed, fs, fe, sens):
     """After an RK4 sub-step of hs [s] (its stages k1..k4): each angle past an end stop and still moving into it
     (none when low >= high) is held at the stop, from the moment within the sub-step it reached it (linear between
@@ -404,7 +404,7 @@ def _stage(xt, x, a, k, sens):
             xt[i] = x[i] + a * k[i]
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
+@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, **HELPER)
 def _pieces(k, u1, u2, h, dsw):
     """The voltages held over sample interval k, each switching at its own time: up to three pieces, cut where
     u1 and u2 switch.  Returns the cut times [s] and, per piece, the voltages."""
@@ -416,7 +416,7 @@ def _pieces(k, u1, u2, h, dsw):
     return cuts, v1, v2
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"})
+@njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, **HELPER)
 def _motor_rhs(x, u1, u2, p, d):
     """The motor lags and M_R's lag state of eq. (1) with their sensitivities to the start states, and the
     further lags of second-order motors with theirs: the layout's states 4, 5, 6, 51..54, 55, 56, 57..61 as
