@@ -42,7 +42,7 @@ def _rhs(pitch, x, v, tau_m, other, s2, scw, ext, th, fx):
     # s2 = sin^2(alpha), scw = sin(alpha) cos(alpha) alpha' (measured; used by the yaw axis only);
     # ext: an extra torque [N m] from the measured states (a data-driven correction, diagnosis/sparse.py)
     m = reversed_gain(tau_m, fx[5]) * thrust(tau_m, th[2], th[3], th[6] > 0)  # eq. (1), with thrust asymmetry
-    fric = friction(coulomb_sign(v), v, fx[0], fx[1]) + ext
+    fric = friction(coulomb_sign(v) if fx[0] != 0.0 else 0.0, v, fx[0], fx[1]) + ext  # no tanh without a Coulomb
     if pitch:
         gd = m + fx[7] * (1.0 - m)  # M1 (eq. 1) or 1, the voltage being in ``other`` (model/structure.py)
         acc = pitch_torque(m, gd, math.sin(x + fx[3]), math.cos(x), other, th[4], th[5]) + fric  # eq. (1), pitch

@@ -179,10 +179,10 @@ def _direct(slot, x, p, signed, g1, g2, m1, gd, rd, sg, cg, sa, ca, th1, th2, f3
         return 0.0, -p[16] * (rd - x[6]) / p[18]
     if slot == GRAVITY_OFFSET_SLOT:  # centre-of-mass offset delta in Mg sin(alpha + delta)
         return -p[8] * cg, 0.0
-    if slot == 20:  # Coulomb friction, pitch
-        return -th1, 0.0
+    if slot == 20:  # Coulomb friction, pitch (th1 is 0 while its value is: freed from 0)
+        return -coulomb_sign(x[1]), 0.0
     if slot == 21:
-        return 0.0, -th2
+        return 0.0, -coulomb_sign(x[3])
     if slot == 22:  # quadratic drag, pitch
         return -x[1] * abs(x[1]), 0.0
     if slot == 23:
@@ -245,7 +245,10 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe, sens=True):
     # gravity Mg sin(alpha + delta): delta, a centre-of-mass offset (0 in the seed model)
     dg = p[GRAVITY_OFFSET_SLOT]
     sg, cg = (sa, ca) if dg == 0.0 else (math.sin(x[0] + dg), math.cos(x[0] + dg))
-    th1, th2 = coulomb_sign(x[1]), coulomb_sign(x[3])
+    # the rates' smoothed signs (a tanh each: an eighth of a pass) only where a Coulomb friction acts: every term
+    # that reads them is multiplied by it (a freed one's sensitivity takes its own: _direct)
+    th1 = coulomb_sign(x[1]) if p[20] != 0.0 else 0.0
+    th2 = coulomb_sign(x[3]) if p[21] != 0.0 else 0.0
     fr1 = friction(th1, x[1], p[20], p[22])  # friction beyond B: Coulomb (smoothed) and drag
     fr2 = friction(th2, x[3], p[21], p[23])
     dj = p[YAW_INERTIA_SLOT]  # a yaw inertia J2 - dJ sin^2(alpha) (0 in the seed model)
