@@ -5,10 +5,11 @@
 
 The issue's log (`trms-ident simulate --ref multisine --duration 3600 --encoder-bits 12 --seed 5`) is made once;
 then each round runs, in fresh processes and in turn, this tree's `estimate LOG --no-report` (A), the base
-revision's (B, a `git worktree` of it, the same interpreter and packages, numba's cache warmed by one run first)
-and the plain scipy pipeline of ratios.py (C: pandas.read_csv and 16 scipy.signal.lfilter passes).  Ratios are
-taken round by round and their median printed with min and max: the machine is shared and its speed drifts, so
-only figures measured side by side are compared.  Peak memory is each child's max RSS (os.wait4).  Writes the
+revision's (B, a `git worktree` of it, the same interpreter and packages) and the plain scipy pipeline of ratios.py
+(C: pandas.read_csv and 16 scipy.signal.lfilter passes), each run once first (numba's cache, every module's
+bytecode, as an installed package has them, and the page cache).  Ratios are taken round by round and their median
+printed with min and max: the machine is shared and its speed drifts, so only figures measured side by side are
+compared.  Peak memory is each child's max RSS (os.wait4).  Writes the
 section "Against the base revision" of RESULTS.md unless --no-write.
 """
 from __future__ import annotations
@@ -64,7 +65,7 @@ def main() -> None:
                            check=True, cwd=tmp, capture_output=True)
             cmds = {"A": estimate_in(ROOT, log, tmp / "a"), "B": estimate_in(tree, log, tmp / "b"),
                     "C": [PY, "-c", SCIPY_PIPELINE, str(log)]}
-            for c in cmds.values():  # numba's cache of each tree, the page cache
+            for c in cmds.values():  # numba's cache of each tree, the bytecode of its modules, the page cache
                 timed(c)
             runs = {k: [] for k in cmds}
             for i in range(args.rounds):
@@ -96,5 +97,9 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    os.environ.setdefault("PYTHONDONTWRITEBYTECODE", "1")
+    # each side's modules as bytecode, as an installed package has them (pip writes it at install, an editable install
+    # at the first import): the warm-up run writes what is missing.  This machine sets PYTHONDONTWRITEBYTECODE, and
+    # with it every timed run of a fresh worktree parsed and compiled the package's source again (~0.3 s of CPU)
+    # where the plain pipeline's modules had their bytecode
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
     main()
