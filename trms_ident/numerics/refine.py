@@ -562,8 +562,11 @@ def windows_pass(u1, u2, y, inv_sig, starts, mstart, p, signed, h, dsw, max_sub,
                     g = ja[i] * ra + jb[i] * rb
                     b_vec[w, i] += g
                     scores[q, i] += g
-                    for j in range(i, nt):
-                        a_mat[w, i, j] += ja[i] * ja[j] + jb[i] * jb[j]
+                    ai, bi = ja[i], jb[i]
+                    # every row whole (the compiler vectorises a full row, not a triangle's: a pass 8-11 % faster);
+                    # the lower triangle is then overwritten with the upper's values below, as before
+                    for j in range(nt):
+                        a_mat[w, i, j] += ai * ja[j] + bi * jb[j]
                 for r in range(ngr):  # the residual each encoder grid would leave: the prediction's rounding error
                     ea, eb = 0.0, 0.0
                     if quanta[0] > 0.0:
