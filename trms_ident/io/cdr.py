@@ -19,6 +19,8 @@ import struct
 import numpy as np
 from numba import njit
 
+from ..numerics.kernel_args import HELPER
+
 OP_MESSAGE = 0x05
 
 # status codes of the bulk decoders
@@ -27,17 +29,17 @@ OK, SHORT, BIG_ENDIAN, NO_SUCH_JOINT, INDEX_OUT_OF_RANGE = 0, 1, 2, 3, 4
 
 # Byte reads as int64 arithmetic throughout: mixing numba's uint8/uint32/uint64 with int64 promotes to
 # float and made the record scan 4x slower.
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, **HELPER)
 def _u16(b, p):
     return np.int64(b[p]) | (np.int64(b[p + 1]) << 8)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, **HELPER)
 def _u32(b, p):
     return np.int64(b[p]) | (np.int64(b[p + 1]) << 8) | (np.int64(b[p + 2]) << 16) | (np.int64(b[p + 3]) << 24)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, **HELPER)
 def _u64(b, p):
     """Little-endian 8 bytes as int64 (a length above 2**63 comes out negative: callers refuse it)."""
     r = np.int64(0)
@@ -46,7 +48,7 @@ def _u64(b, p):
     return r
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, **HELPER)
 def _f64(b, p, scratch):
     """The little-endian double at b[p]; ``scratch``: an int64 array of one element (a view of it as float64
     reinterprets the bits without allocating)."""
@@ -136,7 +138,7 @@ def _align(q, base, k):
     return q + (k - r) % k
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, **HELPER)
 def _payload(buf, p, length, min_length, status, i):
     """Start of the CDR body after the encapsulation header, or -1 (status set) if unusable."""
     status[i] = OK
@@ -149,7 +151,7 @@ def _payload(buf, p, length, min_length, status, i):
     return p + 4
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, **HELPER)
 def _f64_sequence(buf, q, base, end):
     """(start of the doubles, count) of a float64 sequence at q, or (-1, 0) if it runs past end."""
     q = _align(q, base, 4)
