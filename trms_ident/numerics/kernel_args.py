@@ -20,7 +20,7 @@ from numba.core.options import DefaultOptions
 #: a compiled function receives, or that a function inlined into it (``inline="always"``) binds: an atomic increment
 #: on entry and a decrement on every way out, and its pruning pass cannot remove the pair across a helper's branches
 #: and calls (numba issues #2345 and #2350, whose workaround this is).  Measured with perf on the output-error fit's
-#: pass (refine.windows_pass, 12 000 samples, 2 Dec 2026's kernels): 72 % of its time in NRT_incref and NRT_decref,
+#: pass (refine.windows_pass, 12 000 samples, 6 Dec 2026): 72 % of its time in NRT_incref and NRT_decref,
 #: 58 atomic operations a sample; without them the pass took 2.0 ms instead of 4.5 (predictions) and 3.6 instead of
 #: 6.3 (with sensitivities), the same numbers to the last bit.  ``_nrt=False`` compiles the helper without numba's
 #: runtime: it counts nothing, and numba refuses to compile it if it allocates an array.  LLVM still inlines it

@@ -179,7 +179,7 @@ def _direct(slot, x, p, signed, g1, g2, m1, gd, rd, sg, cg, sa, ca, th1, th2, f3
         return 0.0, -p[16] * (rd - x[6]) / p[18]
     if slot == GRAVITY_OFFSET_SLOT:  # centre-of-mass offset delta in Mg sin(alpha + delta)
         return -p[8] * cg, 0.0
-    if slot == 20:  # Coulomb friction, pitch (th1 is 0 while its value is: freed from 0)
+    if slot == 20:  # Coulomb friction, pitch: its own sign (th1 is 0 while the value is 0, a freed one's start)
         return -coulomb_sign(x[1]), 0.0
     if slot == 21:
         return 0.0, -coulomb_sign(x[3])
