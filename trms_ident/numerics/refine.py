@@ -150,7 +150,7 @@ class Refined:
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "reassoc", "arcp"}, inline="always")
-def _direct(slot, x, p, signed, g1, g2, m1, gd, rd, sg, cg, sa, ca, th1, th2, f3, fe1, fe2):
+def _direct(slot, x, p, signed, g1, g2, m1, gd, rd, sg, cg, sa, ca, f3, fe1, fe2):
     """The torques' derivatives [N m per unit] on pitch and yaw (eq. 1) in the model value at ``slot`` with the
     state held: the direct term of that value's forward sensitivity (the caller divides by J1 and by the yaw
     inertia).  Every slot but the motors' (k1, k2, T11, T10, T21, T20, Tp: they act through the motor states,
@@ -179,7 +179,8 @@ def _direct(slot, x, p, signed, g1, g2, m1, gd, rd, sg, cg, sa, ca, th1, th2, f3
         return 0.0, -p[16] * (rd - x[6]) / p[18]
     if slot == GRAVITY_OFFSET_SLOT:  # centre-of-mass offset delta in Mg sin(alpha + delta)
         return -p[8] * cg, 0.0
-    if slot == 20:  # Coulomb friction, pitch: its own sign (th1 is 0 while the value is 0, a freed one's start)
+    if slot == 20:  # Coulomb friction, pitch: the rate's smoothed sign (_rhs computes it only for a friction
+        # that is not 0, and a freed one starts at 0)
         return -coulomb_sign(x[1]), 0.0
     if slot == 21:
         return 0.0, -coulomb_sign(x[3])
@@ -299,7 +300,7 @@ def _rhs(x, u1, u2, e1, e2, p, signed, d, fs, fe, sens=True):
         d[i + 3] = b10 * x[i] + b11 * x[i + 1] + b12 * x[i + 2] + b13 * x[i + 3]
     for c in range(fs.size):  # freed model values: the same A, their own direct terms
         i = _NS + 4 * c
-        q1, q3 = _direct(fs[c], x, p, signed, g1, g2, m1, gd, rd, sg, cg, sa, ca, th1, th2, f3, fe[c, 0], fe[c, 1])
+        q1, q3 = _direct(fs[c], x, p, signed, g1, g2, m1, gd, rd, sg, cg, sa, ca, f3, fe[c, 0], fe[c, 1])
         d[i] = x[i + 1]
         d[i + 1] = a10 * x[i] + a11 * x[i + 1] + a13 * x[i + 3] + q1 / j1
         d[i + 2] = x[i + 3]
