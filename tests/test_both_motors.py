@@ -210,3 +210,29 @@ def test_a_saturation_whose_fit_alone_lands_wide_is_fitted_with_the_other_motors
                                                        got["pair"]["value"]}
         else:
             assert got is None
+
+
+def test_a_profile_beside_a_runaway_base_fit_starts_from_the_given_values():
+    """independent.py's seed 6161 bench 12 (the textbook plant, Simulink's dead zone: 0.298 V on the main motor,
+    0.157 V on the tail's; steps from rest, 100 Hz): the model with the tail's dead zone alone cannot be fitted
+    (its Gauss-Newton fit runs off, J/B far from the log's) and every trial width started there overflowed, so the
+    pair was refused as "the output-error fit failed" and a yaw thrust asymmetry named instead.  A trial that fails
+    from the base's values starts again from the given J/B: the main motor's width lands on the bench's."""
+    from trms_ident.diagnosis.trials import value_grid
+    from trms_ident.log import validated
+
+    from .plants import textbook
+
+    t, u1, u2, a, b = textbook.simulate_log(60.0, 100.0, seed=1361336198, ref="steps", dead_zone_v=(0.298, 0.157),
+                                            encoder_bits=None, noise_rad=0.00083)
+    log = validated(t, u1, u2, a, b, source="textbook", angle_unit="rad")
+    p = defaults()
+    theta0 = {k: p[k] for k in ("J1", "B1", "J2", "B2")}
+    fitter = oe.Fitter(log, p, "quadratic")
+    model = Model((("shifted_dead_zone:yaw", 0.157),))
+    values = {"shifted_dead_zone:yaw": 0.157}
+    assert not fitter.base(model, values, theta0).converged  # the case: the current model's fit ran off
+    key = "shifted_dead_zone:pitch"
+    f = fitter.profile(model, values, theta0, key, value_grid(BY_KEY[key], log, p), 0.298)
+    assert f is not None and f.value == pytest.approx(0.298, rel=0.02)
+    assert min(f.fits["pitch"][1], f.fits["yaw"][1]) > 95.0  # its simulation fits the log [%]
