@@ -947,3 +947,49 @@ def test_a_small_modification_the_fit_needs_is_kept_and_a_log_it_explains_is_nev
                          merge({}), "quadratic")
     assert out.findings == [] and out.verdict == "unexplained"
     assert out.verdict_sentence == VERDICTS["unexplained"] + ". Refitted alone, every known value ran off."
+
+
+def test_a_dead_zone_form_that_leaves_the_log_unexplained_is_searched_again_without_it(monkeypatch):
+    """The search picks a dead zone's form before a second difference is in the model (run._other_forms): where the
+    log stays unexplained beside it, the search runs again without that form, and that diagnosis is kept when it
+    explains the log, the first form said as refused; kept as it was when it does not, and never tried when the
+    first diagnosis explains the log."""
+    from dataclasses import replace
+
+    from trms_ident.diagnosis import run
+    from trms_ident.log import validated
+
+    from .plants import textbook
+    from .test_compound import _diagnosis, _finding
+
+    t, u1, u2, a, b = textbook.simulate_log(10.0, 100.0, seed=3)
+    log = validated(t, u1, u2, a, b, source="textbook", angle_unit="rad")
+    cut = replace(_diagnosis([_finding("dead_zone", "pitch", "w", 0.43)]), verdict="partly_explained",
+                  verdict_sentence="partly.")
+    both = replace(_diagnosis([_finding("shifted_dead_zone", "pitch", "w", 0.17),
+                               _finding("shifted_dead_zone", "yaw", "w", 0.19)]), verdict="explained",
+                   verdict_sentence="explained.")
+    calls = []
+
+    def searched(answers):
+        def fake(log, overrides, p, law, a_rad_s, progress, seed, gated):
+            calls.append([g["key"] for g in gated])
+            return answers[len(calls) - 1], list(gated), None
+        return fake
+
+    monkeypatch.setattr(run, "_stops_seen", lambda *args: [])
+    monkeypatch.setattr(run, "_searched", searched([cut, both]))
+    d = run.diagnose(log, seed=object())
+    assert calls == [[], ["dead_zone:pitch"]]
+    assert d.verdict == "explained" and [f.effect for f in d.findings] == ["shifted_dead_zone"] * 2
+    assert d.refused[-1]["effect"] == "dead_zone" and d.refused[-1]["reason"].startswith(run.OTHER_FORM)
+    assert "simulated it worse" not in d.verdict_sentence  # not said as the held-out gate's refusal
+
+    calls.clear()
+    monkeypatch.setattr(run, "_searched", searched([cut, replace(cut, verdict="unexplained")]))
+    d = run.diagnose(log, seed=object())
+    assert calls == [[], ["dead_zone:pitch"]] and d.verdict == "partly_explained" and d.refused == []
+
+    calls.clear()
+    monkeypatch.setattr(run, "_searched", searched([replace(cut, verdict="explained")]))
+    assert run.diagnose(log, seed=object()).verdict == "explained" and calls == [[]]
