@@ -675,7 +675,8 @@ class Fitter:
                 break
             at(vs[0] / ratio if j == 0 else vs[-1] * ratio)
         smooth = key.split(":")[0] in SMOOTH_PROFILES
-        scanned = scan and cost(min(tried, key=cost)) > PROFILE_SCAN_OVER_FLOOR * 2.0 * self.n  # far from the noise
+        # far from the noise floor: the whole range screened
+        scanned = scan and cost(min(sorted(tried), key=cost)) > PROFILE_SCAN_OVER_FLOOR * 2.0 * self.n
         if scanned:
             ratio = min(ratio, PROFILE_SCAN_RATIO_SMOOTH if smooth else PROFILE_SCAN_RATIO)
             fan_out(at, [v[1] for v in sorted(self._screen(model, values, base.estimate, (key,), g[0], g[-1], ratio,
@@ -684,7 +685,7 @@ class Fitter:
             at(held.value)
         for _ in range(PROFILE_BISECTIONS + (2 if smooth and scanned else 0)):
             ratio = math.sqrt(ratio)
-            best = min(tried, key=cost)
+            best = min(sorted(tried), key=cost)
             fan_out(at, (best * ratio, best / ratio))
         vs = sorted(v for v in tried if tried[v] is not None)
         if not vs:
@@ -697,7 +698,10 @@ class Fitter:
             curv, slope = (coef[0], coef[1]) if coef is not None else (0.0, 0.0)
             if curv > 0:
                 at(float(np.exp(np.clip(-slope / (2 * curv), np.log(x[0]), np.log(x[2])))))
-        best = min((v for v in tried if tried[v] is not None), key=cost)
+        # ties (a value range that modifies no sample costs the same throughout) go to the smallest value, not to
+        # the trial that finished first in fan_out's threads (measured: a pitch saturation's flat profile named
+        # at 1.549 V in one run of a log and 1.495 V in another, the same cost and test)
+        best = min(sorted(v for v in tried if tried[v] is not None), key=cost)
         se = profile_se(np.array(around), np.array([tried[v][1][0] for v in around]), best) if around else math.inf
         se = max(se, self._resolution(key, best))
         c_best, _, rms_best, est_best, start_best = tried[best]
@@ -707,7 +711,7 @@ class Fitter:
         # scale (batch means: correlated errors within a block count); when it is not, e carries the rest of
         # the misfit and the scale grows
         b0 = self._block_costs(base.prediction)
-        ok = [v for v in tried if tried[v] is not None]
+        ok = sorted(v for v in tried if tried[v] is not None)
         drop, noise = np.empty_like(b0), np.empty_like(b0)
         for q in (0, 1):
             pick = min(ok, key=lambda v: float(np.sum(tried[v][1][0, 1 - q::2])))
