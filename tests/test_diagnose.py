@@ -972,7 +972,7 @@ def test_a_dead_zone_form_that_leaves_the_log_unexplained_is_searched_again_with
     calls = []
 
     def searched(answers):
-        def fake(log, overrides, p, law, a_rad_s, progress, seed, gated):
+        def fake(log, overrides, p, law, a_rad_s, progress, seed, gated, shared=None):
             calls.append([g["key"] for g in gated])
             return answers[len(calls) - 1], list(gated), None
         return fake
@@ -993,3 +993,33 @@ def test_a_dead_zone_form_that_leaves_the_log_unexplained_is_searched_again_with
     calls.clear()
     monkeypatch.setattr(run, "_searched", searched([replace(cut, verdict="explained")]))
     assert run.diagnose(log, seed=object()).verdict == "explained" and calls == [[]]
+
+
+def test_fitters_sharing_answers_fit_a_question_once():
+    """diagnose's reruns of the search (held-out gate, a dead zone's other form) share the output-error answers
+    (oe.Fitter.share_answers): a candidate one fitter fitted is answered to the next from there, the same answer,
+    without a fit; a question not asked before is fitted."""
+    from trms_ident.diagnosis import oe
+    from trms_ident.diagnosis.model import Model
+    from trms_ident.log import validated
+    from trms_ident.params import defaults
+
+    from .plants import textbook
+
+    t, u1, u2, a, b = textbook.simulate_log(20.0, 100.0, seed=3)
+    log = validated(t, u1, u2, a, b, source="textbook", angle_unit="rad")
+    p = defaults()
+    theta0 = {k: p[k] for k in ("J1", "B1", "J2", "B2")}
+    shared: dict = {}
+    first = oe.Fitter(log, p, "quadratic")
+    first.share_answers(shared)
+    got = first.candidate(Model(), {}, theta0, "coulomb_friction:pitch")
+    assert got is not None
+    second = oe.Fitter(log, p, "quadratic")
+    second.share_answers(shared)
+    fits = []
+    real = second._fit
+    second._fit = lambda *args, **kw: fits.append(args) or real(*args, **kw)
+    assert second.candidate(Model(), {}, theta0, "coulomb_friction:pitch") is got and fits == []
+    second.candidate(Model(), {}, theta0, "cable_stiffness:yaw")
+    assert fits  # a new question is fitted

@@ -570,6 +570,13 @@ class Fitter:
         return ({a: float(r.rms_rad[a] / self.noise_floor[a]) for a in self.noise},
                 {k: float(v) for k, v in r.estimate.items()})
 
+    def share_answers(self, answers: dict) -> None:
+        """Keep this fitter's answers (OEFits, _asked) in ``answers``, a dict shared with other fitters of the same
+        log, values given, thrust law and floors (run.diagnose's reruns of the search): a question one asked is
+        answered to the others from there."""
+        answers.update(self._answers)
+        self._answers = answers
+
     def _asked(self, method, model: Model, values: dict, theta0: dict, key: str, *rest) -> OEFit | None:
         """``method``'s answer for these arguments, computed once per Fitter."""
         q = (method.__name__, model, tuple(sorted(values.items())), tuple(sorted(theta0.items())), key, *rest)

@@ -38,14 +38,15 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
     seed = seed if seed is not None else search.seed_result(log, overrides, law)
     with np.errstate(all="ignore"):
         stops_seen = _stops_seen(log, p, law, seed)
-    d, gated, h = _searched(log, overrides, p, law, a_rad_s, progress, seed, [])
+    answers: dict = {}  # the output-error fits' answers, shared by every search of this log (effect_search)
+    d, gated, h = _searched(log, overrides, p, law, a_rad_s, progress, seed, [], answers)
     other = _other_forms(d)
     if other:
         # the search chose a dead zone's form on a model still missing something, and the log stays unexplained:
         # the same search with that form left out, kept only when it explains the log (OTHER_FORM)
         d2, gated2, h2 = _searched(log, overrides, p, law, a_rad_s,
                                    lambda stage, done: progress(f"the dead zone in its other form: {stage}", done),
-                                   seed, other)
+                                   seed, other, answers)
         if d2.verdict == "explained":
             d, gated, h = d2, gated2, h2
     with np.errstate(all="ignore"):
@@ -67,16 +68,17 @@ def diagnose(log: Log, overrides: dict | None = None, law: str = "quadratic", a_
 
 
 def _searched(log: Log, overrides: dict | None, p: dict, law: str, a_rad_s: float | None, progress, seed,
-              gated: list) -> tuple[Diagnosis, list, dict | None]:
+              gated: list, answers: dict | None = None) -> tuple[Diagnosis, list, dict | None]:
     """The effect search, the rule and the held-out gate (module docstring), the searches run again without what a
     rerun refuses: (the diagnosis, every refusal that excluded a key, as {"key", "effect", "axis", "parameter",
-    "reason"}, ``gated``'s first, the held-out fits).  ``gated``: keys left out from the start."""
+    "reason"}, ``gated``'s first, the held-out fits).  ``gated``: keys left out from the start; ``answers``: as
+    search.effect_search's, kept by the caller for every search of this log."""
     gated = list(gated)
     with np.errstate(all="ignore"):  # a model far off the log overflows its predictions: they score as misfits
         no_terms = ()  # the searched terms, once one of them was found where the log stays unexplained
         for attempt in range(HELD_OUT_RERUNS + 1):
             exclude = tuple(g["key"] for g in gated) + no_terms
-            found = search.effect_search(log, overrides, law, a_rad_s, progress, exclude, seed)
+            found = search.effect_search(log, overrides, law, a_rad_s, progress, exclude, seed, answers)
             d = weigh(found, log, p, law, overrides, exclude)
             # no finding leaves diagnose with a value outside its plausible range, whichever step placed it: it
             # stands in for physics the model lacks, and the search runs again without it; nor does a term that

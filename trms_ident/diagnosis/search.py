@@ -99,15 +99,19 @@ class _Kept:
 
 
 def effect_search(log: Log, overrides: dict | None, law: str, a_rad_s: float | None, progress,
-                  exclude: tuple = (), seed=None) -> Diagnosis:
+                  exclude: tuple = (), seed=None, answers: dict | None = None) -> Diagnosis:
     """The effect search's diagnosis, before weigh.py's rule, in four rooms: _prepare (the seed model's check, the
     filter, the blocks, the start states), _search (each round tests every hypothesis of the library by the
     equation error, the output-error fit judges, the best passing one becomes a finding), _accept (the findings
     kept: each must raise the fit of its axes with J/B physical, values profiled again given the others, earlier
     ones re-judged given the later) and _report (predictions, per-finding evidence, where the residual sits, the
     verdict, corrections).  ``exclude``: library keys the search leaves out (refused by the held-out gate of an
-    earlier run)."""
+    earlier run).  ``answers``: a dict the caller keeps between searches of one log with the same arguments but
+    ``exclude`` (run.diagnose's reruns): the output-error fitter's answers (oe.Fitter.share_answers), so a fit a
+    rerun asks again is not made again (each is deterministic: the answer is the one a fresh fit gives)."""
     run, base_reg, base = _prepare(log, overrides, law, a_rad_s, progress, seed)
+    if answers is not None:
+        run.fitter.share_answers(answers)
     nominal = jb_estimates(base, base_reg)
     # a known value the seed check names explains the log with one parameter (weigh.py, rule 1): the effect
     # search's findings can then only stand as its look-alikes, and only a single effect that explains the log
