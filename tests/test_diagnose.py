@@ -951,9 +951,10 @@ def test_a_small_modification_the_fit_needs_is_kept_and_a_log_it_explains_is_nev
 
 def test_a_dead_zone_form_that_leaves_the_log_unexplained_is_searched_again_without_it(monkeypatch):
     """The search picks a dead zone's form before a second difference is in the model (run._other_forms): where the
-    log stays unexplained beside it, the search runs again without that form, and that diagnosis is kept when it
-    explains the log, the first form said as refused; kept as it was when it does not, and never tried when the
-    first diagnosis explains the log."""
+    log stays unexplained beside it and its other form passed its output-error test too, the search runs again
+    without the form found, and that diagnosis is kept when it explains the log, the first form said as refused;
+    kept as it was when it does not, and never tried when the first diagnosis explains the log or the other form
+    did not pass."""
     from dataclasses import replace
 
     from trms_ident.diagnosis import run
@@ -964,8 +965,9 @@ def test_a_dead_zone_form_that_leaves_the_log_unexplained_is_searched_again_with
 
     t, u1, u2, a, b = textbook.simulate_log(10.0, 100.0, seed=3)
     log = validated(t, u1, u2, a, b, source="textbook", angle_unit="rad")
+    rival = {"effect": "shifted_dead_zone", "axis": "pitch", "after": [], "parameter": 0.23, "passed": True}
     cut = replace(_diagnosis([_finding("dead_zone", "pitch", "w", 0.43)]), verdict="partly_explained",
-                  verdict_sentence="partly.")
+                  verdict_sentence="partly.", oe_tested=[rival])
     both = replace(_diagnosis([_finding("shifted_dead_zone", "pitch", "w", 0.17),
                                _finding("shifted_dead_zone", "yaw", "w", 0.19)]), verdict="explained",
                    verdict_sentence="explained.")
@@ -993,6 +995,10 @@ def test_a_dead_zone_form_that_leaves_the_log_unexplained_is_searched_again_with
     calls.clear()
     monkeypatch.setattr(run, "_searched", searched([replace(cut, verdict="explained")]))
     assert run.diagnose(log, seed=object()).verdict == "explained" and calls == [[]]
+
+    calls.clear()  # the other form never passed its test: the rerun could not name it first, not tried
+    monkeypatch.setattr(run, "_searched", searched([replace(cut, oe_tested=[{**rival, "passed": False}]), both]))
+    assert run.diagnose(log, seed=object()).verdict == "partly_explained" and calls == [[]]
 
 
 def test_fitters_sharing_answers_fit_a_question_once():
