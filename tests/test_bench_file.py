@@ -270,13 +270,40 @@ def test_a_freed_modifications_profile_finds_a_better_value_a_percent_away_on_a_
 
     xt = math.log(0.2512)
 
-    def fit(v: float):
+    def fit(v: float, iterations: int = 8):
         x = math.log(v)
         return SimpleNamespace(cost=min(100.0 + math.floor(abs(x - xt) / 0.002), 103.0 + 10.0 * (x - xt + 0.8) ** 2))
 
     x, x0 = _search(fit, math.log(0.2524), math.log(PROFILE_SPAN))
     assert x0 == math.log(0.2524)
     assert fit(math.exp(x)).cost == 100.0 and abs(math.exp(x) / 0.2512 - 1.0) < 0.002
+
+
+def test_a_freed_modifications_profile_far_from_the_floor_screens_its_span():
+    """model_profile._search on a smooth lag whose trial fits run off outside a narrow basin at 0.109 s, lower
+    towards shorter lags, started at 0.0512 s (independent.py seed 9419 bench 19's shape): Brent goes down the
+    run-off slope, far from the floor; the span screened (diagnose's spacing for a smooth value) finds the basin.  Given no
+    floor, or a start whose best is near it, nothing is screened: no more fits than before."""
+    import math
+    from types import SimpleNamespace
+
+    from trms_ident.model_profile import PROFILE_SPAN, _search
+
+    asked = []
+
+    def fit(v: float, iterations: int = 8):
+        asked.append(iterations)
+        if v < 0.02:
+            raise FloatingPointError("ran off")
+        if 0.09 < v < 0.13:  # the narrow basin: at the floor at 0.109 s
+            return SimpleNamespace(cost=1e3 + 1e9 * math.log(v / 0.109) ** 2)
+        return SimpleNamespace(cost=4e9 * v / 0.0512 if v < 0.09 else 5e9)  # ran off: lower towards shorter lags
+
+    x, _ = _search(fit, math.log(0.0512), math.log(PROFILE_SPAN), "motor_second_lag:pitch", 1e3)
+    assert abs(math.exp(x) / 0.109 - 1.0) < 0.002 and 2 in asked  # the screen's few iterations
+    asked.clear()
+    _search(fit, math.log(0.0512), math.log(PROFILE_SPAN), "motor_second_lag:pitch")  # no floor given
+    assert 2 not in asked
 
 
 def test_a_held_values_interval_moves_a_profiled_minimum_by_its_cross_derivative():

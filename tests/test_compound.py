@@ -3,10 +3,12 @@ import dataclasses
 import math
 
 import numpy as np
+import pytest
 
 import trms_ident as ti
 from sim import SimSettings, simulate
 from trms_ident.diagnosis import compound
+from trms_ident.diagnosis.model import settings_of
 from trms_ident.diagnosis.result import Diagnosis, Finding
 from trms_ident.log import validated
 from trms_ident.params import defaults
@@ -155,6 +157,27 @@ def test_a_second_order_motor_is_estimated_under_with_both_its_time_constants_fr
     h = compound.estimate_under(compound.Hypothesis("motor_second_lag:pitch", 0.02, 0), log, "quadratic", {})
     assert h.explains and h.parameters == 2 and h.value_fit["name"] == "T11", h
     assert abs(h.value_fit["value"] - 1.0) < 0.01 and abs(h.fitted / 0.08 - 1) < 0.05, (h.value_fit["value"], h.fitted)
+
+
+def test_a_profile_left_far_from_the_floor_screens_its_span():
+    """independent.py's seed 9419 bench 19 (the textbook plant: a 0.109 s further lag on the main motor, T11 0.861 s
+    for 1.1 s; steps from rest, 200 Hz, 12-bit).  The lag profiled from 0.0512 s with T11 freed beside it, as the
+    second-order motor's hypothesis starts: every trial below 0.08 s runs off, and Brent alone stayed there (0.026 s,
+    the yaw 378x its floor).  Its best far from the floor, the profile screens the span as diagnose's do and lands on
+    both values, the model at the floor."""
+    from trms_ident.model_profile import identify_with_profiles
+
+    from .plants import textbook
+
+    t, u1, u2, a, b = textbook.simulate_log(60.0, 200.0, seed=1508007906, ref="steps", second_lag_s=(0.109, 0.0),
+                                            values={"T11": 0.861})
+    log = validated(t, u1, u2, a, b, source="textbook", angle_unit="rad")
+    key = "motor_second_lag:pitch"
+    res = identify_with_profiles(log, settings_of({}, "quadratic", effects={key: 0.0512}, free=(key, "T11")))
+    assert res.model_check.get("adequate") is True, res.model_check
+    freed = res.refined.freed
+    assert freed[key]["estimate"] == pytest.approx(0.109, rel=0.01) and freed["T11"]["estimate"] == pytest.approx(
+        0.861, rel=0.01), freed
 
 
 def _kv_fit(name, value, table, cost, over):
