@@ -43,7 +43,7 @@ from ..model import effects as room
 from ..model.bench import MODIFICATION_KEYS, TORQUE_KEYS
 from ..numerics.adequacy import RMS_OVER_NOISE
 from ..numerics.parallel import fan_out
-from .oe import motor_states
+from .oe import OWN_TIME_CONSTANT, SECOND_ORDER_OF, motor_states  # (a motor's forms: hypotheses, lead_of)
 from .model import settings_of
 from .result import Finding, known_value_finding
 
@@ -58,10 +58,6 @@ MAX_RANKED = 3
 #: candidate fits is T11 (T21) itself): a known value named under one is not a second difference but the
 #: effect's own value moved again
 SAME = {"motor_lag:pitch": "T11", "motor_lag:yaw": "T21"}
-#: a second-order motor's further lag and the time constant of its own first lag: freed together (lead_of)
-OWN_TIME_CONSTANT = {"motor_second_lag:pitch": "T11", "motor_second_lag:yaw": "T21"}
-#: a motor time constant found (motor_lag) and that motor of second order: its hypothesis after it (hypotheses)
-SECOND_ORDER_OF = {"motor_lag:pitch": "motor_second_lag:pitch", "motor_lag:yaw": "motor_second_lag:yaw"}
 #: where that further lag's profile starts when no fit gave it a value [s] (its profile screens its range)
 SECOND_LAG_START_S = 0.05
 #: value_first: at most this many known values lead, each one effect search run again (4-150 s)

@@ -28,7 +28,7 @@ from .fits import REST, best_start, prediction_fits, start_cost, start_samples
 from .predict import HORIZON_S, fit_change, fit_text
 from .result import Diagnosis, Finding
 from .judge import (TIMING_PAIR, alternatives_by_output_error, offsets_by_output_error, oe_confirm, oe_fit,
-                    oe_rescue, oe_start, other_motor, saturation_pair)
+                    oe_rescue, oe_start, other_motor, own_time_constant, saturation_pair)
 from .select import FAMILY_ALPHA, block_ids, score
 from .shapes import declared_shape, term_shape, thin
 from .trials import (ALIAS_GAIN_RATIO, EXACT_OFFSETS, MOTOR_LAG_NEUTRAL, aliased, axes_of, axis_residual,
@@ -253,6 +253,10 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
             break
         if not single:
             best = _both_saturations(run, best, current, reg_now, score_now, oe_values, excluded) or best
+            if "pair" not in best and best["c"].key in oe.OWN_LAG_KEY:  # a second-order motor: its own time constant
+                pair = own_time_constant(best, log, p, law, a, cache, ids, n_tests, fitter, oe_tested, oe_values)
+                if pair is not None:
+                    best["pair"] = pair
         best["told_apart"] = told
         for r in ok:
             if r is not best:
@@ -788,6 +792,19 @@ def _polish(findings, current, values, oe_values, fitter, log, p, theta0) -> Mod
         prev = _latest_fit(best)
         if prev is not None:  # the finding's record: this fit's value, standard error and drop
             _record(best, old, replace(prev, value=level, se=se, cost_drop=drop))
+    # and the further lags the search found with their motors' time constants, together by Gauss-Newton: each
+    # profiled with the other held stops short of their joint optimum
+    moved, drop = fitter.second_order_motors(model, values, theta0)
+    for best, _ in findings:
+        key = best["c"].key
+        if key not in moved:
+            continue
+        old = dict(model.mods)[key]
+        model = model.moved(key, moved[key])
+        oe_values[key] = values[key] = moved[key]
+        prev = _latest_fit(best)
+        if prev is not None:
+            _record(best, old, replace(prev, value=moved[key], cost_drop=drop))
     if model is not current:
         _torques_again(findings, current, model, values, oe_values, fitter, theta0)
     return model
