@@ -282,8 +282,8 @@ def test_a_freed_modifications_profile_finds_a_better_value_a_percent_away_on_a_
 def test_a_freed_modifications_profile_far_from_the_floor_screens_its_span():
     """model_profile._search on a smooth lag whose trial fits run off outside a narrow basin at 0.109 s, lower
     towards shorter lags, started at 0.0512 s (independent.py seed 9419 bench 19's shape): Brent goes down the
-    run-off slope, far from the floor; the span screened (diagnose's spacing for a smooth value) finds the basin.  Given no
-    floor, or a start whose best is near it, nothing is screened: no more fits than before."""
+    run-off slope, far from the floor; the span screened (diagnose's spacing for a smooth value) finds the basin.
+    Given no floor, nothing is screened: no more fits than before."""
     import math
     from types import SimpleNamespace
 

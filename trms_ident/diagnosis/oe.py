@@ -78,6 +78,17 @@ MAX_STEPS = 250_000
 #: input modifications fitted by a profile over their value (module docstring)
 PROFILE_KEYS = ("dead_zone:pitch", "dead_zone:yaw", "input_saturation:pitch", "input_saturation:yaw",
                 "input_delay:both", "motor_lag:pitch", "motor_lag:yaw", room.SENSOR_LAG)
+#: a second-order motor's further lag and that motor's own time constant (the known value it replaces as motor_lag):
+#: a motor of second order has both its time constants free (issue #74), so a further lag the search profiles is
+#: fitted with that time constant refitted at each trial value, and its drop measured from the model with the time
+#: constant refitted alone (Fitter._profile).  Measured, independent.py seed 9419 bench 27 (a 0.247 s further lag
+#: on the tail motor, T21 0.799 s for 1.0 s, beside a main-motor dead zone): at the table's T21 the lag's profile
+#: dropped the cost 2 % and failed its test; the log stayed 404x its floor, "partly explained"
+OWN_TIME_CONSTANT = {"motor_second_lag:pitch": "T11", "motor_second_lag:yaw": "T21"}
+#: and that time constant under the library's name (the motor_lag candidate is T11 or T21 itself)
+OWN_LAG_KEY = {"motor_second_lag:pitch": "motor_lag:pitch", "motor_second_lag:yaw": "motor_lag:yaw"}
+#: a motor's time constant (motor_lag) and that motor of second order: the same motor in its two forms
+SECOND_ORDER_OF = {v: k for k, v in OWN_LAG_KEY.items()}
 #: a profile tries the equation error's value and this many steps of the search grid's spacing either side, then
 #: halves the (geometric) spacing around the best PROFILE_BISECTIONS times and takes the parabola's vertex: a
 #: dead zone's cost is sharply peaked (3 % off its width gave back 3 % of an 80 % drop in angle error)
@@ -97,17 +108,6 @@ PROFILE_SCAN_OVER_FLOOR = 2.0
 #: on from where the last stopped
 LAG_REFITS = 3
 PROFILE_SCAN_RATIO = 1.03
-#: a second-order motor's further lag and that motor's own time constant (the known value it replaces as motor_lag):
-#: a motor of second order has both its time constants free (issue #74), so a further lag the search profiles is
-#: fitted with that time constant refitted at each trial value, and its drop measured from the model with the time
-#: constant refitted alone (Fitter._profile).  Measured, independent.py seed 9419 bench 27 (a 0.247 s further lag
-#: on the tail motor, T21 0.799 s for 1.0 s, beside a main-motor dead zone): at the table's T21 the lag's profile
-#: dropped the cost 2 % and failed its test; the log stayed 404x its floor, "partly explained"
-OWN_TIME_CONSTANT = {"motor_second_lag:pitch": "T11", "motor_second_lag:yaw": "T21"}
-#: and that time constant under the library's name (the motor_lag candidate is T11 or T21 itself)
-OWN_LAG_KEY = {"motor_second_lag:pitch": "motor_lag:pitch", "motor_second_lag:yaw": "motor_lag:yaw"}
-#: a motor's time constant (motor_lag) and that motor of second order: the same motor in its two forms
-SECOND_ORDER_OF = {v: k for k, v in OWN_LAG_KEY.items()}
 #: the screen's spacing for the profiled values whose cost is smooth in the value (a motor's time constant, a
 #: second-order motor's further lag, the acquisition lag): no staircase and no narrow basin to step over, so 15 %
 #: apart finds the basin the 3 % screen finds, with a fifth of its fits (measured on a second-order tail motor,
@@ -535,28 +535,33 @@ class Fitter:
                 self._base[model] = None
         return self._base[model]
 
-    def _lags_refitted(self, model: Model, values: dict, base, lags: tuple):
+    def _lags_refitted(self, model: Model, values: dict, base, lags: tuple, own: tuple = ()):
         """(the model with its second-order motors' ``lags`` (refitted_lags) at the values fitted with J/B from
         ``base`` (its fit, self.base), that fit), or None when the fit fails: the base of a profile whose trial
-        fits refit the lags.  Against the model's own fit with the lags held, a saturation acting on no sample
-        dropped the cost 13 % (t = 27) by the lag's last digits alone (measured, the lag at its profile's optimum).
-        A fit that runs out of iterations goes on from where it stopped, LAG_REFITS times at most: from a lag 26 %
-        off, one stopped at 13x the cost a trial fit from its values then reached."""
-        ck = (model, lags)
+        fits refit the lags.  ``lags`` may hold saturations' and shifted dead zones' keys too (NATIVE_FREE_KEYS:
+        their levels fitted alike), ``own`` pairs (a known value's name, the model's key that holds it: a motor's
+        time constant as motor_lag) fitted too.  Against the model's own fit with the lags held, a saturation
+        acting on no sample dropped the cost 13 % (t = 27) by the lag's last digits alone (measured, the lag at its
+        profile's optimum).  A fit that runs out of iterations goes on from where it stopped, LAG_REFITS times at
+        most: from a lag 26 % off, one stopped at 13x the cost a trial fit from its values then reached."""
+        ck = (model, lags, own)
         if ck not in self._lag_bases:
             m, r0 = model, base
             try:
                 for _ in range(LAG_REFITS):
-                    r = self._fit(m, values, r0.estimate, None, start=r0.start_states, levels=lags)
+                    r = self._fit(m, values, r0.estimate, None, start=r0.start_states, levels=lags,
+                                  own=tuple(name for name, _ in own))
                     if not (math.isfinite(r.cost) and r.cost <= r0.cost):
                         break
                     for k in lags:
-                        m = m.moved(k, float(r.freed[k]["estimate"]))
+                        m = m.moved(k, abs(float(r.freed[k]["estimate"])))
+                    for name, key in own:
+                        m = m.moved(key, float(r.freed[name]["estimate"]))
                     r0 = r
                     if r.converged:
                         break
                 self._lag_bases[ck] = (m, r0)
-            except _FAILED:
+            except (*_FAILED, ValueError):
                 self._lag_bases[ck] = None
         return self._lag_bases[ck]
 
@@ -581,32 +586,17 @@ class Fitter:
         given the other at 0.2395 s and 0.8068 s left the yaw at 11.3x its floor; fitted together, at 0.2463 s and
         0.7997 s beside a main-motor dead zone held at 0.2282 V for 0.228 V, 2.1x).  (key -> value, only the keys
         that moved, and empty when the model has no such lag, the fit fails or it does not lower the cost; the
-        cost's relative drop).  A fit that runs out of
-        iterations goes on from where it stopped, LAG_REFITS times at most (as _lags_refitted)."""
+        cost's relative drop), by _lags_refitted."""
         mods = dict(model.mods)
         lags = tuple(k for k in mods if k in KERNEL_KEYS and k not in given_of(self.p))
-        own = {OWN_TIME_CONSTANT[k]: OWN_LAG_KEY[k] for k in lags if OWN_LAG_KEY[k] in mods}
+        own = tuple((OWN_TIME_CONSTANT[k], OWN_LAG_KEY[k]) for k in lags if OWN_LAG_KEY[k] in mods)
         native = tuple(k for k in mods if k in NATIVE_FREE_KEYS and k not in given_of(self.p))
         base = self.base(model, values, theta0) if lags else None
-        if base is None:
+        got = None if base is None else self._lags_refitted(model, values, base, lags + native, own)
+        if got is None:
             return {}, 0.0
-        m, r0 = model, base
-        try:
-            for _ in range(LAG_REFITS):
-                r = self._fit(m, values, r0.estimate, None, start=r0.start_states, levels=lags + native,
-                              own=tuple(own))
-                if not (math.isfinite(r.cost) and r.cost <= r0.cost):
-                    break
-                for k in lags + native:
-                    m = m.moved(k, abs(float(r.freed[k]["estimate"])))
-                for name, key in own.items():
-                    m = m.moved(key, float(r.freed[name]["estimate"]))
-                r0 = r
-                if r.converged:
-                    break
-        except (*_FAILED, ValueError):
-            return {}, 0.0
-        return {k: v for k, v in m.mods if v != mods[k]}, (1.0 - r0.cost / base.cost if base.cost > 0 else 0.0)
+        m, r = got
+        return {k: v for k, v in m.mods if v != mods[k]}, (1.0 - r.cost / base.cost if base.cost > 0 else 0.0)
 
     def check(self, model: Model, values: dict, theta0: dict) -> dict | None:
         """As check_fit, the ratios alone."""
@@ -716,7 +706,8 @@ class Fitter:
         own = own_time_constants(key, self.p)
         if own:  # the drop measured from the model with the motor's time constant refitted alone (OWN_TIME_CONSTANT)
             base = self._own_base(model, values, base, own)
-        tried: dict = {}  # value -> (cost, block costs and cross terms, angle error RMS, J/B) or None
+        # value -> (cost, block costs and cross terms, angle error RMS, J/B, start states, own's values) or None
+        tried: dict = {}
 
         def trial(v: float, th: dict, start: dict | None):
             try:

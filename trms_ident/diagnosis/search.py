@@ -763,8 +763,10 @@ def _polish(findings, current, values, oe_values, fitter, log, p, theta0) -> Mod
     """Each input-modification finding's value profiled by output error again with all the other findings in
     (their values fixed or, for torque terms, free): a value found in an early round stood in for what later
     findings explain (measured: a 1.32 s pitch motor lag fitted at 1.24 s before a yaw drag was in the model,
-    both axes sharing the cost).  The model with the new values (the same object when nothing moved); the
-    findings' records and ``oe_values`` are updated in place.  Skipped when the fit cannot carry a finding."""
+    both axes sharing the cost); then the values Gauss-Newton fits together with J/B (the saturations' levels;
+    the further lags with their motors' time constants and those levels).  The model with the new values (the same
+    object when nothing moved); the findings' records and ``oe_values`` are updated in place.  Skipped when the fit
+    cannot carry a finding."""
     if not all(oe.carries(k) for k in current.linear):
         return current
     model = current
@@ -781,32 +783,32 @@ def _polish(findings, current, values, oe_values, fitter, log, p, theta0) -> Mod
         _record(best, old, f)
     # then the saturations' levels together, by Gauss-Newton (oe.Fitter.saturation_levels): one motor's profiled
     # with the other's held stays a few per cent off
-    levels = fitter.saturation_levels(model, values, theta0) or {}
-    for best, _ in findings:
-        key = best["c"].key
-        if key not in levels:
-            continue
-        old, (level, se, drop) = dict(model.mods)[key], levels[key]
-        model = model.moved(key, level)
-        oe_values[key] = values[key] = level
-        prev = _latest_fit(best)
-        if prev is not None:  # the finding's record: this fit's value, standard error and drop
-            _record(best, old, replace(prev, value=level, se=se, cost_drop=drop))
-    # and the further lags the search found with their motors' time constants, together by Gauss-Newton: each
-    # profiled with the other held stops short of their joint optimum
+    model = _moved(findings, model, values, oe_values, fitter.saturation_levels(model, values, theta0) or {})
+    # and the further lags the search found with their motors' time constants and those levels, together by
+    # Gauss-Newton (oe.Fitter.second_order_motors): each profiled with the others held stops short of their joint
+    # optimum
     moved, drop = fitter.second_order_motors(model, values, theta0)
-    for best, _ in findings:
-        key = best["c"].key
-        if key not in moved:
-            continue
-        old = dict(model.mods)[key]
-        model = model.moved(key, moved[key])
-        oe_values[key] = values[key] = moved[key]
-        prev = _latest_fit(best)
-        if prev is not None:
-            _record(best, old, replace(prev, value=moved[key], cost_drop=drop))
+    model = _moved(findings, model, values, oe_values, {k: (v, None, drop) for k, v in moved.items()})
     if model is not current:
         _torques_again(findings, current, model, values, oe_values, fitter, theta0)
+    return model
+
+
+def _moved(findings, model: Model, values: dict, oe_values: dict, fitted: dict) -> Model:
+    """``model`` with the findings' input modifications at the values ``fitted`` holds (key -> (value, its standard
+    error or None, the cost's relative drop)); each moved finding's record (_record), ``values`` and ``oe_values``
+    updated in place."""
+    for best, _ in findings:
+        key = best["c"].key
+        if key not in fitted:
+            continue
+        value, se, drop = fitted[key]
+        old = dict(model.mods)[key]
+        model = model.moved(key, value)
+        oe_values[key] = values[key] = value
+        prev = _latest_fit(best)
+        if prev is not None:  # the finding's record: this fit's value, standard error and drop
+            _record(best, old, replace(prev, value=value, cost_drop=drop, **({} if se is None else {"se": se})))
     return model
 
 
