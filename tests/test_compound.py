@@ -520,3 +520,9 @@ def test_further_lags_and_their_motors_time_constants_are_fitted_together():
     for k, v in truth.items():
         assert moved[k] == pytest.approx(v, rel=5e-3), (k, moved)
     assert fitter.second_order_motors(Model(mods[:1]), dict(mods[:1]), theta0) == ({}, 0.0)
+    # the two lags swapped (the motor's drive is the same: the log cannot tell them apart): named back in the order
+    # nearer the table, T21 the one nearer its given 1.0 s
+    swapped = (mods[0], ("motor_second_lag:yaw", 0.8068), ("motor_lag:yaw", 0.2395))
+    moved, _ = fitter.second_order_motors(Model(swapped), dict(swapped), theta0)
+    assert moved["motor_second_lag:yaw"] == pytest.approx(0.247, rel=5e-3), moved
+    assert moved["motor_lag:yaw"] == pytest.approx(0.799, rel=5e-3), moved
