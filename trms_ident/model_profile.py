@@ -335,10 +335,9 @@ def _screened(attempt, cost, x0: float, span: float, key: str, x: float) -> floa
     """The best log-value of ``x`` and the span's screen: values x0 - span to x0 + span at diagnose's screen
     spacing (finer for a staircase cost than for a smooth one), each fitted with its few iterations
     (``attempt(x, iterations)``), the best few of those in full (``cost``)."""
-    from .diagnosis.oe import (PROFILE_SCAN_ITERATIONS, PROFILE_SCAN_KEEP, PROFILE_SCAN_RATIO,
-                               PROFILE_SCAN_RATIO_SMOOTH, SMOOTH_PROFILES)
+    from .diagnosis.oe import PROFILE_SCAN_ITERATIONS, PROFILE_SCAN_KEEP, screen_ratio
 
-    ratio = PROFILE_SCAN_RATIO_SMOOTH if key.split(":")[0] in SMOOTH_PROFILES else PROFILE_SCAN_RATIO
+    ratio = screen_ratio(key)
     xs = [float(v) for v in np.linspace(x0 - span, x0 + span, int(math.ceil(2 * span / math.log(ratio))) + 1)]
     quick = fan_out(lambda v: attempt(v, PROFILE_SCAN_ITERATIONS), xs)
     keep = [v for c, v in sorted(zip(quick, xs)) if math.isfinite(c)][:PROFILE_SCAN_KEEP]

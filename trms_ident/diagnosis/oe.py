@@ -749,7 +749,7 @@ class Fitter:
         # far from the noise floor: the whole range screened
         scanned = scan and cost(min(sorted(tried), key=cost)) > PROFILE_SCAN_OVER_FLOOR * 2.0 * self.n
         if scanned:
-            ratio = min(ratio, PROFILE_SCAN_RATIO_SMOOTH if smooth else PROFILE_SCAN_RATIO)
+            ratio = min(ratio, screen_ratio(key))
             fan_out(at, [v[1] for v in sorted(self._screen(model, values, base.estimate, (key,), g[0], g[-1], ratio,
                                                            base.start_states, lags, own))[:PROFILE_SCAN_KEEP]])
         if held is not None:
@@ -924,6 +924,12 @@ def _in_table_order(model: Model, lag: str, p: dict) -> Model:
     if abs(math.log(further / given)) < abs(math.log(own / given)):
         return model.moved(key, further * t0).moved(lag, own)
     return model
+
+
+def screen_ratio(key: str) -> float:
+    """The spacing a profile's screen over its whole range uses for ``key``: PROFILE_SCAN_RATIO_SMOOTH for a value
+    whose cost is smooth in it (SMOOTH_PROFILES), PROFILE_SCAN_RATIO for a staircase (a dead zone, a saturation)."""
+    return PROFILE_SCAN_RATIO_SMOOTH if key.split(":")[0] in SMOOTH_PROFILES else PROFILE_SCAN_RATIO
 
 
 def own_time_constants(key: str, p: dict) -> tuple:

@@ -253,7 +253,7 @@ def _search(run: _Run, base_reg, base, exclude: tuple = (), rounds: int = MAX_FI
             break
         if not single:
             best = _both_saturations(run, best, current, reg_now, score_now, oe_values, excluded) or best
-            if "pair" not in best and best["c"].key in oe.OWN_LAG_KEY:  # a second-order motor: its own time constant
+            if "pair" not in best:  # a second-order motor: its own time constant (None for any other finding)
                 pair = own_time_constant(best, log, p, law, a, cache, ids, n_tests, fitter, oe_tested, oe_values)
                 if pair is not None:
                     best["pair"] = pair
