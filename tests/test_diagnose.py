@@ -676,6 +676,45 @@ def test_the_findings_model_is_checked_at_its_converged_fit(monkeypatch):
     assert max(base.rms_rad[a] / stopped.noise_floor[a] for a in stopped.noise) < EXPLAINED_OE_OVER_NOISE
 
 
+def test_a_screens_point_is_one_fit_and_a_shooting_start_above_the_models_fit_is_not_gone_on_with(monkeypatch):
+    """Two economies of the model's own fit (oe.Fitter.base), each measured to cost seconds a log (diagnose_speed
+    seed 69508, a saturation log 2.1x slower): a screen's point (judge.py's pair screens the other motor's level
+    over its grid) is the model's fit as one fit leaves it (first_fit), cached, and the model's own fit goes on from
+    that fit instead of fitting it again; a multiple-shooting start whose first fit is not below the model's fit is
+    not gone on with (_from_shooting), however far from converged that first fit is."""
+    from trms_ident.diagnosis import oe
+    from trms_ident.diagnosis.model import Model
+    from trms_ident.params import defaults
+
+    r = sim_cached("multisine", 100.0, 30.0, 0.0, Q12, 3, ())
+    p = defaults()
+    theta0 = {k: p[k] * 1.5 for k in ("J1", "B1", "J2", "B2")}
+    fit, calls = oe.Fitter._fit, []
+
+    def counted(self, *a, **k):
+        calls.append(dict(k))
+        return fit(self, *a, **k)
+
+    monkeypatch.setattr(oe.Fitter, "_fit", counted)
+    fitter = oe.Fitter(as_log(r), p, "quadratic")
+    first = fitter.first_fit(Model(), {}, theta0)
+    assert len(calls) == 1 and fitter.first_fit(Model(), {}, theta0) is first and len(calls) == 1
+    base = fitter.base(Model(), {}, theta0)
+    assert base.cost <= first.cost
+    assert all(k.get("start") is not None or k.get("window_s") for k in calls[1:])  # never the first fit again
+
+    def short_after_shooting(self, *a, **k):  # every fit from a shooting start stops after one iteration
+        if k.get("start") is not None and not k.get("window_s"):
+            k["max_iterations"] = 1
+        calls.append(dict(k))
+        return fit(self, *a, **k)
+
+    monkeypatch.setattr(oe.Fitter, "_fit", short_after_shooting)
+    calls.clear()
+    assert fitter._from_shooting(Model(), {}, theta0, base) is base  # the converged fit at the floor stays
+    assert len(calls) == 2  # the shooting fit and one fit from it, nothing more
+
+
 def test_the_equation_error_orders_and_the_output_error_test_decides(monkeypatch):
     # a clean log, with the equation-error test made to pass a yaw cable that is not there: the output-error fit
     # carries a cable, so its held-out test decides, and it does not pass it (the equation error used to decide)

@@ -320,13 +320,13 @@ def saturation_pair(best, log, p, law, a, current, cache, ids, score_now, reg_no
     def model_at(v1, v2):
         return current.with_mod(c.key, v1).with_mod(sibling.key, v2), {**values, c.key: v1, sibling.key: v2}
 
-    def cost(v1, v2):
-        fit = fitter.base(*model_at(v1, v2), theta0)
+    def cost(v1, v2, screen=False):  # a screen's point: the model's fit as one fit leaves it (first_fit)
+        fit = (fitter.first_fit if screen else fitter.base)(*model_at(v1, v2), theta0)
         return fit.cost if fit is not None and math.isfinite(fit.cost) else math.inf
 
     fitted = []
     for v1 in firsts:  # from each start of the first motor's, the other's screened, then both fitted
-        v2 = min(others, key=lambda v: cost(v1, v))
+        v2 = min(others, key=lambda v: cost(v1, v, screen=True))
         for _ in range(PAIR_GN_RUNS):  # a Gauss-Newton fit that stopped short goes on from where it stopped
             levels = fitter.saturation_levels(*model_at(v1, v2), theta0)
             if not levels or c.key not in levels or sibling.key not in levels:
