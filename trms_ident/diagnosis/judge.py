@@ -388,15 +388,14 @@ def _rescue_order(results, off: set, k: int | None = OE_TOP_K) -> list:
 
 
 def _further(ranked, drops: dict, off: set) -> list:
-    """When no candidate the rescue has fitted passes (nor helps short of its test, a motor's dead zone or
-    saturation whose other motor may hold the rest: _given_its_sibling): the next OE_TOP_K of ``ranked``
-    (_rescue_order's whole order) not fitted yet (``drops``) that act on an axis the model leaves above its floor
-    (``off``); none when it leaves none.  The equation error orders the candidates, it does not decide which are
-    never fitted: measured, independent.py seed 97173 bench 28 (a 0.222 V pitch dead zone, a second-order tail motor, 0.125 s
-    beside T21 0.882 s): with the dead zone found the yaw stayed 190x its floor, the tail motor's time constant was
-    not among the equation error's first three (J/B not physical there), and the log stayed partly explained;
-    fitted, it lowers the cost and brings the motor's second-order form (_second_order_forms): explained, all three
-    exact."""
+    """When no candidate the rescue has fitted passes (nor helps short of its test, a motor's dead zone or saturation
+    whose other motor may hold the rest: _given_its_sibling): the next OE_TOP_K of ``ranked`` (_rescue_order's whole
+    order) not fitted yet (``drops``) that act on an axis the model leaves above its floor (``off``); none when it
+    leaves none.  The equation error orders the candidates, it does not decide which are never fitted: measured,
+    independent.py seed 97173 bench 28 (a 0.222 V pitch dead zone, a second-order tail motor, 0.125 s beside T21 0.882
+    s): with the dead zone found the yaw stayed 190x its floor, the tail motor's time constant was not among the
+    equation error's first three (J/B not physical there), and the log stayed partly explained; fitted, it lowers the
+    cost and brings the motor's second-order form (_second_order_forms): explained, all three exact."""
     return [r for r in ranked if r["c"].key not in drops and _acts_on(r["c"], off)][:OE_TOP_K]
 
 
