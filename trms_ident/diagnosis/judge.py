@@ -125,8 +125,7 @@ def oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, 
     values = effect_values(current, score_now, reg_now)
     off = _misfit_axes(fitter, current, effect_values(current, score_now, reg_now, oe_values), theta0)
     fittable = [r for r in results if oe.fittable(r["c"].key) and r["c"].key not in current.keys]
-    ranked = _rescue_order(fittable, off, None)
-    order = ranked[:OE_TOP_K]
+    order = _rescue_order(fittable, off)
     good, short_of, drops = [], [], {}
     while order:
         _fitted_first(order, fitter, current, values, theta0, log, p, scan)
@@ -138,8 +137,6 @@ def oe_rescue(results, log, p, law, a, current, cache, ids, score_now, reg_now, 
             elif f is not None and r["c"].effect in SIBLING_EFFECTS and f.cost_drop > 0:
                 short_of.append((r, f))
         order = _second_order_forms(fittable, drops)
-        if not (order or good or short_of):
-            order = _further(ranked, drops, off)
     other = None
     if not good and short_of:  # a motor's nonlinearity that helps but falls short: perhaps both motors have one
         r, f = max(short_of, key=lambda rf: rf[1].cost_drop)
@@ -371,32 +368,20 @@ PAIR_GN_RUNS = 3
 PAIR_GN_SETTLED = 1e-6
 
 
-def _rescue_order(results, off: set, k: int | None = OE_TOP_K) -> list:
-    """The ``k`` candidates the rescue fits first (None: all of them in that order, _further's batches follow): the
-    equation error's best by held-out gain; when the current model leaves one axis above its floor (``off``) and fits
-    the other, first those that act on that axis (directly, or through the reaction torque a pitch input modification
-    changes on yaw: axes_of) and whose held-out blocks improve on the whole (t > 0).  Measured: on a log whose pitch
-    fitted at 1.00x and yaw at 1.89x, two pitch motor lags with gains 0.16-0.18 at t = -262 and -38 took two of the
-    three places and the 0.1 V yaw dead zone (gain 0.0036, t = 2.7) was never fitted; a pitch saturation that left the
-    pitch at its floor and the yaw at 3.7x (gain 0.90, t = 2.5) acts on yaw through the reaction torque and stays first.
-    With both axes off, gain alone (t > 0 first there let a 1.07 s yaw motor lag stand in for a halved kc).  A motor's
+def _rescue_order(results, off: set) -> list:
+    """The OE_TOP_K candidates the rescue fits: the equation error's best by held-out gain; when the current
+    model leaves one axis above its floor (``off``) and fits the other, first those that act on that axis
+    (directly, or through the reaction torque a pitch input modification changes on yaw: axes_of) and whose
+    held-out blocks improve on the whole (t > 0).  Measured: on a log whose pitch fitted at 1.00x and yaw at
+    1.89x, two pitch motor lags with gains 0.16-0.18 at t = -262 and -38 took two of the three places and the
+    0.1 V yaw dead zone (gain 0.0036, t = 2.7) was never fitted; a pitch saturation that left the pitch at its
+    floor and the yaw at 3.7x (gain 0.90, t = 2.5) acts on yaw through the reaction torque and stays first.  With
+    both axes off, gain alone (t > 0 first there let a 1.07 s yaw motor lag stand in for a halved kc).  A motor's
     time constant among them may bring that motor of second order after them (_second_order_forms)."""
     results = list(results)
     if len(off) != 1:
-        return sorted(results, key=lambda r: -r["test"].gain)[:k]
-    return sorted(results, key=lambda r: (not _acts_on(r["c"], off), not r["test"].t > 0, -r["test"].gain))[:k]
-
-
-def _further(ranked, drops: dict, off: set) -> list:
-    """When no candidate the rescue has fitted passes (nor helps short of its test, a motor's dead zone or saturation
-    whose other motor may hold the rest: _given_its_sibling): the next OE_TOP_K of ``ranked`` (_rescue_order's whole
-    order) not fitted yet (``drops``) that act on an axis the model leaves above its floor (``off``); none when it
-    leaves none.  The equation error orders the candidates, it does not decide which are never fitted: measured,
-    independent.py seed 97173 bench 28 (a 0.222 V pitch dead zone, a second-order tail motor, 0.125 s beside T21 0.882
-    s): with the dead zone found the yaw stayed 190x its floor, the tail motor's time constant was not among the
-    equation error's first three (J/B not physical there), and the log stayed partly explained; fitted, it lowers the
-    cost and brings the motor's second-order form (_second_order_forms): explained, all three exact."""
-    return [r for r in ranked if r["c"].key not in drops and _acts_on(r["c"], off)][:OE_TOP_K]
+        return sorted(results, key=lambda r: -r["test"].gain)[:OE_TOP_K]
+    return sorted(results, key=lambda r: (not _acts_on(r["c"], off), not r["test"].t > 0, -r["test"].gain))[:OE_TOP_K]
 
 
 def _second_order_forms(results, drops: dict) -> list:
