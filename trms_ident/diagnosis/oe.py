@@ -380,6 +380,7 @@ class Fitter:
         self.var = {"alpha": float(np.var(log.alpha_rad[:self.n])), "beta": float(np.var(log.beta_rad[:self.n]))}
         self._base: dict = {}
         self._first: dict = {}  # model -> its fit from theta0 as one fit leaves it (first_fit)
+        self._shots: dict = {}  # (model, values, theta0) -> its fit from a shooting fit's start (_from_shooting)
         self._lag_bases: dict = {}  # (model, its lags) -> _lags_refitted's answer
         self._own_bases: dict = {}  # (model, known values) -> _own_base's answer
         self._torques: dict = {}  # (key, input modifications) -> unit_torques of the fitted samples
@@ -576,8 +577,11 @@ class Fitter:
         gone on with (_settled) only where its first fit is below ``r`` already: measured, diagnose_speed seed 69508,
         a shooting start above the model's fit after one fit stayed above it after three more (1.4 s a model)."""
         try:
-            shot = self._fit(model, values, theta0, None, window_s=SHOOTING_WINDOW_S)
-            again = self._fit(model, values, dict(shot.estimate), None, start=shot.start_states)
+            ck = (model, tuple(sorted(values.items())), tuple(sorted(theta0.items())))
+            if ck not in self._shots:  # the base's and the findings' check's, from one theta0: the same fits
+                shot = self._fit(model, values, theta0, None, window_s=SHOOTING_WINDOW_S)
+                self._shots[ck] = self._fit(model, values, dict(shot.estimate), None, start=shot.start_states)
+            again = self._shots[ck]
             if not (math.isfinite(again.cost) and (r is None or again.cost < r.cost)):
                 return r
             again = self._settled(model, values, again)
