@@ -713,6 +713,7 @@ def test_a_screens_point_is_one_fit_and_a_shooting_start_above_the_models_fit_is
     calls.clear()
     assert fitter._from_shooting(Model(), {}, theta0, base) is base  # the converged fit at the floor stays
     assert len(calls) == 2  # the shooting fit and one fit from it, nothing more
+    assert fitter._from_shooting(Model(), {}, theta0, base) is base and len(calls) == 2  # made once (the check's)
 
 
 def test_the_equation_error_orders_and_the_output_error_test_decides(monkeypatch):
