@@ -257,6 +257,45 @@ def test_a_lead_that_does_not_move_leaves_the_modification_alone_as_the_explanat
     assert not got.fits_alone and got.value_fit["name"] == "a2" and got.parameters == 2
 
 
+
+def test_a_voltage_modification_whose_lead_does_not_fit_is_freed_beside_each_value_on_its_motors_path(monkeypatch):
+    """A pitch dead zone held at the width k1 27 % high biased (0.189 V for 0.259 V) left k1 seventh by the score
+    test and the lowest-cost refit elsewhere (T20): freed beside that lead the model did not fit, and the log was
+    "partly explained" (independent.py seed 34773 bench 20).  When the lead does not fit, each known value on the
+    main motor's path (compound.MOTOR_PATH) is freed beside the dead zone in the score's order, the values off that
+    path never; of those that reach the floor the nearest is the explanation, the others its look-alikes, and a
+    value no bench has (known_values.PLAUSIBLE_VALUE_FACTOR) never explains."""
+    from types import SimpleNamespace
+
+    from trms_ident import model_profile
+
+    table = defaults()
+    fits = {"k1": (1.27, 1.0), "T11": (1.3, 1.1), "a1": (table["a1"] * 20, 1.0)}  # a1 20x: not plausible
+    tried = []
+
+    def fake(log, settings):
+        key, lead = settings.free
+        tried.append(lead)
+        value, over = fits.get(lead, (table[lead] * 1.3, 9.0))
+        freed = {key: {"estimate": 0.259, "ci95": [0.258, 0.26]}, lead: {"estimate": value, "ci95": [0.0, 9.0]}}
+        return SimpleNamespace(model_check={"adequate": over <= 1.2,
+                                            "axes": {"alpha": {"angle": "alpha", "rms_over_noise": over}}},
+                               refined=SimpleNamespace(freed=freed, estimate={}, start_states={}))
+
+    monkeypatch.setattr(model_profile, "identify_with_profiles", fake)
+    scores = dict.fromkeys(["T20", "T21", "T10", "k2", "kc", "T0", "a1", "k1", "b2", "T11", "b1", "Mg"], 0.0)
+    kv = {"fits": [_kv_fit("T20", 1.05, 1.0, 2.9e6, (4.3, 21.7)), _kv_fit("T21", 0.93, 1.0, 3.0e6, (4.0, 22.2))],
+          "scores": scores}
+    h = compound.Hypothesis("shifted_dead_zone:pitch", 0.189, 0)
+    got = compound._profiled_with_lead(h, None, "quadratic", {}, kv, h)
+    assert tried[0] == "T20" and sorted(tried[1:]) == ["T10", "T11", "a1", "b1", "k1"]
+    assert got.value_fit["name"] == "k1" and got.fitted == 0.259 and got.look_alikes == ["T11"]
+    # a motor's further lag is freed with its own time constant alone (lead_of), never with the path
+    tried.clear()
+    h = compound.Hypothesis("motor_second_lag:pitch", 0.05, None)
+    fits["T11"] = (1.3, 3.0)  # (does not fit)
+    assert compound._profiled_with_lead(h, None, "quadratic", {}, kv, h) is h and tried == ["T11"]
+
 def _tested(effect, axis, gain, value, p=0.3):
     return {"effect": effect, "axis": axis, "held_out_gain": gain, "explained_share": gain, "t": 1.0, "p": p,
             "passed": p < 0.0025, "parameter": value}
