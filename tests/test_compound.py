@@ -257,7 +257,6 @@ def test_a_lead_that_does_not_move_leaves_the_modification_alone_as_the_explanat
     assert not got.fits_alone and got.value_fit["name"] == "a2" and got.parameters == 2
 
 
-
 def test_a_voltage_modification_whose_lead_does_not_fit_is_freed_beside_each_value_on_its_motors_path(monkeypatch):
     """A pitch dead zone held at the width k1 27 % high biased (0.189 V for 0.259 V) left k1 seventh by the score
     test and the lowest-cost refit elsewhere (T20): freed beside that lead the model did not fit, and the log was
@@ -295,6 +294,7 @@ def test_a_voltage_modification_whose_lead_does_not_fit_is_freed_beside_each_val
     h = compound.Hypothesis("motor_second_lag:pitch", 0.05, None)
     fits["T11"] = (1.3, 3.0)  # (does not fit)
     assert compound._profiled_with_lead(h, None, "quadratic", {}, kv, h) is h and tried == ["T11"]
+
 
 def _tested(effect, axis, gain, value, p=0.3):
     return {"effect": effect, "axis": axis, "held_out_gain": gain, "explained_share": gain, "t": 1.0, "p": p,

@@ -217,15 +217,15 @@ def _over_noise(check: dict) -> dict:
 def _profiled_with_lead(h: Hypothesis, log: Log, law: str, overrides: dict, kv: dict, none: Hypothesis
                         ) -> Hypothesis:
     """An input modification ``h`` whose known-value search named nothing: the modification was profiled at the
-    values given, so a known value off the table biased it (a transport delay 0.028 s for 0.029 s beside Mg 17 %
-    low leaves the yaw at 1.3x its floor with Mg refitted right).  The value the search ranked best (lead_of) is
-    freed together with the modification, profiled again (model_profile.identify_with_profiles, as `estimate --free
-    KEY --free NAME` does); ``none`` when that does not make the model fit either.  One profile per hypothesis
-    (4-30 s), however far that value's refit alone left the angles from their floors: the modification held at a
-    value the known value biased is what kept the refit off (measured, independent.py seed 8642 bench 20: a2 24 %
-    high beside a 0.29 V yaw dead zone held at the equation error's 0.18 V; a2's refit alone left the yaw at 16.6x,
-    the two freed together reached the floor at 0.02472 and 0.29 V; under a 2x gate nothing was tried and the log
-    was "unexplained").
+    values given, so a known value off the table biased it (a transport delay 0.028 s for 0.029 s beside Mg 17 % low
+    leaves the yaw at 1.3x its floor with Mg refitted right).  The value the search ranked best (lead_of) is freed
+    together with the modification, profiled again (model_profile.identify_with_profiles, as `estimate --free KEY
+    --free NAME` does); ``none`` when that does not make the model fit either.  One profile per hypothesis (4-30 s;
+    up to five more when it does not fit, below), however far that value's refit alone left the angles from their
+    floors: the modification held at a value the known value biased is what kept the refit off (measured,
+    independent.py seed 8642 bench 20: a2 24 % high beside a 0.29 V yaw dead zone held at the equation error's
+    0.18 V; a2's refit alone left the yaw at 16.6x, the two freed together reached the floor at 0.02472 and 0.29 V;
+    under a 2x gate nothing was tried and the log was "unexplained").
 
     When that lead does not reach the floor and the modification acts on one motor's voltage (a dead zone, a
     saturation), every known value on that motor's path (MOTOR_PATH) is freed beside it in turn, the search's
@@ -233,7 +233,9 @@ def _profiled_with_lead(h: Hypothesis, log: Log, law: str, overrides: dict, kv: 
     value's refit alone nor its score test ranks it (measured, independent.py seed 34773: k1 27 % high beside a
     0.259 V pitch dead zone named at 0.189 V, k1 seventh by score; a2 beside a 0.22 V yaw dead zone named at
     0.70 V, a2 tenth; each freed with the dead zone reached the floor at the bench's values).  Of those that reach
-    the floor the one nearest it is the explanation, the others its look-alikes."""
+    the floor the one nearest it is the explanation, the others its look-alikes.  The cost falls on logs where
+    nothing reaches the floor: diagnose_speed.py seed 74127 bench 20 (k1 beside a yaw dead zone: k1 is on the
+    other motor's path) took 1.6x as long for the same diagnosis."""
     first = lead_of(kv, h.key)
     got = none if first is None else _with_lead(h, first["name"], log, law, overrides, none)
     if got.explains:
@@ -256,6 +258,8 @@ _VOLTAGE_MODIFICATIONS = ("dead_zone", "shifted_dead_zone", "input_saturation")
 
 
 def _motor_path(key: str) -> tuple:
+    """The known values a modification ``key`` can take the place of: its motor's path, for one of one motor's
+    voltage; none for any other."""
     effect, _, axis = key.partition(":")
     return MOTOR_PATH.get(axis, ()) if effect in _VOLTAGE_MODIFICATIONS else ()
 
