@@ -23,7 +23,8 @@ SLOW = {
     "test_both_motors.py::test_when_neither_motors_saturation_passes_alone_the_pair_is_judged_each_given_the_other": 125,
     "test_diagnose.py::test_two_effects_are_both_named": 17,
     # diagnosed_model.py's seed 23, a whole diagnose (the exported interval; the widening itself: the fast tests
-    # of a held value's interval above); a strict xfail since 5 Dec 2026 (its reason says which defect)
+    # of a held value's interval above); a strict xfail from 5 Dec 2026 (the pitch motor's T2 interval above its
+    # truth) until it passed at ca539d2 and at eac105e (7 Dec 2026)
     "test_bench_file.py::test_a_modification_moved_by_a_known_values_refit_is_exported_with_its_interval_and_jb_"
     "cover": 351,
     "test_sparse_correction.py::test_cli_reports_the_correction_in_words_and_json": 180,

@@ -429,10 +429,6 @@ def test_a_freed_coulomb_friction_is_integrated_finely_enough_to_be_covered(monk
     assert not coarse["ci95"][0] <= fc <= coarse["ci95"][1], coarse
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "known defect (measured 5 Dec 2026 at a28a279 and at bc9f396, the same numbers: older than that session's "
-    "changes, not found when it happened because the slow set is not in CI): the second-order pitch motor's T2 "
-    "comes out with a 95 % interval from 0.1901 s, above the truth 0.18779 s"))
 def test_a_modification_moved_by_a_known_values_refit_is_exported_with_its_interval_and_jb_cover(tmp_path):
     """diagnosed_model.py's seed 23: a second-order pitch motor beside Kg 1.53x, mid-run.  The known value's refit
     (diagnosis/compound.py) moves T2 from the effect search's value; its interval there is the finding's, the
