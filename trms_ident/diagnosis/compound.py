@@ -237,10 +237,11 @@ def _profiled_with_lead(h: Hypothesis, log: Log, law: str, overrides: dict, kv: 
     nothing reaches the floor: diagnose_speed.py seed 74127 bench 20 (k1 beside a yaw dead zone: k1 is on the
     other motor's path) took 1.6x as long for the same diagnosis."""
     first = lead_of(kv, h.key)
-    got = none if first is None else _with_lead(h, first["name"], log, law, overrides, none)
+    lead = None if first is None else first["name"]
+    got = none if lead is None else _with_lead(h, lead, log, law, overrides, none)
     if got.explains:
         return got
-    path = [n for n in kv.get("scores", {}) if n in _motor_path(h.key) and n != (first or {}).get("name")]
+    path = [n for n in kv.get("scores", {}) if n in _motor_path(h.key) and n != lead]
     tried = fan_out(lambda name: _with_lead(h, name, log, law, overrides, none), path)
     explaining = sorted((t for t in tried if t.explains),
                         key=lambda t: (t.parameters, sum(v * v for v in t.over_noise.values())))
