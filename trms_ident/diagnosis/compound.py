@@ -40,7 +40,7 @@ import numpy as np
 from .. import known_values
 from ..log import Log
 from ..model import effects as room
-from ..model.bench import MODIFICATION_KEYS, TORQUE_KEYS
+from ..model.bench import MODIFICATION_KEYS, NATIVE_FREE_KEYS, TORQUE_KEYS
 from ..numerics.adequacy import RMS_OVER_NOISE
 from ..numerics.parallel import fan_out
 from .oe import OWN_TIME_CONSTANT, SECOND_ORDER_OF, motor_states  # (a motor's forms: hypotheses, lead_of)
@@ -148,8 +148,14 @@ def estimate_under(h: Hypothesis, log: Log, law: str, overrides: dict) -> Hypoth
     from ..identify import identify
 
     torque = h.key in TORQUE_KEYS
+    # a saturation's level or a shifted dead zone's width is a Gauss-Newton unknown of the refinement itself
+    # (NATIVE_FREE_KEYS): freed, it is a nuisance of the known-value search's score test and refitted beside each
+    # value, so a value off its table is ranked and refitted with the modification free rather than at a width the
+    # value biased (independent.py: kc, k1, k2 beside a shifted yaw or pitch dead zone held at the equation error's
+    # width were ranked low and missed; freed, each was named at the bench's value, the width with it)
+    native = h.key in NATIVE_FREE_KEYS
     settings = settings_of(overrides, law, effects={h.key: h.value},
-                        free=(h.key,) if torque else ())
+                           free=(h.key,) if torque or native else ())
     try:
         with np.errstate(all="ignore"):
             res = identify(log, settings, halves=False)  # judged by the angles' floors, as the search judges
@@ -164,7 +170,7 @@ def estimate_under(h: Hypothesis, log: Log, law: str, overrides: dict) -> Hypoth
         return replace(h, fitted=fitted, fits_alone=True, over_noise=ratio)
     kv = check.get("known_values") or {}
     named = kv.get("named")
-    if named is None and not torque:
+    if named is None and not torque and not native:
         return _profiled_with_lead(h, log, law, overrides, kv, replace(h, fitted=fitted, over_noise=ratio))
     if named is not None and named == OWN_TIME_CONSTANT.get(h.key):
         # a second-order motor's own time constant named beside its lag held where the search put it, which the
@@ -227,15 +233,14 @@ def _profiled_with_lead(h: Hypothesis, log: Log, law: str, overrides: dict, kv: 
     0.18 V; a2's refit alone left the yaw at 16.6x, the two freed together reached the floor at 0.02472 and 0.29 V;
     under a 2x gate nothing was tried and the log was "unexplained").
 
-    When that lead does not reach the floor and the modification acts on one motor's voltage (a dead zone, a
-    saturation), every known value on that motor's path (MOTOR_PATH) is freed beside it in turn, the search's
-    score order first: held at its biased value, the modification took up what such a value moves, so neither the
-    value's refit alone nor its score test ranks it (measured, independent.py seed 34773: k1 27 % high beside a
-    0.259 V pitch dead zone named at 0.189 V, k1 seventh by score; a2 beside a 0.22 V yaw dead zone named at
-    0.70 V, a2 tenth; each freed with the dead zone reached the floor at the bench's values).  Of those that reach
-    the floor the one nearest it is the explanation, the others its look-alikes.  The cost falls on logs where
-    nothing reaches the floor: diagnose_speed.py seed 74127 bench 20 (k1 beside a yaw dead zone: k1 is on the
-    other motor's path) took 1.6x as long for the same diagnosis."""
+    When that lead does not reach the floor and the modification is a cut-off dead zone on one motor's voltage
+    (_VOLTAGE_MODIFICATIONS), every known value on that motor's path (MOTOR_PATH) is freed beside it in turn, the
+    search's score order first: held at its biased value, the modification took up what such a value moves, so
+    neither the value's refit alone nor its score test ranks it.  Of those that reach the floor the one nearest it
+    is the explanation, the others its look-alikes.  (Measured when shifted dead zones came here too, independent.py
+    seed 34773: k1 27 % high beside a 0.259 V pitch dead zone named at 0.189 V, k1 seventh by score; freed together,
+    both at the bench's values.  A shifted dead zone and a saturation are now freed inside the known-value search
+    itself, estimate_under, which ranks and refits every value with the width free.)"""
     first = lead_of(kv, h.key)
     lead = None if first is None else first["name"]
     got = none if lead is None else _with_lead(h, lead, log, law, overrides, none)
@@ -254,8 +259,10 @@ def _profiled_with_lead(h: Hypothesis, log: Log, law: str, overrides: dict, kv: 
 #: the known values on each motor's path from its voltage to its thrust (eq. 1: the motor's gain and time
 #: constants, the thrust curve), which a modification of that voltage can take the place of
 MOTOR_PATH = {"pitch": ("a1", "b1", "k1", "T11", "T10"), "yaw": ("a2", "b2", "k2", "T21", "T20")}
-#: the modifications of one motor's voltage (_profiled_with_lead widens its leads to that motor's path)
-_VOLTAGE_MODIFICATIONS = ("dead_zone", "shifted_dead_zone", "input_saturation")
+#: the modifications of one motor's voltage that reach _profiled_with_lead (which widens their leads to that
+#: motor's path): the cut-off dead zone, profiled; a shifted dead zone and a saturation are freed in the refinement
+#: itself (NATIVE_FREE_KEYS), their known-value search frees their value beside each known value (estimate_under)
+_VOLTAGE_MODIFICATIONS = ("dead_zone",)
 
 
 def _motor_path(key: str) -> tuple:
