@@ -11,6 +11,8 @@ from trms_ident.diagnosis import compound
 from trms_ident.diagnosis.model import settings_of
 from trms_ident.diagnosis.result import Diagnosis, Finding
 from trms_ident.log import validated
+from trms_ident.model.bench import NATIVE_FREE_KEYS
+from trms_ident.model.effects import BY_KEY
 from trms_ident.params import defaults
 
 from .conftest import as_log
@@ -312,16 +314,23 @@ def test_ranked_hypotheses_are_the_first_rounds_best_gains_a_bench_file_holds_pa
               _tested("dead_zone", "yaw", 0.1, 0.2), _tested("sensor_offset", "pitch", 0.5, -0.013)]
     d = _diagnosis([_finding("thrust_asymmetry", "pitch", "s", 0.28)])
     d.tested = tested
-    hs = compound.ranked(d, {"thrust_asymmetry:pitch"})
+    tested.append(_tested("shifted_dead_zone", "yaw", 0.0, 0.6))  # (no gain: a known value hid it)
+    hs = compound.ranked(d, {"thrust_asymmetry:pitch", "input_saturation:pitch"})
     # by gain, the finding (seen) and what a bench file cannot hold (an effect not in the model room) left out, at
     # most three
-    assert [(h.key, h.value, h.finding) for h in hs] == [("com_offset:pitch", 0.013, None),
-                                                         ("sensor_offset:pitch", -0.013, None),
-                                                         ("coulomb_friction:pitch", 0.012, None)]
-    assert hs[0].ranked_by["p"] == 0.3 and compound.MAX_RANKED == 3
+    assert [(h.key, h.value, h.finding) for h in hs[:3]] == [("com_offset:pitch", 0.013, None),
+                                                             ("sensor_offset:pitch", -0.013, None),
+                                                             ("coulomb_friction:pitch", 0.012, None)]
+    assert hs[0].ranked_by["p"] == 0.3 and compound.MAX_RANKED == 3 and not hs[0].every_motor
+    # then every dead zone and saturation the refinement frees, not seen, whatever their rank: at their first-round
+    # value where it is plausible, else in the middle of their grid
+    grid = {k: float(np.median(BY_KEY[k].grid)) for k in NATIVE_FREE_KEYS}
+    assert [(h.key, h.value, h.every_motor) for h in hs[3:]] == [
+        (k, 0.6 if k == "shifted_dead_zone:yaw" else grid[k], True) for k in NATIVE_FREE_KEYS
+        if k != "input_saturation:pitch"]
     # a negative drag is no drag (implausible), and a gain of zero or less is no rank
     d.tested = [tested[5], tested[4], _tested("dead_zone", "pitch", 0.0, 0.1)]
-    assert compound.ranked(d, set()) == []
+    assert [h.key for h in compound.ranked(d, set(NATIVE_FREE_KEYS))] == []
 
 
 def test_an_effect_that_did_not_pass_beside_a_known_value_off_its_table_is_tried_and_both_are_named():
@@ -514,7 +523,7 @@ def test_a_further_lag_is_profiled_with_its_motors_own_time_constant_refitted():
     from trms_ident.diagnosis.trials import value_grid
     from trms_ident.model.bench import GIVEN_KEY
     from trms_ident.diagnosis.select import FAMILY_ALPHA
-    from trms_ident.model.effects import BY_KEY, CANDIDATES
+    from trms_ident.model.effects import CANDIDATES
 
     assert oe.own_time_constants("motor_second_lag:yaw", {}) == ("T21",)
     assert oe.own_time_constants("motor_second_lag:pitch", {}) == ("T11",)

@@ -82,6 +82,7 @@ class Hypothesis:
     look_alikes: list = field(default_factory=list)  # known values that reach the floor with it as well
     error: str = ""
     ranked_by: dict | None = None  # its first-round equation-error test when ranked() proposed it (d.tested's row)
+    every_motor: bool = False  # proposed by freed_modifications (on each motor, whatever the equation error's rank)
 
     @property
     def parameters(self) -> int:
@@ -129,7 +130,8 @@ def ranked(d, seen: set) -> list[Hypothesis]:
     not in ``seen``, ranked by their held-out gain (positive only), passed or not, at their equation-error values
     where plausible, at most MAX_RANKED.  A known value off its table leaves its misfit in every effect's test, so an
     effect that is the other difference need not pass alone (diagnosed_model.py's seed 29: a 0.015 rad centre-of-mass
-    offset beside Mg 15 % low, held-out gain 0.52, p 0.26; a thrust asymmetry, gain 0.85, passed and was named)."""
+    offset beside Mg 15 % low, held-out gain 0.52, p 0.26; a thrust asymmetry, gain 0.85, passed and was named).
+    Then freed_modifications(d, ...), which no rank decides."""
     out = []
     for t in sorted(d.tested, key=lambda t: -t.get("held_out_gain", -math.inf)):
         key, value = f"{t['effect']}:{t['axis']}", float(t.get("parameter", math.nan))
@@ -138,6 +140,28 @@ def ranked(d, seen: set) -> list[Hypothesis]:
         if key in seen or key not in TORQUE_KEYS + MODIFICATION_KEYS or not room.BY_KEY[key].plausible(value):
             continue
         out.append(Hypothesis(key, value, None, ranked_by=t))  # (d.tested holds one row per key)
+    return out + freed_modifications(d, seen | {h.key for h in out})
+
+
+def freed_modifications(d, seen: set) -> list[Hypothesis]:
+    """Each input modification the refinement frees itself (NATIVE_FREE_KEYS: a shifted dead zone or a saturation,
+    on either motor) not in ``seen``, whatever the equation error made of it, from its first-round value where that
+    is plausible (else the middle of its grid).  Estimated under, its width is freed beside every known value the
+    search refits (estimate_under), so these four cover "a known value and one such modification" whole, which the
+    equation error cannot rank: a known value off its table leaves J/B unphysical or biased there (measured,
+    independent.py: k2 24-37 % high beside a 0.14-0.19 V yaw dead zone, seed 64502 bench 23 and seed 23562 bench
+    21, and Mg 22 % high beside a 0.114 V one, seed 23562 bench 20: the yaw dead zone had no held-out gain, a
+    saturation was invented instead; estimated under from 0.05-0.4 V, each named both at the bench's values)."""
+    rows = {f"{t['effect']}:{t['axis']}": t for t in d.tested}
+    out = []
+    for key in NATIVE_FREE_KEYS:
+        if key in seen:
+            continue
+        c = room.BY_KEY[key]
+        value = float(rows.get(key, {}).get("parameter", math.nan))
+        if not c.plausible(value):
+            value = float(np.median(c.grid))
+        out.append(Hypothesis(key, value, None, ranked_by=rows.get(key), every_motor=True))
     return out
 
 
@@ -367,7 +391,8 @@ def ranked_together(d, log: Log, p: dict, law: str, overrides: dict | None, refi
     reached the noise floor; ``seen``: the effects tried before, in together())."""
     out, record = together(d, log, p, law, overrides, refit, ranked(d, seen))
     if out is not None:
-        out.settings["rule"] += "; an effect the equation error ranked in its first round, passed or not (ranked)"
+        out.settings["rule"] += ("; an effect the equation error ranked in its first round, passed or not, or a "
+                                 "dead zone or saturation on either motor with its value freed (ranked)")
     return out, record
 
 
@@ -375,7 +400,8 @@ def _record(t: Hypothesis, lead: str | None = None) -> dict:
     return {"effect": t.key, "value": t.value, "fitted": t.fitted, "fits_alone": t.fits_alone,
             "known_value": t.value_fit["name"] if t.value_fit else None, "over_noise": t.over_noise,
             "error": t.error or None, **({"searched_under": lead} if lead else {}),
-            **({"ranked_by_equation_error": True} if t.ranked_by is not None else {})}
+            **({"ranked_by_equation_error": True} if t.ranked_by is not None and not t.every_motor else {}),
+            **({"on_each_motor": True} if t.every_motor else {})}
 
 
 def leads(kv: dict, seed_worst: float) -> list[dict]:
@@ -449,6 +475,15 @@ def _effect_finding(d, h: Hypothesis, alikes: list[Hypothesis]) -> Finding:
     param = {"name": c.parameter, "value": float(value), "unit": c.unit,
              **({"ci95": list(h.fitted_ci95)} if h.fitted_ci95 is not None and math.isfinite(h.fitted) else {})}
     explanation = c.said(value)
+    if h.every_motor:  # freed_modifications: tried on each motor beside the known values, not ranked
+        t = h.ranked_by or {}
+        gain = (f" (the equation error's first round: held-out gain {t['held_out_gain']:.3g}, p = {t['p']:.3g})"
+                if "held_out_gain" in t and "p" in t else "")
+        return Finding(c.effect, c.axis, param, d.fit_before.get(c.axis, math.nan), math.nan,
+                       f"an input modification the refinement estimates, tried on each motor with the known values "
+                       f"refitted beside its freed value whatever the equation error made of it{gain}; estimated "
+                       f"with J1, B1, J2, B2{beside}", explanation, float(t.get("held_out_gain", math.nan)),
+                       float(t.get("t", math.nan)), float(t.get("p", math.nan)), others)
     if h.ranked_by is not None:  # proposed by the equation error's ranking (ranked()), not by the search's rounds
         t = h.ranked_by
         alone = ("it passed there but the search did not take it" if t.get("passed") else
@@ -546,6 +581,7 @@ def later_tries_sentence(tried: list[dict]) -> str:
     under = [f"{t['effect']} with {t['searched_under']} refitted {_worst(t)}" for t in tried
              if t.get("searched_under") and t.get("effect") and t.get("over_noise")]
     ranked = [f"{t['effect']} {_worst(t)}" for t in tried if t.get("ranked_by_equation_error") and t.get("over_noise")]
+    each = [f"{t['effect']} {_worst(t)}" for t in tried if t.get("on_each_motor") and t.get("over_noise")]
     out = ""
     if under:
         out += (" The effect search run again under the known values whose refits alone came nearest the floor finds "
@@ -553,4 +589,7 @@ def later_tries_sentence(tried: list[dict]) -> str:
     if ranked:
         out += (" The equation error's next-ranked effects of its first round, each estimated under with each known "
                 f"value freed in turn, leave the worst angle above its floor too ({', '.join(ranked)}).")
+    if each:
+        out += (" A dead zone or a saturation on each motor, its value freed with each known value in turn, leaves "
+                f"the worst angle above its floor too ({', '.join(each)}).")
     return out

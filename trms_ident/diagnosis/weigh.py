@@ -28,7 +28,7 @@ refitted with every one):
    (compound.py): an effect that fits alone (one parameter), else an effect with a known value (two) that
    reaches the floor explains the log, the search's other findings refused as not needed.  Also when every known
    value refitted alone wandered off to an implausible number (known_values.far_from_table), which the other
-   difference's misfit can cause; the steps below start from those refits and are not taken then;
+   difference's misfit can cause; steps 5 and 6 start from those refits and are not taken then (7 is);
 5. when that reaches no floor either, several known values are refitted
    together (known_values.joint, a forward search, each value a further parameter that must earn its place).
    A set that reaches the floor explains the log: one finding per value, the effect search's findings refused
@@ -41,9 +41,11 @@ refitted with every one):
    says the bench is far from the values given);
 7. when none of that reaches the floor, the effects the equation error ranked best in its first round that were
    not tried yet, passed or not (compound.ranked: a known value off its table leaves its misfit in every effect's
-   test, so the other difference need not pass alone), are estimated under as in 4, each with the known values
-   freed in turn; an effect with a known value that reaches the floor explains the log, the search's findings
-   refused.  Last, so that every log an earlier step explains is explained as before.
+   test, so the other difference need not pass alone), and a shifted dead zone and a saturation on each motor
+   whatever the equation error made of them (compound.freed_modifications: their value freed beside every known
+   value's refit), are estimated under as in 4, each with the known values freed in turn; an effect with a known
+   value that reaches the floor explains the log, the search's findings refused.  Last, so that every log an
+   earlier step explains is explained as before.
 """
 from __future__ import annotations
 
@@ -96,8 +98,14 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None, exclude
             if both is not None:
                 return both
             d.settings = {**d.settings, "together": tried}
-            if far is not None:  # every refit wandered off: nothing to refit jointly from
+            if far is not None:  # every refit wandered off: nothing to refit jointly from or lead with (5, 6)
                 d.verdict_sentence += ("" if said else far) + tried_sentence(tried)
+                last, tried_last = ranked_together(d, log, p, law, overrides, refit, {t["effect"] for t in tried})
+                if last is not None:
+                    last.settings["together"] = tried + tried_last
+                    return last
+                d.settings["together"] = tried + tried_last
+                d.verdict_sentence += later_tries_sentence(tried_last)
                 return d
             listed = ", ".join(f"{f['name']} {max(f['over_noise'].values()):.3g}x" for f in kv["fits"])
             if not said:
