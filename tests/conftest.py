@@ -39,6 +39,7 @@ SLOW = {
     "test_known_values.py::test_the_known_value_wins_over_effects_that_need_more_parameters": 63,
     "test_diagnose.py::test_a_rugged_dead_zone_profile_is_scanned_and_a_wrong_width_is_never_called_explained": 321,
     "test_held_out.py::test_diagnose_searches_again_without_a_finding_the_held_out_fit_refuses": 617,
+    # a strict xfail from 7 Dec 2026 (a shifted yaw dead zone named in place of the cable since 6e7a582)
     "test_diagnose.py::test_output_error_fit_decides_between_close_rivals": 65,
     "test_convergence.py::test_two_first_runs_in_parallel_on_an_empty_cache_agree_with_one_alone": 49,
     "test_diagnose.py::test_each_model_predicts_from_its_own_motor_start_states": 60,
