@@ -424,8 +424,8 @@ def test_each_model_predicts_from_its_own_motor_start_states():
 
 
 @pytest.mark.xfail(strict=True, reason=(
-    "known defect (failing in -m slow at ca539d2 and f8d2ec3, its diagnose the same at 1d0f784, 7 Dec 2026; "
-    "passes at 6e7a582^, before the shifted dead zone joined the library): a 0.065 V shifted yaw dead zone is "
+    "known defect (7 Dec 2026; bisected: passes at 6e7a582^, fails since 6e7a582 added the shifted dead zone to "
+    "the library, and at ca539d2, f8d2ec3 and, its diagnose, 1d0f784): a 0.065 V shifted yaw dead zone is "
     "named beside the friction (0.0033 N m) in place of the cable, 'partly explained'; the rounds take one "
     "candidate at a time and nothing swaps a finding for its rival once a later one is in (issue #75's search)"))
 def test_output_error_fit_decides_between_close_rivals():
