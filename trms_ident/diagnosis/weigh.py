@@ -98,34 +98,29 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None, exclude
             if both is not None:
                 return both
             d.settings = {**d.settings, "together": tried}
+            tried_first = []
             if far is not None:  # every refit wandered off: nothing to refit jointly from or lead with (5, 6)
                 d.verdict_sentence += ("" if said else far) + tried_sentence(tried)
-                last, tried_last = ranked_together(d, log, p, law, overrides, refit, {t["effect"] for t in tried})
-                if last is not None:
-                    last.settings["together"] = tried + tried_last
-                    return last
-                d.settings["together"] = tried + tried_last
-                d.verdict_sentence += later_tries_sentence(tried_last)
-                return d
-            listed = ", ".join(f"{f['name']} {max(f['over_noise'].values()):.3g}x" for f in kv["fits"])
-            if not said:
-                d.verdict_sentence += (" No known value explains the log alone (each refitted by output error, the "
-                                       "most likely leave the angles above their noise floors: "
-                                       f"{listed or 'none could be fitted'}).")
-            d.verdict_sentence += tried_sentence(tried)
-            j = _joint(log, law, overrides, p, kv, d.seed_check)
-            if j is not None:
-                d.known_values_joint = j.to_json()
-                if j.explains:
-                    return _explained_by_values(d, log, p, law, j)
-                base = max(kv.get("shooting_over_noise", {}).values(), default=None)
-                d.verdict_sentence += known_values.joint_sentence(j, base)
-            first, tried_first = value_first(
-                d, log, p, law, overrides, kv, refit,
-                lambda under: search.effect_search(log, under, law, d.settings["a_rad_s"], lambda stage, done: None,
-                                                   exclude))
-            if first is not None:
-                return first
+            else:
+                listed = ", ".join(f"{f['name']} {max(f['over_noise'].values()):.3g}x" for f in kv["fits"])
+                if not said:
+                    d.verdict_sentence += (" No known value explains the log alone (each refitted by output error, "
+                                           "the most likely leave the angles above their noise floors: "
+                                           f"{listed or 'none could be fitted'}).")
+                d.verdict_sentence += tried_sentence(tried)
+                j = _joint(log, law, overrides, p, kv, d.seed_check)
+                if j is not None:
+                    d.known_values_joint = j.to_json()
+                    if j.explains:
+                        return _explained_by_values(d, log, p, law, j)
+                    base = max(kv.get("shooting_over_noise", {}).values(), default=None)
+                    d.verdict_sentence += known_values.joint_sentence(j, base)
+                first, tried_first = value_first(
+                    d, log, p, law, overrides, kv, refit,
+                    lambda under: search.effect_search(log, under, law, d.settings["a_rad_s"],
+                                                       lambda stage, done: None, exclude))
+                if first is not None:
+                    return first
             last, tried_last = ranked_together(d, log, p, law, overrides, refit, {t["effect"] for t in tried})
             record = tried + tried_first + tried_last
             if last is not None:
