@@ -14,7 +14,7 @@ from .log import Log
 from .model.bench import KERNEL_KEYS
 from .numerics.design import FilterDesign, angle_noise_rad, design_filters, quantization_step
 from .numerics.quantization import OFFSETS as QUANTIZATION_OFFSETS
-from .numerics.fused import drem_summaries
+from .numerics.fused import drem_summaries, start_unknowns
 from .numerics.adequacy import NOT_CONVERGED, RMS_OVER_NOISE, UNMEASURABLE, judging_floors, model_check
 from . import known_values
 from .known_values import over_noise as _over_noise
@@ -256,12 +256,16 @@ def identify(log: Log, settings: Settings | None = None, halves: bool = True, st
                 f"{log.source}: the {axis} axis is not excited: det M is zero over the whole log "
                 f"(constant input and angle?); {', '.join(AXES[axis])} cannot be identified")
         bias = (design.predicted_bias[axis] if design else 0.0) + warp
+        # the start taken as unknown, not as rest (fused.start_unknowns)
+        off = start_unknowns(axis, sm, grid_log.u1_v, grid_log.u2_v, grid_log.alpha_rad, grid_log.beta_rad, dt,
+                             params, settings.thrust_law, settings.filter_a_rad_s, settings.filter_b_rad_s, f_gain,
+                             h_gain, motor, block, structure=settings.structure, left=(skip or {}).get(axis))
         # blocks whose every sample sat at a stop hold nothing: counted, their zero scores would narrow the interval
-        blocks = sm.block_sums[sm.block_sums[:, 0] > 0] if axis in (skip or {}) else sm.block_sums
+        used = sm.block_sums[:, 0] > 0 if axis in (skip or {}) else np.ones(len(sm.block_sums), dtype=bool)
         for i, name in enumerate(AXES[axis]):
             traces[name], drem_final[name] = sm.trace[:, i], float(sm.final[i])  # eq. (8)
-            intervals[name] = interval_from_sums(sm.energy, float(sm.cross[i]), blocks[:, 0], blocks[:, 1 + i],
-                                                 bias_bound=bias)
+            intervals[name] = interval_from_sums(float(off.energy[i]), float(off.cross[i]), off.block_energy[used, i],
+                                                 off.block_cross[used, i], bias_bound=bias)
             offline[name] = intervals[name].estimate
         axes[axis] = AxisResult(axis, sm.energy * dt)
 
@@ -396,9 +400,14 @@ def _halves_check(log: Log, settings: Settings, check: dict) -> None:
         check["sentence"] += (f" Each half of the log alone gives the same {', '.join(both)} within their intervals "
                               "(the halves check): no misfit this log can measure.")
         return
-    said = "; ".join(f"{k} {parts['first'][k][0]:.4g} [{parts['first'][k][1]:.4g}, {parts['first'][k][2]:.4g}] "
-                     f"on the first half, {parts['second'][k][0]:.4g} [{parts['second'][k][1]:.4g}, "
-                     f"{parts['second'][k][2]:.4g}] on the second (z = {z[k]:.3g})" for k in differ)
+    def told_apart(k: str) -> str:  # as many digits as tell the two halves' values and intervals apart
+        (a, alo, ahi), (b, blo, bhi) = parts["first"][k], parts["second"][k]
+        d = next((d for d in range(4, 10) if len({f"{v:.{d}g}" for v in (a, b, alo, ahi)}) == 4 and
+                  len({f"{v:.{d}g}" for v in (a, b, blo, bhi)}) == 4), 10)
+        return (f"{k} {a:.{d}g} [{alo:.{d}g}, {ahi:.{d}g}] on the first half, {b:.{d}g} [{blo:.{d}g}, {bhi:.{d}g}] "
+                f"on the second (z = {z[k]:.3g})")
+
+    said = "; ".join(told_apart(k) for k in differ)
     check["adequate"] = False
     check["undecided_because"] = None
     fits = ", ".join(f"{a} {v['fit_percent']:.2f} %" for a, v in check["axes"].items())

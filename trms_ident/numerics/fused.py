@@ -403,3 +403,125 @@ def plant_signals(u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: st
     if mode == ROWS_TARGETS:
         return PlantSignals(None, None, None, None, None, None, out[6], out[7])
     return PlantSignals(*out)
+
+
+#: a log that does not start at rest: every filter above starts in the steady state of its first sample, which is the
+#: angles' and motors' true history only when the bench was at rest with the first voltages held before the log
+#: began (model.md, "Unknown start").  Otherwise each regression carries, besides q, a term of the filters' and the
+#: motor's free responses, which the offline estimate takes as unknowns (start_unknowns).  Those responses fall as
+#: t e^(-t / T), T the slowest of their time constants: by 30 T below 1e-11 of their start, the window over which
+#: they are fitted.
+START_TIME_CONSTANTS = 30.0
+
+
+@dataclass(frozen=True)
+class Offline:
+    """The sums of ``interval_from_sums`` per parameter of one axis (J, B) with the start's unknowns taken out."""
+
+    energy: np.ndarray  # (2,) sum phi^2, phi without the part the start's responses explain
+    cross: np.ndarray  # (2,) sum phi eps
+    block_energy: np.ndarray  # (K, 2)
+    block_cross: np.ndarray  # (K, 2)
+    columns: int  # how many free responses were fitted
+
+
+@njit(cache=True, nogil=True)
+def _free(den, n, j, out):
+    """The solution of den's homogeneous recurrence (y_k = -den[1] y_(k-1) - den[2] y_(k-2)) that starts at the
+    unit vector j of its first two values: every free response of a filter with this denominator is a combination
+    of those for j < its order."""
+    for k in range(n):
+        if k < 2:
+            out[k] = 1.0 if k == j else 0.0
+        else:
+            out[k] = -den[1] * out[k - 1] - den[2] * out[k - 2]
+    if den[2] == 0.0 and n > 1:  # first order: y_1 = -den[1] y_0
+        out[1] = -den[1] * out[0]
+        for k in range(2, n):
+            out[k] = -den[1] * out[k - 1]
+
+
+def _time_constant_samples(den: np.ndarray) -> float:
+    """The time constant of a filter's slowest pole, in samples (0 for a filter without poles)."""
+    rho = max((abs(r) for r in np.roots(den)), default=0.0) if den[1] != 0.0 or den[2] != 0.0 else 0.0
+    return -1.0 / math.log(rho) if 0.0 < rho < 1.0 else 0.0
+
+
+def _free_responses(den: np.ndarray, n: int) -> list[np.ndarray]:
+    order = 2 if den[2] != 0.0 else (1 if den[1] != 0.0 else 0)
+    out = []
+    for j in range(order):
+        y = np.empty(n)
+        _free(np.ascontiguousarray(den, dtype=float), n, j, y)
+        out.append(y)
+    return out
+
+
+def start_unknowns(axis: str, summary: AxisSummary, u1_v, u2_v, alpha_rad, beta_rad, dt_s: float, p: dict, law: str,
+                   a_rad_s: float, b_rad_s: float, f_gain: float, h_gain: float, motor, block: int,
+                   structure: dict | None = None, left: np.ndarray | None = None) -> Offline:
+    """The axis' offline sums (eq. 7 least squares) with the log's start taken as unknown, not as rest.
+
+    With the filters started in the steady state of the first samples, g = m^T q + r exactly, r a combination of
+    the free responses of the F filters (two: their angles' and torque's histories) and, where the motor's and the
+    reaction's lags run here, of the motor state's start error passed through the thrust (its first and, for the
+    quadratic law, second power) and of the reaction lag's free responses.  Mixing (eq. 7) keeps it linear:
+    eps_J = phi J + psi_J c, eps_B = phi B + psi_B c, with psi_J = -(Hm2 r - m2 H r), psi_B = -(m1 H r - Hm1 r)
+    per response r.  The sums are those of phi and eps with c fitted (least squares, each parameter's regression on
+    its own): phi and eps less their projections on the psi columns over the START_TIME_CONSTANTS / a window,
+    where the responses live.  A second-order motor's further lag (an input modification) keeps its start
+    assumption.  ``left``: the axis' samples left out of the sums (stop_samples), or None."""
+    (pitch, drive, reaction, angle, beta, dt, b, a, th_a, th_b, signed, mg, kg, gv) = _axis_inputs(
+        axis, u1_v, u2_v, alpha_rad, beta_rad, dt_s, p, law, a_rad_s, b_rad_s, f_gain, h_gain, motor, structure)
+    n = angle.size
+    # the slowest of the responses fitted (the filters', the motor's lag, the reaction's), in samples
+    slowest = max(_time_constant_samples(a[s]) for s in (F0, HG, TAU, MR))
+    w = min(n, int(math.ceil(START_TIME_CONSTANTS * slowest)) + 1)
+    m = min(n, w + 1)  # one more sample: beta' at the window's last sample by the central difference, as the log's
+    if m < 3:  # no window to fit the responses in (START_TIME_CONSTANTS 0: the start assumed at rest)
+        return Offline(np.repeat(summary.energy, 2), summary.cross.copy(),
+                       np.repeat(summary.block_sums[:, :1], 2, axis=1), summary.block_sums[:, 1:].copy(), 0)
+    phi, eps = np.empty(m), np.empty((m, 2))
+    _axis(pitch, *(np.ascontiguousarray(v[:m]) for v in (drive, reaction, angle, beta)), dt, b, a, th_a, th_b, signed,
+          mg, kg, gv, phi, eps)
+    phi, eps, x = phi[:w], eps[:w], angle[:w]
+    m1, m2 = biquad(b[F2], a[F2], x), biquad(b[F1], a[F1], x)
+    hm1, hm2 = biquad(b[HM1], a[HM1], m1), biquad(b[HM2], a[HM2], m2)
+    cols = _free_responses(a[F0], w)  # the F filters' start (one denominator: bilinear_second_order)
+    if a[TAU][1] != 0.0:  # the motor's lag runs here: its state's start error decays with the lag's pole
+        decay = (-a[TAU][1]) ** np.arange(w, dtype=float)
+        tau = biquad(b[TAU], a[TAU], np.ascontiguousarray(drive[:w]))
+        torque_per_thrust = np.ones(w)
+        if pitch and not gv:  # the gyroscope of eq. (1) is driven by the thrust M1
+            db = np.gradient(np.asarray(beta[:m], dtype=float), dt, edge_order=2)[:w]
+            torque_per_thrust -= kg * db * np.cos(x)
+        slope = 2.0 * th_a * (np.abs(tau) if signed else tau) + th_b
+        cols.append(biquad(b[F0], a[F0], torque_per_thrust * slope * decay))
+        if not signed:
+            cols.append(biquad(b[F0], a[F0], torque_per_thrust * th_a * decay * decay))
+    if not pitch and a[MR][1] != 0.0:  # the reaction's lag (M_R enters the yaw's torque with its sign)
+        cols += [biquad(b[F0], a[F0], r) for r in _free_responses(a[MR], w)]
+    hr = [biquad(b[HG], a[HG], r) for r in cols]
+    keep = np.ones(w, dtype=bool) if left is None else ~np.asarray(left[:w], dtype=bool)
+    energy, cross = np.empty(2), np.empty(2)
+    nb = summary.block_sums.shape[0]
+    be = np.repeat(summary.block_sums[:, :1], 2, axis=1)
+    bc = summary.block_sums[:, 1:].copy()
+    idx = np.arange(w) // block
+    inside = keep & (idx < nb)
+    for i in range(2):
+        psi = np.column_stack([-(hm2 * r - m2 * h) if i == 0 else -(m1 * h - hm1 * r) for r, h in zip(cols, hr)])
+        psi[~keep] = 0.0
+        scale = np.sqrt(np.sum(psi * psi, axis=0))
+        psi = psi[:, scale > 0] / scale[scale > 0]
+        ph, ep = np.where(keep, phi, 0.0), np.where(keep, eps[:, i], 0.0)
+        if psi.shape[1]:
+            coef, *_ = np.linalg.lstsq(psi, np.column_stack([ph, ep]), rcond=1e-10)
+            ph_out, ep_out = ph - psi @ coef[:, 0], ep - psi @ coef[:, 1]
+        else:
+            ph_out, ep_out = ph, ep
+        energy[i] = summary.energy - ph @ ph + ph_out @ ph_out
+        cross[i] = summary.cross[i] - ph @ ep + ph_out @ ep_out
+        np.add.at(be[:, i], idx[inside], ph_out[inside] ** 2 - ph[inside] ** 2)
+        np.add.at(bc[:, i], idx[inside], ph_out[inside] * ep_out[inside] - ph[inside] * ep[inside])
+    return Offline(energy, cross, be, bc, len(cols))
