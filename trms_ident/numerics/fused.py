@@ -273,9 +273,10 @@ def warm_up() -> None:
     x = np.linspace(0.0, 1.0, 16)
     p = {"k1": 1.0, "T11": 1.0, "T10": 1.0, "k2": 1.0, "T21": 1.0, "T20": 1.0, "kc": -0.2, "T0": 3.5, "Tp": 2.0,
          "a1": 0.01, "b1": 0.1, "a2": 0.01, "b2": 0.1, "Mg": 0.3, "Kg": 0.05}
-    drem_summaries(x, x, x, x, 0.01, p, "quadratic", 1.0, 2.0, 1.0, 4.0, None, block=4,
-                   gamma={"pitch": (None, None), "yaw": (None, None)}, rate_per_s=1.0, step=1)
+    sm = drem_summaries(x, x, x, x, 0.01, p, "quadratic", 1.0, 2.0, 1.0, 4.0, None, block=4,
+                        gamma={"pitch": (None, None), "yaw": (None, None)}, rate_per_s=1.0, step=1)
     biquad(np.array([1.0, 0.0, 0.0]), np.array([1.0, 0.0, 0.0]), x)
+    start_unknowns("yaw", sm["yaw"], x, x, x, x, 0.01, p, "quadratic", 1.0, 2.0, 1.0, 4.0, None, 4)
 
 
 @njit(cache=True, nogil=True)
