@@ -37,3 +37,26 @@ def test_plant_signals_from_given_motor_states():
         assert np.max(np.abs(getattr(same, name) - a)) <= 1e-9 * np.max(np.abs(a)), name
     assert other.tau1[0] == pytest.approx(t1 + 0.3) and abs(other.tau1[0] - ref.tau1[0]) > 0.29
     assert abs(other.tau1[-1] - ref.tau1[-1]) < 1e-9  # 30 s later the start is forgotten (T11 = 1.1 s)
+
+
+def test_the_free_responses_span_every_zero_input_response_of_the_filter():
+    """start_unknowns' columns: a filter's response to a start state off the steady state, with no input, is a
+    combination of _free_responses of its denominator (F's double pole, a motor lag's single one)."""
+    from scipy.signal import lfilter
+
+    from trms_ident.numerics import fused
+    from trms_ident.numerics.coefficients import bilinear_second_order, zoh_first_order
+
+    rng = np.random.default_rng(4)
+    for b, a in (bilinear_second_order(2.0, 1.0, 1, 0.01), zoh_first_order(1.1, 1.1, 1.0, 0.01)):
+        cols = np.column_stack(fused._free_responses(a, 3000))
+        assert cols.shape[1] == (2 if a[2] != 0.0 else 1)
+        for _ in range(3):
+            zi = rng.normal(size=2)
+            if a[2] == 0.0 and b[2] == 0.0:
+                zi[1] = 0.0  # the second state of a first-order section is 0 whatever its history
+            y, _ = lfilter(b, a, np.zeros(3000), zi=zi)
+            coef, *_ = np.linalg.lstsq(cols, y, rcond=None)
+            assert np.max(np.abs(cols @ coef - y)) <= 1e-12 * np.max(np.abs(y))
+    lam = 0.97  # first order: the geometric decay itself
+    assert np.allclose(fused._free_responses(np.array([1.0, -lam, 0.0]), 50)[0], lam ** np.arange(50))

@@ -431,15 +431,12 @@ def _free(den, n, j, out):
     """The solution of den's homogeneous recurrence (y_k = -den[1] y_(k-1) - den[2] y_(k-2)) that starts at the
     unit vector j of its first two values: every free response of a filter with this denominator is a combination
     of those for j < its order."""
-    for k in range(n):
-        if k < 2:
-            out[k] = 1.0 if k == j else 0.0
-        else:
-            out[k] = -den[1] * out[k - 1] - den[2] * out[k - 2]
-    if den[2] == 0.0 and n > 1:  # first order: y_1 = -den[1] y_0
-        out[1] = -den[1] * out[0]
-        for k in range(2, n):
-            out[k] = -den[1] * out[k - 1]
+    if n > 0:
+        out[0] = 1.0 if j == 0 else 0.0
+    if n > 1:  # first order (den[2] 0): y_1 = -den[1] y_0 already
+        out[1] = (1.0 if j == 1 else 0.0) if den[2] != 0.0 else -den[1] * out[0]
+    for k in range(2, n):
+        out[k] = -den[1] * out[k - 1] - den[2] * out[k - 2]
 
 
 def _time_constant_samples(den: np.ndarray) -> float:
@@ -469,8 +466,8 @@ def start_unknowns(axis: str, summary: AxisSummary, u1_v, u2_v, alpha_rad, beta_
     quadratic law, second power) and of the reaction lag's free responses.  Mixing (eq. 7) keeps it linear:
     eps_J = phi J + psi_J c, eps_B = phi B + psi_B c, with psi_J = -(Hm2 r - m2 H r), psi_B = -(m1 H r - Hm1 r)
     per response r.  The sums are those of phi and eps with c fitted (least squares, each parameter's regression on
-    its own): phi and eps less their projections on the psi columns over the START_TIME_CONSTANTS / a window,
-    where the responses live.  A second-order motor's further lag (an input modification) keeps its start
+    its own): phi and eps less their projections on the psi columns over the first START_TIME_CONSTANTS time
+    constants of the slowest response, where they live.  A second-order motor's further lag (an input modification) keeps its start
     assumption.  ``left``: the axis' samples left out of the sums (stop_samples), or None."""
     (pitch, drive, reaction, angle, beta, dt, b, a, th_a, th_b, signed, mg, kg, gv) = _axis_inputs(
         axis, u1_v, u2_v, alpha_rad, beta_rad, dt_s, p, law, a_rad_s, b_rad_s, f_gain, h_gain, motor, structure)
