@@ -423,7 +423,6 @@ class Offline:
     cross: np.ndarray  # (2,) sum phi eps
     block_energy: np.ndarray  # (K, 2)
     block_cross: np.ndarray  # (K, 2)
-    columns: int  # how many free responses were fitted
 
 
 @njit(cache=True, nogil=True)
@@ -478,7 +477,7 @@ def start_unknowns(axis: str, summary: AxisSummary, u1_v, u2_v, alpha_rad, beta_
     m = min(n, w + 1)  # one more sample: beta' at the window's last sample by the central difference, as the log's
     if m < 3:  # no window to fit the responses in (START_TIME_CONSTANTS 0: the start assumed at rest)
         return Offline(np.repeat(summary.energy, 2), summary.cross.copy(),
-                       np.repeat(summary.block_sums[:, :1], 2, axis=1), summary.block_sums[:, 1:].copy(), 0)
+                       np.repeat(summary.block_sums[:, :1], 2, axis=1), summary.block_sums[:, 1:].copy())
     phi, eps = np.empty(m), np.empty((m, 2))
     _axis(pitch, *(np.ascontiguousarray(v[:m]) for v in (drive, reaction, angle, beta)), dt, b, a, th_a, th_b, signed,
           mg, kg, gv, phi, eps)
@@ -522,4 +521,4 @@ def start_unknowns(axis: str, summary: AxisSummary, u1_v, u2_v, alpha_rad, beta_
         cross[i] = summary.cross[i] - ph @ ep + ph_out @ ep_out
         np.add.at(be[:, i], idx[inside], ph_out[inside] ** 2 - ph[inside] ** 2)
         np.add.at(bc[:, i], idx[inside], ph_out[inside] * ep_out[inside] - ph[inside] * ep[inside])
-    return Offline(energy, cross, be, bc, len(cols))
+    return Offline(energy, cross, be, bc)
