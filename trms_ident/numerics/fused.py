@@ -460,9 +460,10 @@ def start_unknowns(axis: str, summary: AxisSummary, u1_v, u2_v, alpha_rad, beta_
     """The axis' offline sums (eq. 7 least squares) with the log's start taken as unknown, not as rest.
 
     With the filters started in the steady state of the first samples, g = m^T q + r exactly, r a combination of
-    the free responses of the F filters (two: their angles' and torque's histories) and, where the motor's and the
-    reaction's lags run here, of the motor state's start error passed through the thrust (its first and, for the
-    quadratic law, second power) and of the reaction lag's free responses.  Mixing (eq. 7) keeps it linear:
+    the free responses of the F filters (two: their angles' and torque's histories), of the motor state's start
+    error passed through the thrust (its first and, for the quadratic law, second power) and of the reaction
+    lag's free responses (on a jittered log's grid, where the motor and M_R states come computed, from the lags'
+    time constants).  Mixing (eq. 7) keeps it linear:
     eps_J = phi J + psi_J c, eps_B = phi B + psi_B c, with psi_J = -(Hm2 r - m2 H r), psi_B = -(m1 H r - Hm1 r)
     per response r.  The sums are those of phi and eps with c fitted (least squares, each parameter's regression on
     its own): phi and eps less their projections on the psi columns over the first START_TIME_CONSTANTS time
@@ -471,8 +472,15 @@ def start_unknowns(axis: str, summary: AxisSummary, u1_v, u2_v, alpha_rad, beta_
     (pitch, drive, reaction, angle, beta, dt, b, a, th_a, th_b, signed, mg, kg, gv) = _axis_inputs(
         axis, u1_v, u2_v, alpha_rad, beta_rad, dt_s, p, law, a_rad_s, b_rad_s, f_gain, h_gain, motor, structure)
     n = angle.size
+    if motor is None:  # the motor's and the reaction's lags run here: their poles are those of their filters
+        motor_pole = -a[TAU][1]
+        lags = [_time_constant_samples(a[s]) for s in (TAU, MR)]
+    else:  # a jittered log's grid: the states come computed from the same start (numerics/hold.py), the lags' poles
+        t_motor = (p["T11"] / p["T10"] if pitch else p["T21"] / p["T20"]) / dt  # from their time constants
+        reaction_s = () if pitch else ((p["Tp"],) if reaction_voltage(structure) else (p["T11"] / p["T10"], p["Tp"]))
+        motor_pole, lags = math.exp(-1.0 / t_motor), [t_motor] + [t / dt for t in reaction_s]
     # the slowest of the responses fitted (the filters', the motor's lag, the reaction's), in samples
-    slowest = max(_time_constant_samples(a[s]) for s in (F0, HG, TAU, MR))
+    slowest = max([_time_constant_samples(a[s]) for s in (F0, HG)] + lags)
     w = min(n, int(math.ceil(START_TIME_CONSTANTS * slowest)) + 1)
     m = min(n, w + 1)  # one more sample: beta' at the window's last sample by the central difference, as the log's
     if m < 3:  # no window to fit the responses in (START_TIME_CONSTANTS 0: the start assumed at rest)
@@ -485,9 +493,9 @@ def start_unknowns(axis: str, summary: AxisSummary, u1_v, u2_v, alpha_rad, beta_
     m1, m2 = biquad(b[F2], a[F2], x), biquad(b[F1], a[F1], x)
     hm1, hm2 = biquad(b[HM1], a[HM1], m1), biquad(b[HM2], a[HM2], m2)
     cols = _free_responses(a[F0], w)  # the F filters' start (one denominator: bilinear_second_order)
-    if a[TAU][1] != 0.0:  # the motor's lag runs here: its state's start error decays with the lag's pole
-        decay = (-a[TAU][1]) ** np.arange(w, dtype=float)
-        tau = biquad(b[TAU], a[TAU], np.ascontiguousarray(drive[:w]))
+    if motor_pole > 0.0:  # the motor state's start error decays with the lag's pole
+        decay = motor_pole ** np.arange(w, dtype=float)
+        tau = drive[:w] if motor is not None else biquad(b[TAU], a[TAU], np.ascontiguousarray(drive[:w]))
         torque_per_thrust = np.ones(w)
         if pitch and not gv:  # the gyroscope of eq. (1) is driven by the thrust M1
             db = np.gradient(np.asarray(beta[:m], dtype=float), dt, edge_order=2)[:w]
@@ -496,8 +504,10 @@ def start_unknowns(axis: str, summary: AxisSummary, u1_v, u2_v, alpha_rad, beta_
         cols.append(biquad(b[F0], a[F0], torque_per_thrust * slope * decay))
         if not signed:
             cols.append(biquad(b[F0], a[F0], torque_per_thrust * th_a * decay * decay))
-    if not pitch and a[MR][1] != 0.0:  # the reaction's lag (M_R enters the yaw's torque with its sign)
-        cols += [biquad(b[F0], a[F0], r) for r in _free_responses(a[MR], w)]
+    if not pitch:  # the reaction's lags (M_R enters the yaw's torque with its sign)
+        modes = (_free_responses(a[MR], w) if motor is None else
+                 [math.exp(-1.0 / t) ** np.arange(w, dtype=float) for t in lags[1:]])
+        cols += [biquad(b[F0], a[F0], r) for r in modes]
     hr = [biquad(b[HG], a[HG], r) for r in cols]
     keep = np.ones(w, dtype=bool) if left is None else ~np.asarray(left[:w], dtype=bool)
     energy, cross = np.empty(2), np.empty(2)
