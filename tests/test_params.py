@@ -90,3 +90,13 @@ def test_a_parameter_file_says_the_input_unit_its_known_values_take(tmp_path):
     assert declared_inputs({"inputs": INPUTS_ASSUMED}, "MU")["inputs"].startswith("MU (the unit the known values")
     assert declared_inputs({"inputs": "V (the file's units row)"}, "MU")["inputs"] == "V (the file's units row)"
     assert declared_inputs({"inputs": INPUTS_ASSUMED}, None)["inputs"] == INPUTS_ASSUMED
+
+
+@pytest.mark.parametrize("name", ["T10", "T20"])
+def test_a_motor_time_constants_s0_coefficient_of_zero_is_refused_in_one_line(tmp_path, name):
+    # tau = k/(T11 s + T10) u: a T10 of 0 is an integrator, not eq. (1)'s motor; it had ended in an internal error
+    # (a division by zero where the slowest time constant T11/T10 is taken)
+    f = tmp_path / "bench.toml"
+    f.write_text(f"[parameters]\n{name} = 0.0\n")
+    with pytest.raises(ParameterFileError, match=f"{name} must be > 0, got 0.0"):
+        load_parameter_file(f)

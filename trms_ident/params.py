@@ -127,7 +127,7 @@ def merge(overrides: Mapping[str, float] | None, *, source: str = "overrides") -
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise ParameterFileError(f"{source}: parameter {name} must be a finite number, got {value!r}")
         values[name] = float(value)
-    for name in ("J1", "J2", "T11", "T21", "Tp", "Mg"):
+    for name in ("J1", "J2", "T11", "T10", "T21", "T20", "Tp", "Mg"):
         if values[name] <= 0:
             raise ParameterFileError(f"{source}: parameter {name} must be > 0, got {values[name]}")
     return values
