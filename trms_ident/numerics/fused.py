@@ -476,9 +476,10 @@ def start_unknowns(axis: str, summary: AxisSummary, u1_v, u2_v, alpha_rad, beta_
         motor_pole = -a[TAU][1]
         lags = [_time_constant_samples(a[s]) for s in (TAU, MR)]
     else:  # a jittered log's grid: the states come computed from the same start (numerics/hold.py), the lags' poles
-        t_motor = (p["T11"] / p["T10"] if pitch else p["T21"] / p["T20"]) / dt  # from their time constants
-        reaction_s = () if pitch else ((p["Tp"],) if reaction_voltage(structure) else (p["T11"] / p["T10"], p["Tp"]))
-        motor_pole, lags = math.exp(-1.0 / t_motor), [t_motor] + [t / dt for t in reaction_s]
+        t_motor = (p["T11"] / p["T10"] if pitch else p["T21"] / p["T20"]) / dt  # time constants > 0 (params.py)
+        reaction_s = () if pitch else tuple(t / dt for t in ((p["Tp"],) if reaction_voltage(structure) else
+                                                              (p["T11"] / p["T10"], p["Tp"])))
+        motor_pole, lags = math.exp(-1.0 / t_motor), [t_motor, *reaction_s]
     # the slowest of the responses fitted (the filters', the motor's lag, the reaction's), in samples
     slowest = max([_time_constant_samples(a[s]) for s in (F0, HG)] + lags)
     w = min(n, int(math.ceil(START_TIME_CONSTANTS * slowest)) + 1)
@@ -506,7 +507,7 @@ def start_unknowns(axis: str, summary: AxisSummary, u1_v, u2_v, alpha_rad, beta_
             cols.append(biquad(b[F0], a[F0], torque_per_thrust * th_a * decay * decay))
     if not pitch:  # the reaction's lags (M_R enters the yaw's torque with its sign)
         modes = (_free_responses(a[MR], w) if motor is None else
-                 [math.exp(-1.0 / t) ** np.arange(w, dtype=float) for t in lags[1:]])
+                 [math.exp(-1.0 / t) ** np.arange(w, dtype=float) for t in reaction_s])
         cols += [biquad(b[F0], a[F0], r) for r in modes]
     hr = [biquad(b[HG], a[HG], r) for r in cols]
     keep = np.ones(w, dtype=bool) if left is None else ~np.asarray(left[:w], dtype=bool)
