@@ -11,7 +11,8 @@ Each hypothesis is one of the effect search's findings, or a torque-effect look-
 model as a bench file's effect (model/bench.py: an input modification applied to the voltages at its found value,
 a torque effect, a saturation's level or a shifted dead zone's width freed beside J/B) and the log estimated under
 it as `estimate --params` does (identify): its adequacy check says whether the model with that one effect fits
-the log, and when it does not, its known-value search frees each known value with the effect in the model.  The rule is weigh.py's, over more hypotheses:
+the log, and when it does not, its known-value search frees each known value with the effect in the model.  The
+rule is weigh.py's, over more hypotheses:
 
 - the explanation with the fewest parameters that brings both angles to their noise floors wins: the effect alone
   (one parameter; the search had left it "partly explained" because its own fits stopped early) before an effect

@@ -467,8 +467,8 @@ def start_unknowns(axis: str, summary: AxisSummary, u1_v, u2_v, alpha_rad, beta_
     eps_J = phi J + psi_J c, eps_B = phi B + psi_B c, with psi_J = -(Hm2 r - m2 H r), psi_B = -(m1 H r - Hm1 r)
     per response r.  The sums are those of phi and eps with c fitted (least squares, each parameter's regression on
     its own): phi and eps less their projections on the psi columns over the first START_TIME_CONSTANTS time
-    constants of the slowest response, where they live.  A second-order motor's further lag (an input modification) keeps its start
-    assumption.  ``left``: the axis' samples left out of the sums (stop_samples), or None."""
+    constants of the slowest response, where they live.  A second-order motor's further lag (an input
+    modification) keeps its start assumption.  ``left``: the axis' samples left out of the sums (stop_samples), or None."""
     (pitch, drive, reaction, angle, beta, dt, b, a, th_a, th_b, signed, mg, kg, gv) = _axis_inputs(
         axis, u1_v, u2_v, alpha_rad, beta_rad, dt_s, p, law, a_rad_s, b_rad_s, f_gain, h_gain, motor, structure)
     n = angle.size
