@@ -30,6 +30,9 @@ from trms_ident.io.csv_log import write_csv_log  # noqa: E402
 
 
 def main() -> None:
+    from results import plain_args
+
+    args = plain_args(__doc__)
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp) / "logs"
         folder.mkdir()
@@ -56,7 +59,8 @@ def main() -> None:
     print(text)
     from results import update_section
 
-    update_section(Path(__file__).with_name("RESULTS.md"), "Batch scaling", text)
+    if not args.no_write:
+        update_section(Path(__file__).with_name("RESULTS.md"), "Batch scaling", text)
 
 
 if __name__ == "__main__":

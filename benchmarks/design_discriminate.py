@@ -98,6 +98,9 @@ def _one(seed: int) -> dict:
 
 
 def main() -> None:
+    from results import plain_args
+
+    args = plain_args(__doc__)
     from results import update_section
 
     t0 = time.perf_counter()
@@ -131,7 +134,8 @@ def main() -> None:
             f"{right}/{len(designed)} (the paper's square logged at 1 kHz: {control}/{len(designed)}); "
             f"{time.perf_counter() - t0:.0f} s on 2 processes.\n")
     print(text)
-    update_section(Path(__file__).with_name("RESULTS.md"), "Design to tell look-alikes apart", text)
+    if not args.no_write:
+        update_section(Path(__file__).with_name("RESULTS.md"), "Design to tell look-alikes apart", text)
 
 
 if __name__ == "__main__":

@@ -85,6 +85,9 @@ def _one(seed: int) -> dict:
 
 
 def main() -> None:
+    from results import plain_args
+
+    args = plain_args(__doc__)
     from results import update_section
 
     t0 = time.perf_counter()
@@ -110,8 +113,9 @@ def main() -> None:
             f"chance for its closest rival on {predicted}; on the designed run a1 was named without the original "
             f"look-alikes on {right}/{len(designed)}; {time.perf_counter() - t0:.0f} s on 2 processes.\n")
     print(text)
-    update_section(Path(__file__).with_name("RESULTS.md"),
-                   "Design to tell a known value from its look-alikes", text)
+    if not args.no_write:
+        update_section(Path(__file__).with_name("RESULTS.md"),
+                       "Design to tell a known value from its look-alikes", text)
 
 
 if __name__ == "__main__":

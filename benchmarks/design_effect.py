@@ -40,6 +40,9 @@ def _one(args) -> dict:
 
 
 def main() -> None:
+    from results import plain_args
+
+    args = plain_args(__doc__)
     from sim.simulate import DEFAULT_PID
     from trms_ident.design import Limits, describe, design
     from trms_ident.params import defaults
@@ -67,7 +70,7 @@ def main() -> None:
             + f"\n\n{time.perf_counter() - t0:.0f} s on 2 processes.\n")
     from results import publish
 
-    publish("Design for an effect", text, write="--no-write" not in sys.argv)
+    publish("Design for an effect", text, write=not args.no_write)
 
 
 if __name__ == "__main__":

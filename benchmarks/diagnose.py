@@ -1,6 +1,7 @@
 """Diagnose benchmark (issue #5): blind detection of concealed effects.
 
     python benchmarks/diagnose.py            # ~70 logs, 2 processes, writes the diagnose section of RESULTS.md
+    python benchmarks/diagnose.py --no-write # prints it only (RESULTS.md and diagnose_results.json left as they are)
 
 Every log is simulated with an effect injected (recorded only in the truth), across every
 effect, three magnitudes from barely detectable to large, four excitations, three sample
@@ -132,6 +133,9 @@ def judge(res):
 
 
 def main():
+    from results import plain_args
+
+    args = plain_args(__doc__)
     cs = cases()
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=2) as pool:
@@ -195,11 +199,13 @@ def main():
     ]
     text = "## Diagnose (benchmarks/diagnose.py, blind: diagnose sees the log only)\n\n" + "\n".join(summary) + \
         "\n\n" + "\n".join(lines) + "\n"
+    print(text)
+    if args.no_write:
+        return
     from results import update_section
     update_section(Path(__file__).with_name("RESULTS.md"), "Diagnose", text)
     (Path(__file__).with_name("diagnose_results.json")).write_text(json.dumps([r for _, r, *_ in rows], indent=1,
                                                                               default=str))
-    print(text)
 
 
 if __name__ == "__main__":

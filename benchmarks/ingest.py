@@ -33,6 +33,9 @@ def rate_of(fn, n_msgs) -> float:
 
 
 def main():
+    from results import plain_args
+
+    args = plain_args(__doc__)
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "ten_minutes.mcap"
         r = simulate(SimSettings(ref="multisine", duration_s=600.0, quantization_rad=2 * np.pi / 4096))
@@ -71,7 +74,8 @@ def main():
             f"| mcap-ros2-support decoder (first {sub:,}) | {ros2_rate:,.0f} |\n\n"
             f"Target: 250 000 messages/s or more for the ROS 2 CDR and JSON layouts.\n")
     from results import update_section
-    update_section(Path(__file__).with_name("RESULTS.md"), "MCAP ingestion", text)
+    if not args.no_write:
+        update_section(Path(__file__).with_name("RESULTS.md"), "MCAP ingestion", text)
     print(text)
 
 

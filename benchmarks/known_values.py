@@ -141,9 +141,12 @@ def judge(r: dict) -> bool:
 
 
 def main() -> None:
+    from results import plain_args
+
+    args = plain_args(__doc__)
     from results import publish
 
-    write = "--no-write" not in sys.argv
+    write = not args.no_write
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=2) as pool:
         results = list(pool.map(run_case, cases()))

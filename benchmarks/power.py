@@ -147,11 +147,21 @@ def detected(res: dict) -> bool:
 
 
 def main() -> None:
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--replot", action="store_true", help="the table and figure again from the saved results")
+    ap.add_argument("--rerun-errors", action="store_true", help="run again the saved results' logs that erred")
+    ap.add_argument("--factors", type=float, nargs="+", help="only these sizes (multiples of the size asked) and "
+                    "the nulls: printed only")
+    ap.add_argument("--no-write", action="store_true", help="print only; leave RESULTS.md, the saved results and "
+                    "the figure as they are")
+    args = ap.parse_args()
     saved = Path(__file__).with_name("power_results.json")
-    timed, factors = "Total", _factors()
-    if "--replot" in sys.argv:  # the table and figure again from the saved results (no new runs)
+    timed, factors = "Total", (tuple(args.factors) if args.factors else None)
+    if args.replot:  # the table and figure again from the saved results (no new runs)
         results, elapsed = json.loads(saved.read_text()), math.nan
-    elif "--rerun-errors" in sys.argv:  # the saved results' errors run again (a harness that refused them)
+    elif args.rerun_errors:  # the saved results' errors run again (a harness that refused them)
         results = json.loads(saved.read_text())
         again = [i for i, r in enumerate(results) if "error" in r]
         t0 = time.perf_counter()
@@ -159,7 +169,8 @@ def main() -> None:
             for i, r in zip(again, pool.map(run_case, [results[i]["case"] for i in again])):
                 results[i] = r
         elapsed = time.perf_counter() - t0
-        saved.write_text(json.dumps(results, indent=1, default=str))
+        if not args.no_write:
+            saved.write_text(json.dumps(results, indent=1, default=str))
         timed = f"The {len(again)} logs that had ended in an error run again:"
     else:
         cs = [c for c in cases() if factors is None or c["effect"] is None or c["factor"] in factors]
@@ -167,7 +178,7 @@ def main() -> None:
         with ProcessPoolExecutor(max_workers=2) as pool:
             results = list(pool.map(run_case, cs))
         elapsed = time.perf_counter() - t0
-        if factors is None:
+        if factors is None and not args.no_write:
             saved.write_text(json.dumps(results, indent=1, default=str))
     rows, curves = [], {}
     for effect, axis, size, unit in EFFECTS:
@@ -203,26 +214,14 @@ def main() -> None:
             f"check asked for it (yaw past 8 pi): {sum(1 for r in results if r['case'].get('unit_stated'))}. "
             f"{timed} {elapsed:.0f} s on 2 processes.\n"
             "Figure: benchmarks/power_curve.png.\n")
-    if factors is not None:  # a part of the sizes: printed only
+    if factors is not None or args.no_write:  # a part of the sizes, or asked: printed only
         print(text)
         return
     _figure(curves, Path(__file__).with_name("power_curve.png"))
-    if "--replot" not in sys.argv:  # the saved run's section stays as it was written
+    if not args.replot:  # the saved run's section stays as it was written
         from results import update_section
         update_section(Path(__file__).with_name("RESULTS.md"), "Diagnose power", text)
     print(text)
-
-
-def _factors() -> tuple[float, ...] | None:
-    """The sizes --factors names (multiples of the size asked), or None: all of FACTORS."""
-    if "--factors" not in sys.argv:
-        return None
-    i = sys.argv.index("--factors") + 1
-    out = []
-    while i < len(sys.argv) and not sys.argv[i].startswith("--"):
-        out.append(float(sys.argv[i]))
-        i += 1
-    return tuple(out)
 
 
 def _figure(curves: dict, path: Path) -> None:
