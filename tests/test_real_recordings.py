@@ -291,8 +291,11 @@ def _published_values(tmp_path, name: str, axis: str, table1: dict) -> None:
                               "-o", str(tmp_path / "published"), "--json", "-", "--params", "humusoft_ce150"])
     assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout)
-    fit = {bool(params): d["model_check"]["axes"][axis]["fit_percent"] for params, d in ((0, table1), (1, doc))}
-    assert fit[True] > 90.0 and fit[True] > fit[False] + 30.0
+    # the model's worst axis: the output-error fit weighs each angle by its noise floor, so a wrong model may fit the
+    # swept axis at the other's expense (e675 under Table 1: its yaw 99.85 %, its pitch -364 %)
+    fit = {bool(params): min(v["fit_percent"] for v in d["model_check"]["axes"].values())
+           for params, d in ((0, table1), (1, doc))}
+    assert doc["model_check"]["axes"][axis]["fit_percent"] > 90.0 and fit[True] > fit[False] + 30.0
     assert doc["table_defaults_changed"] == sorted(["a1", "b1", "a2", "b2", "Mg", "Kg", "k1", "k2", "T11", "T21",
                                                     "kc", "T0", "Tp"])
     assert doc["input"]["units"]["inputs"].startswith("MU (the CE150's normalised machine units")  # not "V"

@@ -21,6 +21,30 @@ def test_noise_estimate_recovers_known_sigma():
         assert noise_std(x) == pytest.approx(sigma, rel=0.02)
 
 
+def test_the_noise_estimate_leaves_out_an_arms_strikes_on_its_stop():
+    """An angle that strikes an end stop (its rate jumps to zero) leaves a few third differences hundreds of times
+    any noise's: they are no noise, and the estimate leaves them out, on uniform and on jittered stamps; an
+    encoder's rounding keeps every difference (the plain mean square)."""
+    from trms_ident.numerics.design import noise_std_stamped
+
+    def plain(x):
+        return math.sqrt(np.mean(np.diff(x, 3) ** 2) / 20.0)
+
+    t = np.arange(60000) * 1e-2
+    smooth = np.maximum(0.5 * np.sin(0.4 * t), 0.1)  # rests on a stop at 0.1 rad a third of each period
+    assert plain(smooth) > 1e-5 and noise_std(smooth) < 1e-8  # 76 strikes: the plain mean square reads them
+    rng = np.random.default_rng(3)
+    x = smooth + 1e-6 * rng.standard_normal(t.size)
+    assert plain(x) > 10e-6 and noise_std(x) == pytest.approx(1e-6, rel=0.03)
+    stamps = t + rng.uniform(0.0, 2e-3, t.size)
+    struck = np.maximum(0.5 * np.sin(0.4 * stamps), 0.1) + 1e-6 * rng.standard_normal(t.size)
+    assert noise_std_stamped(struck, stamps) == pytest.approx(1e-6, rel=0.03)
+    q = 2 * math.pi / 4096
+    for dt in (1e-2, 1e-3):  # rounding is all the noise, bounded: nothing is left out
+        rounded = q * np.round(0.4 * np.sin(0.7 * np.arange(200000) * dt) / q)
+        assert noise_std(rounded) == pytest.approx(plain(rounded), rel=1e-12)
+
+
 def test_encoder_quantum_is_found_and_sets_the_noise_floor():
     q = 2 * math.pi / 4096
     t = np.arange(200000) * 1e-3  # 1 kHz: the angle moves less than a quantum per sample

@@ -173,8 +173,9 @@ def model_check(y: np.ndarray, pred: np.ndarray, u: np.ndarray, noise_rad: dict,
                 axes[AXIS_OF[ang]].update(floor_used="none", adequate=None)
                 undecided.append(f"the {AXIS_OF[ang]} angle's noise floor cannot be measured (its angles carry less "
                                  f"noise than any encoder leaves, below {SMOOTHED_FLOOR_RAD:g} rad) and a flexible "
-                                 f"black-box model does not simulate it well enough to stand in for it (held-out fit "
-                                 f"{bb['fit_percent']:.3g} %)")
+                                 "black-box model does not simulate it well enough to stand in for it (" +
+                                 ("its held-out simulation ran away" if bb["rms_rad"] is None else
+                                  f"held-out fit {bb['fit_percent']:.3g} %") + ")")
             else:
                 axes[AXIS_OF[ang]].update(floor_used="black_box", black_box_ratio=over, adequate=None)
                 undecided.append(f"the {AXIS_OF[ang]} angle is simulated as well as a flexible black-box model "
