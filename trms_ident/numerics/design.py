@@ -35,11 +35,11 @@ class FilterDesign:
 
 
 #: third differences beyond this many robust standard deviations (1.4826 x the median absolute value of those not
-#: exactly 0: an angle at rest on a stop, an encoder between steps) are no
-#: noise and are left out of the noise estimate: a log's few non-smooth instants (an angle striking its end stop,
-#: a glitch) give ones hundreds of times any noise's (a noise-free simulation of the CE150's published model,
-#: whose arms strike their stops, read 3.8e-5 rad from them, and its own model then "did not fit" at 1.45x that
-#: floor).  Gaussian noise passes whole (a chance of 2e-9 beyond 6), an encoder's rounding too (bounded at 3.1)
+#: exactly 0, as at rest on a stop or between an encoder's steps) are no noise and are left out of the noise
+#: estimate: a log's few non-smooth instants (an angle striking its end stop, a glitch) give ones hundreds of times
+#: any noise's (a noise-free simulation of the CE150's published model, whose arms strike their stops, read 1.3e-5
+#: rad from them, and its own model then "did not fit" at 146x that floor: tests/test_structure.py).  Gaussian
+#: noise passes whole (a chance of 2e-9 beyond 6), an encoder's rounding too (bounded at 3.1)
 OUTLIER_SIGMAS = 6.0
 
 
