@@ -41,15 +41,14 @@ def publish(section: str, text: str, write: bool = True) -> None:
         update_section(Path(__file__).with_name("RESULTS.md"), section, text)
 
 
-def plain_args(doc: str, *, write: bool = True):
-    """The options of a benchmark without its own: --help (``doc``, the script's docstring) and, with ``write``,
-    --no-write.  Every script parses its command line, so that --help or a mistyped option never starts a run
-    that takes minutes and rewrites RESULTS.md."""
+def plain_args(doc: str):
+    """The options of a benchmark without its own: --help (``doc``, the script's docstring) and --no-write.  Every
+    script parses its command line, so that --help or a mistyped option never starts a run that takes minutes and
+    rewrites RESULTS.md."""
     import argparse
 
     ap = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
-    if write:
-        ap.add_argument("--no-write", action="store_true", help="print only; leave RESULTS.md as it is")
+    ap.add_argument("--no-write", action="store_true", help="print only; leave RESULTS.md as it is")
     return ap.parse_args()
 
 
