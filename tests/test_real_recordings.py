@@ -229,31 +229,28 @@ def test_diagnose_on_real_ce150_recordings_under_table_1_is_honest(tmp_path, nam
 
 
 def test_a_recording_without_a_noise_floor_is_checked_half_against_half(tmp_path):
-    """The shared azimuth sweep under the CE150's published model (humusoft_ce150): the authors' run had an azimuth
-    friction the published diagram lacks (RESULTS.md, "CE150 recordings against the published model"), and the
-    smoothed recording's noise floor cannot be measured, which alone would leave the verdict undecided.  The halves
-    check estimates each half alone; they differ beyond their intervals, so the model is said not to fit, and
-    --strict exits 10.  The pitch, which is the published model, is estimated right all the same (DREM with the
-    log's start taken as unknown: J1 had been 71 % high, from the filters' start assumed at rest)."""
+    """The shared azimuth sweep under the CE150's published model (humusoft_ce150): a noise-free simulation, whose
+    noise floor cannot be measured, and whose yaw the black box simulates worse than the model: undecided.  The
+    halves check estimates each half alone: J1, B1 (the pitch is the published model) and B2 agree, so the verdict
+    stays "not decided", said so, and the numbers carry no adequacy verdict.  The second half's J1 rests on the
+    yaw's one strike at +130 deg: the pitch's regression leaves its instants out (beta' jumps there, and the
+    gyroscope reads it), or it came out 13 % high and the halves "differed" (the strike, not the model); before the
+    stop's strikes were left out of the noise floor, a 1e-4 drift of J1 had been called the misfit."""
     path = CE150 / "Data100_ea_e675_aN130toP130.mat"
     if not path.exists():
         pytest.skip("the shared real recordings are not beside this checkout")
-    res = runner.invoke(app, ["estimate", str(path), "--rate", "100", "--angle-unit", "deg", "--no-report", "--strict",
+    res = runner.invoke(app, ["estimate", str(path), "--rate", "100", "--angle-unit", "deg", "--no-report",
                               "-o", str(tmp_path / "o"), "--json", "-", "--params", "humusoft_ce150"])
-    assert res.exit_code == EXIT_INADEQUATE, res.output
+    assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout)
     check = doc["model_check"]
-    assert check["adequate"] is False and check["undecided_because"] is None
+    assert check["adequate"] is None
     halves = check["halves"]
-    assert halves["differ"] and all(halves["z"][k] > halves["critical_z"] for k in halves["differ"])
-    assert all(k in halves["first"] and k in halves["second"] for k in halves["compared"])
-    assert check["sentence"].startswith("The model does NOT fit this log: its J/B change along it: ")
-    assert "noise floor cannot be measured" in check["sentence"]
-    assert _verdict_line(res.stderr).startswith("MODEL DOES NOT FIT:")
-    # the values the sentence compares are printed to as many digits as tell them apart
-    k = halves["differ"][0]
-    shown = check["sentence"].split(f"{k} ", 1)[1].split(" on the second")[0]
-    assert shown.split(" [")[0] != shown.split("half, ")[1].split(" [")[0], shown
+    assert {"J1", "B1"} <= set(halves["compared"]) and not halves["differ"], halves
+    assert halves["second"]["J1"][0] == pytest.approx(0.00437, rel=1e-3)  # the strike left out
+    assert "Each half of the log alone gives the same J1, B1" in check["sentence"]
+    assert _verdict_line(res.stderr).startswith("FIT NOT DECIDED:")
+    assert "the interval assumes the model is right" in res.stderr
     est = doc["estimates"]
     assert est["J1"] == pytest.approx(0.00437, rel=2e-3) and est["B1"] == pytest.approx(0.00184, rel=2e-3)
 
@@ -325,8 +322,9 @@ def _published_values(tmp_path, name: str, axis: str, table1: dict) -> None:
         assert held["after"]["pitch"] >= held["before"]["pitch"] - 0.1
         assert "Held-out simulation fit (fitted on one half, simulated on the other), before -> after" in res.stderr
         assert "Warning" not in res.stderr and "nan %" not in res.stderr
-    else:  # the azimuth sweep's yaw does not balance as the published values say (its steady rate is half theirs)
-        assert doc["model_check"]["adequate"] is False
+    else:  # the azimuth sweep's yaw does not balance as the published values say (its steady rate is half theirs),
+        # which its noise-free yaw cannot show against a floor: not decided (test_a_recording_without_a_noise_floor...)
+        assert doc["model_check"]["adequate"] is None
 
 
 def test_diagnose_verdicts_on_the_sample_logs():

@@ -109,6 +109,25 @@ def test_samples_on_a_stop_and_while_the_filters_carry_its_torque_are_left_out_o
     assert stop_samples(log, {}, 10.0, 20.0) is None
 
 
+def test_the_yaws_strike_on_its_stop_is_left_out_of_the_pitchs_regression_not_its_rest():
+    """The pitch's torque reads beta' (the gyroscope), which jumps where the yaw strikes or leaves its stop: those
+    instants and the filters' settling after them leave the pitch's regression; the yaw resting on its stop
+    (beta' = 0, smooth) does not, and a yaw that never reaches a stop leaves the pitch whole."""
+    n = 1000
+    t = np.arange(n) * 0.01
+    b = np.minimum(0.002 * np.arange(n), 1.0)  # the yaw reaches its high stop (1 rad) at sample 500 and rests
+    a = 0.5 + 0.01 * np.sin(t)
+    log = validated(t, np.full(n, 0.5), np.full(n, 0.1), a, b, source="strike", angle_unit="rad")
+    skip = stop_samples(log, {"yaw_stops_rad": (-1.0, 1.0)}, 10.0, 20.0)
+    assert skip["yaw"][500:].all() and not skip["yaw"][:490].any()
+    settle = 120  # 12 / (10 rad/s) at 100 Hz
+    first = int(np.flatnonzero(skip["yaw"])[0])
+    expected = np.zeros(n, dtype=bool)
+    expected[first - 2:first + settle + 1] = True
+    assert np.array_equal(skip["pitch"], expected)
+    assert "pitch" not in (stop_samples(log, {"yaw_stops_rad": (-2.0, 2.0)}, 10.0, 20.0) or {})
+
+
 @pytest.mark.parametrize("ref", ["steps", "ramp"])
 def test_a_log_of_the_published_ce150_model_is_estimated_under_its_own_structure(ref):
     """The CE150 model ported from its Simulink diagram (tests/plants/ce150.py: second-order motors, the gyroscope

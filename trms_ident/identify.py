@@ -239,7 +239,8 @@ def identify(log: Log, settings: Settings | None = None, halves: bool = True, st
 
             raise IdentificationError(
                 f"{log.source}: the {axis} angle sits at or near its end stops "
-                f"({'; '.join(phrases(settings.structure))}) on every sample, so no sample tells "
+                f"({'; '.join(phrases(settings.structure))}) on every sample"
+                + (" or follows the yaw's strike on its own" if axis == "pitch" else "") + ", so no sample tells "
                 f"{', '.join(AXES[axis])}; check the angles' unit (--angle-unit) and the stops of the bench file's "
                 "[structure]")
     summaries = drem_summaries(grid_log.u1_v, grid_log.u2_v, grid_log.alpha_rad, grid_log.beta_rad, dt, params,
@@ -347,14 +348,25 @@ def stop_samples(log: Log, structure: dict, a_rad_s: float, b_rad_s: float) -> d
     not the torques).  None when the structure has no stops, or the angles never reach them."""
     out = {}
     settle = int(math.ceil(STOP_SETTLE_TIME_CONSTANTS / min(a_rad_s, b_rad_s) / log.sample_time_s))
-    for axis, at in at_stops(log, structure).items():
-        x = log.alpha_rad if axis == "pitch" else log.beta_rad
-        # each contact reaches the next `settle` samples: a running maximum over them
-        idx = np.flatnonzero(at)
-        reach = np.zeros(x.size + 1, dtype=np.int64)
+    n = len(log)
+
+    def reached(idx: np.ndarray) -> np.ndarray:  # the samples idx and the next `settle` after each
+        reach = np.zeros(n + 1, dtype=np.int64)
         np.add.at(reach, idx, 1)
-        np.add.at(reach, np.minimum(idx + settle + 1, x.size), -1)
-        out[axis] = np.cumsum(reach[:-1]) > 0
+        np.add.at(reach, np.minimum(idx + settle + 1, n), -1)
+        return np.cumsum(reach[:-1]) > 0
+
+    contacts = at_stops(log, structure)
+    for axis, at in contacts.items():
+        out[axis] = reached(np.flatnonzero(at))
+    if "yaw" in contacts:
+        # the pitch's torque reads beta' (eq. 1's gyroscope), which jumps where the yaw strikes or leaves its stop,
+        # and beta' by central difference is wrong there: those instants reach the pitch's filters too (the CE150's
+        # azimuth sweep: its second half's J1 rested on its one strike at +130 deg, +13 % with a = 10 rad/s)
+        edges = np.flatnonzero(np.diff(contacts["yaw"].astype(np.int8))) + 1
+        near = np.unique(np.clip(np.concatenate([edges - 2, edges - 1, edges]), 0, n - 1))
+        struck = reached(near)
+        out["pitch"] = out["pitch"] | struck if "pitch" in out else struck
     return out or None
 
 
