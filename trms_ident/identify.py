@@ -240,7 +240,7 @@ def identify(log: Log, settings: Settings | None = None, halves: bool = True, st
             raise IdentificationError(
                 f"{log.source}: the {axis} angle sits at or near its end stops "
                 f"({'; '.join(phrases(settings.structure))}) on every sample"
-                + (" or follows the yaw's strike on its own" if axis == "pitch" else "") + ", so no sample tells "
+                + (" or settles after the yaw's strike on its own" if axis == "pitch" else "") + ", so no sample tells "
                 f"{', '.join(AXES[axis])}; check the angles' unit (--angle-unit) and the stops of the bench file's "
                 "[structure]")
     summaries = drem_summaries(grid_log.u1_v, grid_log.u2_v, grid_log.alpha_rad, grid_log.beta_rad, dt, params,
@@ -345,7 +345,8 @@ def stop_samples(log: Log, structure: dict, a_rad_s: float, b_rad_s: float) -> d
     """{axis: (n,) bool}: the samples DREM leaves out of an axis' regression: where its angle rests on an end stop
     of the bench's structure (at_stops: within a few encoder steps or noise levels of it), and the samples
     after it while the filters still carry the stop's contact torque (eq. 1 has none: the stop holds the angle,
-    not the torques).  None when the structure has no stops, or the angles never reach them."""
+    not the torques); on the pitch also the instants the yaw strikes or leaves its stop and the filters' settling
+    after them (the gyroscope reads beta').  None when the structure has no stops, or the angles never reach them."""
     out = {}
     settle = int(math.ceil(STOP_SETTLE_TIME_CONSTANTS / min(a_rad_s, b_rad_s) / log.sample_time_s))
     n = len(log)
