@@ -121,7 +121,24 @@ def _judge(d, known: dict, effects: list, table: dict) -> dict:
     invented = [k for k, (_, alts) in found.items()
                 if k not in truth and not any(t in alts or any(a.startswith(t + " ") for a in alts) for t in truth)]
     return {"named": named, "within": within, "invented": invented,
-            "found": [f"{k} {v:.4g}" for k, (v, _) in found.items()]}
+            "found": [f"{k} {v:.4g}" for k, (v, _) in found.items()], "screen": screened(d, effects)}
+
+
+def screened(d, effects: list) -> dict:
+    """What the equation error's screen did with each of the bench's effects (issue #75: its recall): key ->
+    {"rank": its place by held-out gain among the first round's candidates (1 the best; None when it was not
+    tested), "passed": it passed the first round's family-wise test, "oe": the output-error fit judged it at some
+    stage (d.oe_tested: the screen let it through, or a rescue took it)}."""
+    def gain(t) -> float:
+        g = t.get("held_out_gain")
+        return float(g) if g is not None and math.isfinite(g) else -math.inf
+
+    first = sorted(d.tested, key=lambda t: -gain(t))
+    rank = {f"{t['effect']}:{t['axis']}": i + 1 for i, t in enumerate(first)}
+    passed = {f"{t['effect']}:{t['axis']}" for t in d.tested if t.get("passed")}
+    judged = {f"{t['effect']}:{t['axis']}" for t in d.oe_tested}
+    keys = [f"{e['effect']}:{e['axis']}" for e in effects]
+    return {k: {"rank": rank.get(k), "passed": k in passed, "oe": k in judged} for k in keys}
 
 
 def run(case: dict) -> dict:
@@ -190,6 +207,7 @@ def diagnosed(log, sim, known: dict, effects: list, table: dict) -> tuple[str, d
     for k in judged["idle"]:  # a dead zone or saturation the voltages never reach cannot be named: not counted
         judged["named"].pop(k, None)
         judged["within"].pop(k, None)
+        judged.get("screen", {}).pop(k, None)
     return verdict, judged, exercised, seconds
 
 
