@@ -251,6 +251,10 @@ def test_a_recording_without_a_noise_floor_is_checked_half_against_half(tmp_path
     assert "Each half of the log alone gives the same J1, B1" in check["sentence"]
     assert _verdict_line(res.stderr).startswith("FIT NOT DECIDED:")
     assert "the interval assumes the model is right" in res.stderr
+    # the refinement, which stays above the integrator's precision, is not used; and it says so in the verdict's
+    # terms (no measurable noise), not as a misfit "x its noise level" the verdict does not claim
+    assert "NOT used: its error stays above the integrator's precision" in doc["refinement"]
+    assert "misses something" not in doc["refinement"] and "its noise level" not in doc["refinement"]
     est = doc["estimates"]
     assert est["J1"] == pytest.approx(0.00437, rel=2e-3) and est["B1"] == pytest.approx(0.00184, rel=2e-3)
 

@@ -15,7 +15,8 @@ from .model.bench import KERNEL_KEYS
 from .numerics.design import FilterDesign, angle_noise_rad, design_filters, quantization_step
 from .numerics.quantization import OFFSETS as QUANTIZATION_OFFSETS
 from .numerics.fused import drem_summaries, start_unknowns
-from .numerics.adequacy import NOT_CONVERGED, RMS_OVER_NOISE, UNMEASURABLE, judging_floors, model_check
+from .numerics.adequacy import (NOT_CONVERGED, NUMERICAL_FLOOR_RAD, RMS_OVER_NOISE, SMOOTHED_FLOOR_RAD, UNMEASURABLE,
+                                judging_floors, model_check)
 from . import known_values
 from .known_values import over_noise as _over_noise
 from .numerics.refine import SHOOTING_WINDOW_S, WINDOW_S, Refined, refine, substeps
@@ -691,6 +692,11 @@ def _refine(log: Log, settings: Settings, params: dict, offline: dict, given: di
             f"{noise['alpha']:.3g}, {noise['beta']:.3g} rad)")
     if max(ratio.values()) > ADEQUATE_RMS_OVER_NOISE:
         worst = max(ratio, key=ratio.get)
+        if noise[worst] < SMOOTHED_FLOOR_RAD:  # no measurable noise: the adequacy check's words, not a misfit's
+            return r, (base + f"; NOT used: its error stays above the integrator's precision ({worst} "
+                       f"{r.rms_rad[worst]:.3g} rad against {NUMERICAL_FLOOR_RAD:g} rad), and the angles carry no "
+                       "measurable noise to say whether that is a misfit or the recording's smoothing; DREM's "
+                       "offline optimum is the estimate"), False
         return r, (base + f"; NOT used: the {worst} error is {ratio[worst]:.3g}x its noise level, so the model "
                    "misses something in this log (try `trms-ident diagnose`) and DREM's offline optimum is the "
                    "estimate"), False
