@@ -22,7 +22,10 @@ refitted with every one):
    the motor_lag candidate's time constant is T11 or T21 itself).  Otherwise they need more parameters, or
    leave more than the noise, for what the one value explains: they are refused, each with that reason;
 3. with no known value reaching the floor, the effect search's verdict stands, and its sentence says which
-   known values were tried alone and how far each left the angles from their floors;
+   known values were tried alone and how far each left the angles from their floors; but where it explains the
+   log with two or more findings, one of them an effect, the known values refitted together (the joint search of
+   5) that reach the floor with as many parameters win: a known value off its table is no new physics, and the
+   effect search's findings are their look-alikes (_values_beside_effects);
 4. when neither a single known value nor the effect search reaches the floor, each of the search's findings is
    put into the model and the log estimated under it, its known-value search run with the effect in
    (compound.py): an effect that fits alone (one parameter), else an effect with a known value (two) that
@@ -81,6 +84,13 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None, exclude
     if not kv:
         return d
     named = kv.get("named")
+    if named is None and _new_physics(d) and known_values.far_from_table(kv["fits"], kv.get("precision")) is None:
+        # the effect search explains the log with an effect among two or more findings: known values refitted
+        # together with as few parameters are the simpler answer (no new physics), its findings their look-alikes
+        j = _joint(log, law, overrides, p, kv, d.seed_check)
+        if j is not None and j.explains and len(j.names) <= len(d.findings):
+            return _values_beside_effects(d, log, p, law, j)
+        return d
     if named is None:
         if d.verdict in ("partly_explained", "unexplained"):
             # an "unexplained" verdict already carries the seed check's sentence, which says what the single
@@ -264,9 +274,13 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
                     ("" if name in j.determined else
                      f" (wider than {100 * known_values.DETERMINED_REL:g} % of the value: this log does not "
                      "determine it well)"))
+        alike = (getattr(j, "look_alikes", None) or {}).get(name, [])
+        if alike:
+            evidence += (f"; {', '.join(alike)}, freed in its place, explain{'s' if len(alike) == 1 else ''} the "
+                         "log too: this log cannot tell them apart")
         findings.append(known_value_finding(name, j.values[name], j.table[name], j.units[name], (lo, hi),
                                             d.fit_before, fits_after.get(axis, math.nan), evidence,
-                                            _drop(base, j.over_noise), (),
+                                            _drop(base, j.over_noise), alike,
                                             {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est}))
     why = (f"{count} refitted {'' if one else 'together '}explain{verb_s} the log ({listed}); the effect search's "
            "findings do not bring the angles to their noise floors")
@@ -281,9 +295,60 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
     sentence = (f"the model fits the log to its noise level once {count} take{verb_s} the bench's own value{noun_s} "
                 f"instead of the one{noun_s} it was given: {listed} ({how}. Check {them} on the bench, or estimate "
                 f"{them} with `trms-ident estimate " + " ".join(f"--free {k}" for k in j.names) + "`.")
+    told = "; ".join(f"{k} from {' or '.join(v)}" for k, v in (getattr(j, "look_alikes", None) or {}).items()
+                     if k in j.names and v)
+    if told:
+        sentence += f" This log cannot tell {told}: each, freed in its place, brings the angles to their floors too."
     return replace(d, mismatch=True, findings=findings, augmented=est, fit_after=fits_after, overlay=overlay,
                    residual=residual, verdict="explained", verdict_sentence=sentence, refused=refused,
                    corrections=[], steps=[step], settings=_value_settings(d, j.over_noise, start))
+
+
+def _new_physics(d) -> bool:
+    """Does the effect search explain the log with two or more findings, one of them an effect (not a known value,
+    nor the library's name for one, SAME)?  Then known values refitted together may explain it with as few
+    parameters (weigh, step 2's rule for several parameters)."""
+    return (d.verdict == "explained" and len(d.findings) >= 2 and
+            any(f.effect != "known_value" and f"{f.effect}:{f.axis}" not in SAME for f in d.findings))
+
+
+def _values_beside_effects(d, log: Log, p: dict, law: str, j):
+    """The diagnosis when the effect search explained the log with an effect among its findings and known values
+    refitted together (``j``) explain it with no more parameters: a known value off its table is no new physics,
+    so the values are the findings and the effect search's findings that are not one of them (SAME) their
+    look-alikes, flagged on the values of the same axis (this log cannot tell them apart).  Measured (any_bench.py
+    seed 57579 bench 26): T21 16 % high beside Kg 15 % low explained by T21 and a pitch thrust asymmetry of -3.8 %
+    (or a pitch torque in beta'^2), which the bench does not have."""
+    out = _explained_by_values(d, log, p, law, j)
+    out.known_values_joint = j.to_json()
+    alike = []  # (the look-alike as the findings' alternatives name it, its axis, the finding)
+    for f in d.findings:
+        key = f"{f.effect}:{f.axis}"
+        name = f.parameter.get("name") if f.effect == "known_value" else SAME.get(key)
+        if name not in j.names:
+            alike.append((name if f.effect == "known_value" else key, f.axis, f))
+    placed = set()
+    for g in out.findings:  # each look-alike flagged on the values of its axis (a transport delay's on all)
+        mine = [k for k, ax, _ in alike if ax in (g.axis, "both")]
+        placed.update(mine)
+        if mine:
+            g.alternatives = list(dict.fromkeys(list(g.alternatives) + mine))
+    for g in out.findings:  # one on an axis no value is on: flagged on every value
+        rest = [k for k, _, _ in alike if k not in placed]
+        g.alternatives = list(dict.fromkeys(list(g.alternatives) + rest))
+    for g in out.findings:
+        mine = [k for k, _, _ in alike if k in g.alternatives]
+        if mine:
+            g.evidence += ("; the effect search explained the log as well with " + ", ".join(mine) + " in its "
+                           "place: this log cannot tell them apart, and a known value is no new physics")
+    why = ("a look-alike of the known values that explain the log: with as many parameters it reaches the noise "
+           "floor too, but it is new physics where a known value off its table is not")
+    out.refused = list(d.refused) + [{"effect": f.effect, "axis": f.axis, "parameter": f.parameter["value"],
+                                      "reason": why} for _, _, f in alike]
+    out.verdict_sentence += (" The effect search explained the log as well with " + ", ".join(k for k, _, _ in alike)
+                             + " in their place, with as many parameters: this log cannot tell them apart; a known "
+                             "value off its table is the simpler answer.")
+    return out
 
 
 def _closer(effect_check: dict | None, ratio: dict) -> bool:
