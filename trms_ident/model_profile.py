@@ -308,7 +308,9 @@ def _search(fit, x0: float, span: float, key: str = "", floor_cost: float = math
             costs[x] = attempt(x)
         return costs[x]
 
-    best = minimize_scalar(cost, bounds=(x0 - span, x0 + span), method="bounded", options={"xatol": LOG_TOLERANCE})
+    with np.errstate(invalid="ignore"):  # trial fits that all failed score inf: Brent's inf - inf is no answer
+        best = minimize_scalar(cost, bounds=(x0 - span, x0 + span), method="bounded",
+                               options={"xatol": LOG_TOLERANCE})
     x = float(min([float(best.x), x0], key=cost))
     if cost(x) > PROFILE_SCAN_OVER_FLOOR * floor_cost:
         # far from the noise floor: Brent may have followed a basin the span's far side does not share, or trial
@@ -327,7 +329,9 @@ def _search(fit, x0: float, span: float, key: str = "", floor_cost: float = math
     fan_out(cost, grid)  # the grid's fits are independent: on both cores (each kept in costs, read by min)
     xg = min(grid, key=cost)
     step = float(grid[1] - grid[0])
-    fine = minimize_scalar(cost, bounds=(xg - step, xg + step), method="bounded", options={"xatol": LOG_TOLERANCE})
+    with np.errstate(invalid="ignore"):
+        fine = minimize_scalar(cost, bounds=(xg - step, xg + step), method="bounded",
+                               options={"xatol": LOG_TOLERANCE})
     return float(min([float(fine.x), xg, x], key=cost)), x0
 
 
