@@ -252,6 +252,29 @@ def test_known_values_together_win_over_an_effect_search_that_explains_with_as_m
     assert "a known value off its table is the simpler answer" in d.verdict_sentence
 
 
+def test_effects_nearer_the_floor_than_known_values_together_stay_first_with_the_values_flagged():
+    """The other side of the rule above: where the effect search's findings leave the angles nearer their floors than
+    the known values refitted together (as a single effect against a single value, weigh's step 2), the findings
+    stay, each flagged with the values of its axis as look-alikes, and the sentence says the log cannot tell them
+    apart."""
+    from trms_ident.diagnosis.result import Diagnosis, Finding
+
+    def finding(effect, axis):
+        return Finding(effect, axis, {"name": "x", "value": 0.1, "unit": "1"}, 50.0, 99.0, "e", "x", 0.5, 5.0, 1e-6)
+
+    d = Diagnosis(True, [finding("cable_stiffness", "yaw"), finding("coulomb_friction", "pitch")], {}, {}, {}, {},
+                  {}, {}, {}, [], {"output_error_check": {"rms_over_noise": {"alpha": 1.0, "beta": 1.0}}}, {}, {}, {},
+                  verdict="explained", verdict_sentence="explained.")
+    j = known_values.KnownValueSet(["kc", "Kg"], {"kc": -0.1, "Kg": 0.1}, {"kc": -0.2, "Kg": 0.05},
+                                   {"kc": (-0.11, -0.09), "Kg": (0.09, 0.11)}, {"kc": "N m", "Kg": "s/rad"}, "windows",
+                                   True, {"alpha": 1.1, "beta": 1.1}, True, ["kc", "Kg"], ["kc", "Kg"], [])
+    assert weigh._closer(d.settings["output_error_check"], j.over_noise)
+    out = weigh._effects_beside_values(d, j)
+    assert [f.effect for f in out.findings] == ["cable_stiffness", "coulomb_friction"]
+    assert out.findings[0].alternatives == ["kc"] and out.findings[1].alternatives == ["Kg"]
+    assert "Known values would explain the log as well" in out.verdict_sentence and out.known_values_joint["explains"]
+
+
 def test_the_joint_search_adds_no_value_a_single_one_does_not_need():
     """A bench with kc alone off: kc explains the log alone, so the forward search from it adds nothing (a
     second value would be a parameter the log does not ask for)."""

@@ -25,7 +25,9 @@ refitted with every one):
    known values were tried alone and how far each left the angles from their floors; but where it explains the
    log with two or more findings, one of them an effect, the known values refitted together (the joint search of
    5) that reach the floor with as many parameters win: a known value off its table is no new physics, and the
-   effect search's findings are their look-alikes (_values_beside_effects);
+   effect search's findings are their look-alikes (_values_beside_effects); unless the findings leave the angles
+   nearer their floors, as between one effect and one value: then they stay, the values their look-alikes
+   (_effects_beside_values);
 4. when neither a single known value nor the effect search reaches the floor, each of the search's findings is
    put into the model and the log estimated under it, its known-value search run with the effect in
    (compound.py): an effect that fits alone (one parameter), else an effect with a known value (two) that
@@ -89,6 +91,8 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None, exclude
         # together with as few parameters are the simpler answer (no new physics), its findings their look-alikes
         j = _joint(log, law, overrides, p, kv, d.seed_check)
         if j is not None and j.explains and len(j.names) <= len(d.findings):
+            if _closer(d.settings.get("output_error_check"), j.over_noise):
+                return _effects_beside_values(d, j)  # the effects leave the angles nearer their floors: first
             return _values_beside_effects(d, log, p, law, j)
         return d
     if named is None:
@@ -349,6 +353,29 @@ def _values_beside_effects(d, log: Log, p: dict, law: str, j):
                              + " in their place, with as many parameters: this log cannot tell them apart; a known "
                              "value off its table is the simpler answer.")
     return out
+
+
+def _effects_beside_values(d, j):
+    """``d`` (the effect search explains the log) with the known values ``j`` that explain it too with as many
+    parameters flagged as look-alikes of its findings on their axes (all of them where none shares an axis): the
+    effects leave the angles nearer their floors (_closer), so they stay first, as a single effect does beside a
+    single value (weigh's step 2)."""
+    d.known_values_joint = j.to_json()
+    values = [n for n in j.names if not any(f.parameter.get("name") == n or SAME.get(f"{f.effect}:{f.axis}") == n
+                                            for f in d.findings)]
+    if not values:
+        return d
+    for f in d.findings:
+        if f.effect == "known_value" or f"{f.effect}:{f.axis}" in SAME:
+            continue
+        mine = [n for n in values if known_values.AXIS[n] in (f.axis, "both") or f.axis == "both"] or values
+        f.alternatives = list(dict.fromkeys(list(f.alternatives) + mine))
+        f.evidence += ("; cannot be told apart with this log from " + ", ".join(mine) + " off the table (known values "
+                       "refitted together reach the noise floor too, with as many parameters)")
+    listed = ", ".join(f"{n} = {j.values[n]:.4g} instead of {j.table[n]:.4g}" for n in values)
+    d.verdict_sentence += (f" Known values would explain the log as well with as many parameters ({listed}): this log "
+                           "cannot tell them apart; the findings leave the angles nearer their floors.")
+    return d
 
 
 def _closer(effect_check: dict | None, ratio: dict) -> bool:
