@@ -22,6 +22,10 @@ SLOW = {
     # are held by the fast tests of test_both_motors.py
     "test_both_motors.py::test_when_neither_motors_saturation_passes_alone_the_pair_is_judged_each_given_the_other": 125,
     "test_diagnose.py::test_two_effects_are_both_named": 17,
+    # diagnosed_model.py's seed 9 estimated under its second-order motor (60 s beside two diagnoses, 7 Dec 2026); the
+    # lead order itself: the fast test_a_voltage_modification_whose_lead_does_not_fit_...
+    "test_compound.py::test_a_second_order_motor_whose_own_time_constant_does_not_fit_is_freed_beside_the_best_"
+    "refit": 60,
     # diagnosed_model.py's seed 23, a whole diagnose (the exported interval; the widening itself: the fast tests
     # of a held value's interval above); a strict xfail from 5 Dec 2026 (the pitch motor's T2 interval above its
     # truth) until it passed at ca539d2 and at eac105e (7 Dec 2026)

@@ -161,6 +161,25 @@ def test_a_second_order_motor_is_estimated_under_with_both_its_time_constants_fr
     assert abs(h.value_fit["value"] - 1.0) < 0.01 and abs(h.fitted / 0.08 - 1) < 0.05, (h.value_fit["value"], h.fitted)
 
 
+def test_a_second_order_motor_whose_own_time_constant_does_not_fit_is_freed_beside_the_best_refit():
+    """benchmarks/diagnosed_model.py's seed 9: a 0.1423 s second lag on the main motor beside Kg 1.71x (steps from
+    rest, 500 Hz, 12-bit).  The lag found at 0.1473 s and held there, Kg refitted alone under it left 1.47x; T11
+    freed beside the lag did not fit, and Kg was never freed with it ("partly explained", Kg's change described
+    outside the library).  The refits' lead (Kg, the lowest cost) is freed beside the lag next: both at the bench's
+    values, the model at the floor."""
+    truth = {"J1": 0.09256570156283409, "B1": 0.0061654977884670215, "J2": 0.025093358278315183,
+             "B2": 0.09848085626149877, "Kg": 0.08532305064849366}
+    sim = simulate(SimSettings(ref="steps", sample_rate_hz=500.0, duration_s=51.929660898055275, seed=1011541767,
+                               quantization_rad=Q12, overrides=truth,
+                               effects=[{"effect": "motor_second_lag", "axis": "pitch", "value": 0.14228021595704948}]))
+    log = as_log(sim)
+    assert compound.lead_of({"fits": [{"name": "Kg", "value": 0.08, "table": 0.05, "cost": 1.0, "stage": "shooting"}]},
+                            "motor_second_lag:pitch", own=False)["name"] == "Kg"
+    h = compound.estimate_under(compound.Hypothesis("motor_second_lag:pitch", 0.1473, 0), log, "quadratic", {})
+    assert h.explains and h.value_fit["name"] == "Kg", h
+    assert h.value_fit["value"] == pytest.approx(truth["Kg"], rel=0.01) and h.fitted == pytest.approx(0.1423, rel=0.02)
+
+
 def test_a_profile_left_far_from_the_floor_screens_its_span():
     """independent.py's seed 9419 bench 19 (the textbook plant: a 0.109 s further lag on the main motor, T11 0.861 s
     for 1.1 s; steps from rest, 200 Hz, 12-bit).  The lag profiled from 0.0512 s with T11 freed beside it, as the
@@ -292,14 +311,14 @@ def test_a_voltage_modification_whose_lead_does_not_fit_is_freed_beside_each_val
     assert tried[0] == "T20" and sorted(tried[1:]) == ["T10", "T11", "a1", "b1", "k1"]
     assert got.value_fit["name"] == "k1" and got.fitted == 0.259 and got.look_alikes == ["T11"]
     # a shifted dead zone is freed inside the known-value search (estimate_under): no path here; nor for a motor's
-    # further lag, which is freed with its own time constant alone (lead_of)
+    # further lag, which is freed with its own time constant first (lead_of), then with the refits' lead (T20 here)
     tried.clear()
     shifted = compound.Hypothesis("shifted_dead_zone:pitch", 0.189, 0)
     assert compound._profiled_with_lead(shifted, None, "quadratic", {}, kv, shifted) is shifted and tried == ["T20"]
     tried.clear()
     h = compound.Hypothesis("motor_second_lag:pitch", 0.05, None)
     fits["T11"] = (1.3, 3.0)  # (does not fit)
-    assert compound._profiled_with_lead(h, None, "quadratic", {}, kv, h) is h and tried == ["T11"]
+    assert compound._profiled_with_lead(h, None, "quadratic", {}, kv, h) is h and tried == ["T11", "T20"]
 
 
 def _tested(effect, axis, gain, value, p=0.3):
