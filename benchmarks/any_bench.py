@@ -227,7 +227,8 @@ def screen_recall(res: list[dict]) -> str:
         k = [sum(ok(s) for s, _ in rs) for ok in (lambda s: s["passed"], lambda s: (s["rank"] or 99) <= 3,
                                                    lambda s: s["oe"])]
         return (f"passed its first round {k[0]}/{n} ({100 * k[0] / n:.0f} %), among its best three "
-                f"{k[1]}/{n} ({100 * k[1] / n:.0f} %), judged by output error {k[2]}/{n} ({100 * k[2] / n:.0f} %)")
+                f"{k[1]}/{n} ({100 * k[1] / n:.0f} %), judged by output error or named {k[2]}/{n} "
+                f"({100 * k[2] / n:.0f} %)")
 
     return (f"The equation error's screen (its recall on the benches' effects and structures, benchmarks/"
             f"compound.py screened): alone or beside effects only, {part([x for x in rows if not x[1]])}; beside a "

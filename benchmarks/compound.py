@@ -120,15 +120,19 @@ def _judge(d, known: dict, effects: list, table: dict) -> dict:
             within[key] = flagged  # a flagged look-alike carries no value of its own
     invented = [k for k, (_, alts) in found.items()
                 if k not in truth and not any(t in alts or any(a.startswith(t + " ") for a in alts) for t in truth)]
+    screen = screened(d, effects)
+    for k, v in screen.items():  # an effect named was fitted by output error, whichever step took it there
+        v["oe"] = v["oe"] or named.get(k, False)
     return {"named": named, "within": within, "invented": invented,
-            "found": [f"{k} {v:.4g}" for k, (v, _) in found.items()], "screen": screened(d, effects)}
+            "found": [f"{k} {v:.4g}" for k, (v, _) in found.items()], "screen": screen}
 
 
 def screened(d, effects: list) -> dict:
     """What the equation error's screen did with each of the bench's effects (issue #75: its recall): key ->
     {"rank": its place by held-out gain among the first round's candidates (1 the best; None when it was not
     tested), "passed": it passed the first round's family-wise test, "oe": the output-error fit judged it at some
-    stage (d.oe_tested: the screen let it through, or a rescue took it)}."""
+    stage (d.oe_tested: the screen let it through, or a rescue took it; _judge adds those named, which the rule's
+    later steps may have estimated under without a row there)}."""
     def gain(t) -> float:
         g = t.get("held_out_gain")
         return float(g) if g is not None and math.isfinite(g) else -math.inf
