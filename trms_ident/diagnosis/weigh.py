@@ -278,7 +278,7 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
                     ("" if name in j.determined else
                      f" (wider than {100 * known_values.DETERMINED_REL:g} % of the value: this log does not "
                      "determine it well)"))
-        alike = (getattr(j, "look_alikes", None) or {}).get(name, [])
+        alike = j.look_alikes.get(name, [])
         if alike:
             evidence += (f"; {', '.join(alike)}, freed in its place, explain{'s' if len(alike) == 1 else ''} the "
                          "log too: this log cannot tell them apart")
@@ -299,8 +299,7 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
     sentence = (f"the model fits the log to its noise level once {count} take{verb_s} the bench's own value{noun_s} "
                 f"instead of the one{noun_s} it was given: {listed} ({how}. Check {them} on the bench, or estimate "
                 f"{them} with `trms-ident estimate " + " ".join(f"--free {k}" for k in j.names) + "`.")
-    told = "; ".join(f"{k} from {' or '.join(v)}" for k, v in (getattr(j, "look_alikes", None) or {}).items()
-                     if k in j.names and v)
+    told = "; ".join(f"{k} from {' or '.join(v)}" for k, v in j.look_alikes.items() if k in j.names and v)
     if told:
         sentence += f" This log cannot tell {told}: each, freed in its place, brings the angles to their floors too."
     return replace(d, mismatch=True, findings=findings, augmented=est, fit_after=fits_after, overlay=overlay,
@@ -311,7 +310,7 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
 def _new_physics(d) -> bool:
     """Does the effect search explain the log with two or more findings, one of them an effect (not a known value,
     nor the library's name for one, SAME)?  Then known values refitted together may explain it with as few
-    parameters (weigh, step 2's rule for several parameters)."""
+    parameters (the module docstring's step 3)."""
     return (d.verdict == "explained" and len(d.findings) >= 2 and
             any(f.effect != "known_value" and f"{f.effect}:{f.axis}" not in SAME for f in d.findings))
 
