@@ -307,12 +307,17 @@ def _explained_by_values(d, log: Log, p: dict, law: str, j):
                    corrections=[], steps=[step], settings=_value_settings(d, j.over_noise, start))
 
 
+def _value_name(f) -> str | None:
+    """The known value a finding is: its own name, or the one an effect is under another name (SAME); None for an
+    effect that is new physics."""
+    return f.parameter.get("name") if f.effect == "known_value" else SAME.get(f"{f.effect}:{f.axis}")
+
+
 def _new_physics(d) -> bool:
     """Does the effect search explain the log with two or more findings, one of them an effect (not a known value,
     nor the library's name for one, SAME)?  Then known values refitted together may explain it with as few
     parameters (the module docstring's step 3)."""
-    return (d.verdict == "explained" and len(d.findings) >= 2 and
-            any(f.effect != "known_value" and f"{f.effect}:{f.axis}" not in SAME for f in d.findings))
+    return d.verdict == "explained" and len(d.findings) >= 2 and any(_value_name(f) is None for f in d.findings)
 
 
 def _values_beside_effects(d, log: Log, p: dict, law: str, j):
@@ -324,24 +329,17 @@ def _values_beside_effects(d, log: Log, p: dict, law: str, j):
     (or a pitch torque in beta'^2), which the bench does not have."""
     out = _explained_by_values(d, log, p, law, j)
     out.known_values_joint = j.to_json()
-    alike = []  # (the look-alike as the findings' alternatives name it, its axis, the finding)
-    for f in d.findings:
-        key = f"{f.effect}:{f.axis}"
-        name = f.parameter.get("name") if f.effect == "known_value" else SAME.get(key)
-        if name not in j.names:
-            alike.append((name if f.effect == "known_value" else key, f.axis, f))
-    placed = set()
-    for g in out.findings:  # each look-alike flagged on the values of its axis (a transport delay's on all)
-        mine = [k for k, ax, _ in alike if ax in (g.axis, "both")]
-        placed.update(mine)
+    # (the look-alike as the findings' alternatives name it, its axis, the finding)
+    alike = [(f.parameter.get("name") if f.effect == "known_value" else f"{f.effect}:{f.axis}", f.axis, f)
+             for f in d.findings if _value_name(f) not in j.names]
+    # each look-alike flagged on the values of its axis (a transport delay's on all); one on an axis no value is on,
+    # on every value
+    on_axis = [[k for k, ax, _ in alike if ax in (g.axis, "both")] for g in out.findings]
+    unplaced = [k for k, _, _ in alike if not any(k in mine for mine in on_axis)]
+    for g, mine in zip(out.findings, on_axis):
+        mine = mine + unplaced
         if mine:
             g.alternatives = list(dict.fromkeys(list(g.alternatives) + mine))
-    for g in out.findings:  # one on an axis no value is on: flagged on every value
-        rest = [k for k, _, _ in alike if k not in placed]
-        g.alternatives = list(dict.fromkeys(list(g.alternatives) + rest))
-    for g in out.findings:
-        mine = [k for k, _, _ in alike if k in g.alternatives]
-        if mine:
             g.evidence += ("; the effect search explained the log as well with " + ", ".join(mine) + " in its "
                            "place: this log cannot tell them apart, and a known value is no new physics")
     why = ("a look-alike of the known values that explain the log: with as many parameters it reaches the noise "
@@ -360,12 +358,11 @@ def _effects_beside_values(d, j):
     effects leave the angles nearer their floors (_closer), so they stay first, as a single effect does beside a
     single value (weigh's step 2)."""
     d.known_values_joint = j.to_json()
-    values = [n for n in j.names if not any(f.parameter.get("name") == n or SAME.get(f"{f.effect}:{f.axis}") == n
-                                            for f in d.findings)]
+    values = [n for n in j.names if not any(_value_name(f) == n for f in d.findings)]
     if not values:
         return d
     for f in d.findings:
-        if f.effect == "known_value" or f"{f.effect}:{f.axis}" in SAME:
+        if _value_name(f) is not None:
             continue
         mine = [n for n in values if known_values.AXIS[n] in (f.axis, "both") or f.axis == "both"] or values
         f.alternatives = list(dict.fromkeys(list(f.alternatives) + mine))
