@@ -157,6 +157,10 @@ class OEFit:
     start_states: dict = field(default_factory=dict)
     #: a further lag's motor time constant refitted with it (OWN_TIME_CONSTANT): its name -> value [s]
     own: dict = field(default_factory=dict)
+    #: the noise-weighted squared angle error it leaves over that of a model at the noise floor (the mean of the
+    #: two angles' squared error RMS over their floors, on the fitted samples): above EXPLAINED_OE_OVER_NOISE
+    #: squared, one angle at least stays above its floor
+    over_floor: float = math.nan
 
 
 def carries(key: str) -> bool:
@@ -729,7 +733,8 @@ class Fitter:
         p = float(2.0 * stdtr(dof, -abs(t))) if math.isfinite(t) else 0.0
         return OEFit(key, float(f["estimate"]), float(se), float(t), p, *self._drops(base, r.cost, r.rms_rad),
                      torque_share(key, float(f["estimate"]), self.log, self.p, self.law), dict(r.estimate), self.n,
-                     fits=self._simulation_fits(base.rms_rad, r.rms_rad), start_states=motor_start(r))
+                     fits=self._simulation_fits(base.rms_rad, r.rms_rad), start_states=motor_start(r),
+                     over_floor=float(r.cost / (2.0 * self.n)))
 
     def _drops(self, base, cost: float, rms_rad: dict) -> tuple[float, float, float]:
         """A candidate's cost_drop, explained and excess_share (OEFit) against the current model's fit."""
@@ -872,7 +877,7 @@ class Fitter:
         return OEFit(key, float(best), float(se), t, p, *self._drops(base, c_best, rms_best),
                      modification_torque_share(key, float(best), self.log.head(self.n), self.p, self.law),
                      dict(est_best), self.n, profiled=True, fits=self._simulation_fits(base.rms_rad, rms_best),
-                     start_states=start_best, own=own_best)
+                     start_states=start_best, own=own_best, over_floor=float(c_best / (2.0 * self.n)))
 
     def _shot(self, model: Model, values: dict, theta0: dict, key: str, value0: float, lags: tuple, own: tuple):
         """(the value of modification ``key``, J/B, start states) from a multiple-shooting fit (SHOOTING_WINDOW_S

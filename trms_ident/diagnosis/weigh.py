@@ -17,7 +17,9 @@ refitted with every one):
    explains the log with one parameter.  It is the finding; the known values that reach the floor as well are
    its look-alikes (the log cannot tell them apart);
 2. the effect search's findings then stand only as look-alikes, and only when a single effect explains the log
-   too (verdict "explained" with one finding): one parameter each, both at the noise floor, the one that leaves
+   too (verdict "explained" with one finding; the search refuses in its round a finding whose output-error fit
+   alone leaves the angles far above their floors, search._may_explain_alone): one parameter each, both at the
+   noise floor, the one that leaves
    the angles nearer their floors first (an effect that is the known value under another name, SAME, first:
    the motor_lag candidate's time constant is T11 or T21 itself).  Otherwise they need more parameters, or
    leave more than the noise, for what the one value explains: they are refused, each with that reason;
