@@ -234,6 +234,8 @@ def test_the_known_value_wins_over_effects_that_need_more_parameters(monkeypatch
     d2 = diagnose(log)
     assert [f.effect for f in d2.findings] == ["known_value", "cable_stiffness"]  # the value leaves less
     assert "cable_stiffness:yaw" in d2.findings[0].alternatives
+    assert "known_value:kc" in d2.findings[1].alternatives  # flagged both ways: one answer, not two differences
+    assert "cannot be told apart with this log from kc" in d2.findings[1].evidence
     assert "cannot tell them apart" in d2.verdict_sentence
     assert not [r for r in d2.refused if r["reason"].startswith("a known value explains")]
 

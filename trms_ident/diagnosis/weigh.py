@@ -201,6 +201,13 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None, exclude
         d.findings.append(finding)
         d.steps.append(step)
         return d
+    if effect_alike:  # the single effect second, flagged as the value's look-alike as the value is as its
+        effect = d.findings[0]  # (measured, any_bench seed 33274 bench 22: a1 0.74x and a pitch thrust asymmetry
+        # both at the floor; the asymmetry was listed as a finding of its own, read as a second difference)
+        effect.alternatives = list(dict.fromkeys(effect.alternatives + [f"known_value:{name}"]))
+        effect.evidence += (f"; cannot be told apart with this log from {name} = {value:.4g} instead of {table:.4g} "
+                            "(a known value, refitted alone, reaches the noise floor too and leaves the angles "
+                            "nearer it: named first)")
     findings = [finding] + ([d.findings[0]] if effect_alike else [])
     return replace(d, mismatch=True, findings=findings, augmented=est, fit_after=fits_after, overlay=overlay,
                    residual=residual, verdict="explained", verdict_sentence=sentence, refused=refused,
