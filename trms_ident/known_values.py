@@ -223,14 +223,14 @@ def _refit(fit: Fit, name: str, params: dict, noise: dict, score: float, theta0:
         with np.errstate(all="ignore"):
             r = fit(free + (name,), theta0, params, window_s=SHOOTING_WINDOW_S)
             ratio = over_noise(r, noise)
-            moved = r.freed[name]["estimate"] / params[name] if params[name] else math.nan
-            if not (r.converged or _within(ratio)) and math.isfinite(moved) and moved > 0 and moved != 1.0:
+            went = r.freed[name]["estimate"] / params[name] if params[name] else math.nan
+            if not (r.converged or _within(ratio)) and math.isfinite(went) and went > 0 and went != 1.0:
                 # stopped on its way, still above the noise level: Gauss-Newton crawling along a valley of the
-                # value and J/B (measured: k1 0.58x its table value beside J/B 3-29 % off; from the table's
+                # value and J/B (measured: k1 0.53x its table value beside J/B 3-29 % off; from the table's
                 # 1.1 the refit crept to 0.99 in 23 iterations, 1.2e3x the noise level, from 0.55 it converged in
-                # 5 to the true 0.638): once more from RESTART_FACTOR times the value given, the way it moved
+                # 5 to the true 0.5803): once more from RESTART_FACTOR times the value given, the way it went
                 again = fit(free + (name,), theta0, {**params, name: params[name] * (
-                    RESTART_FACTOR if moved > 1.0 else 1.0 / RESTART_FACTOR)}, window_s=SHOOTING_WINDOW_S)
+                    RESTART_FACTOR if went > 1.0 else 1.0 / RESTART_FACTOR)}, window_s=SHOOTING_WINDOW_S)
                 if again.cost < r.cost:
                     r, ratio = again, over_noise(again, noise)
             stage = "shooting"

@@ -35,7 +35,7 @@ from .trials import (ALIAS_GAIN_RATIO, EXACT_OFFSETS, MOTOR_LAG_NEUTRAL, aliased
                      effect_values, grid_span, jb_estimates, params_of, practical, separable, try_candidate,
                      value_grid)
 from .verdict import (EXPLAINED_OE_OVER_NOISE, EXPLAINED_RMS_OVER_NOISE, credible, over_noise, stand_in,
-                      verdict_of)
+                      value_alone_sentence, verdict_of)
 
 MAX_FINDINGS = 3
 
@@ -347,12 +347,10 @@ def _may_explain_alone(best) -> bool:
 
 def _not_alone_reason(seed: dict, f) -> str:
     """Why a finding is refused beside the known value the seed check names (_may_explain_alone)."""
-    kv = seed.get("known_values") or {}
-    fit = next((q for q in kv.get("fits", []) if q["name"] == kv.get("named")), None)
-    value = (f"{fit['name']} = {fit['value']:.4g} instead of {fit['table']:.4g}" if fit else kv.get("named"))
-    return (f"a known value explains the log alone with one parameter ({value} brings both angles to their noise "
-            f"floors); this effect, fitted alone by output error, leaves {math.sqrt(f.over_floor):.3g}x the noise "
-            "floors (RMS over both angles): not needed")
+    kv = seed["known_values"]
+    fit = next(q for q in kv["fits"] if q["name"] == kv["named"])
+    return (value_alone_sentence(fit["name"], fit["value"], fit["table"]) + "; this effect, fitted alone by output "
+            f"error, leaves {math.sqrt(f.over_floor):.3g}x the noise floors (RMS over both angles): not needed")
 
 
 def _both_saturations(run: _Run, best, current: Model, reg_now, score_now, oe_values: dict, excluded: set):

@@ -168,3 +168,10 @@ def stand_in_sentence(refused: list[dict]) -> str:
     names = "; ".join(f"{r['effect'].replace('_', ' ')} on {r['axis']} ({r['parameter']:.4g})" for r in told)
     return (f" Not findings: {names}: each would need a value outside a bench's plausible range, so it stands in "
             "for physics the model lacks; that part of the misfit is unexplained.")
+
+
+def value_alone_sentence(name: str, value: float, table: float) -> str:
+    """Why an effect is refused beside a known value that explains the log alone (weigh.py, rule 2; the effect
+    search's single round, search._may_explain_alone): its first words, the reason's rest said by the caller."""
+    return (f"a known value explains the log alone with one parameter ({name} = {value:.4g} instead of {table:.4g} "
+            "brings both angles to their noise floors)")

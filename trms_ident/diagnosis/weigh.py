@@ -19,10 +19,10 @@ refitted with every one):
 2. the effect search's findings then stand only as look-alikes, and only when a single effect explains the log
    too (verdict "explained" with one finding; the search refuses in its round a finding whose output-error fit
    alone leaves the angles far above their floors, search._may_explain_alone): one parameter each, both at the
-   noise floor, the one that leaves
-   the angles nearer their floors first (an effect that is the known value under another name, SAME, first:
-   the motor_lag candidate's time constant is T11 or T21 itself).  Otherwise they need more parameters, or
-   leave more than the noise, for what the one value explains: they are refused, each with that reason;
+   noise floor, the one that leaves the angles nearer their floors first (an effect that is the known value under
+   another name, SAME, first: the motor_lag candidate's time constant is T11 or T21 itself).  Otherwise they need
+   more parameters, or leave more than the noise, for what the one value explains: they are refused, each with
+   that reason;
 3. with no known value reaching the floor, the effect search's verdict stands, and its sentence says which
    known values were tried alone and how far each left the angles from their floors; but where it explains the
    log with two or more findings, one of them an effect, the known values refitted together (the joint search of
@@ -72,6 +72,7 @@ from .model import AXIS_ANGLE, regression, settings_of
 from .oe import motor_states
 from .result import known_value_finding
 from .select import block_ids, score
+from .verdict import value_alone_sentence
 
 #: the verdict sentence of a known value that explains the log
 EXPLAINED_BY_VALUE = ("the model fits the log to its noise level once one known value takes the bench's own value "
@@ -173,8 +174,7 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None, exclude
                                   {k: 100.0 * (d.nominal[k] / est[k] - 1.0) for k in est})
     refused = list(d.refused)
     if not effect_alike:
-        why = (f"a known value explains the log alone with one parameter ({name} = {value:.4g} instead of "
-               f"{table:.4g} brings both angles to their noise floors); this effect is not needed")
+        why = value_alone_sentence(name, value, table) + "; this effect is not needed"
         refused += [{"effect": f.effect, "axis": f.axis, "parameter": f.parameter["value"], "reason": why}
                     for f in d.findings]
     step = _step(log, name, axis, d, overlay, residual, fits_after)
