@@ -185,15 +185,21 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None, exclude
     sentence += (f" (both angles within {RMS_OVER_NOISE:g}x their noise floors). Check {name} on the bench, or "
                  f"estimate it with `trms-ident estimate --free {name}`.")
     same = effect_alike and SAME.get(f"{d.findings[0].effect}:{d.findings[0].axis}") == name
-    if effect_alike and (same or _closer(d.settings.get("output_error_check"), ratio)):
-        # the single effect leaves the angles nearer their floors, or is the library's name for this very known
-        # value: it stays first, the known value its look-alike
+    effect_first = effect_alike and (same or _closer(d.settings.get("output_error_check"), ratio))
+    if effect_alike:  # the single effect and the value flag each other, whichever is named first (measured,
+        # any_bench seed 33274 bench 22: a1 0.74x and a pitch thrust asymmetry both at the floor; with the value
+        # first the asymmetry had been listed as a finding of its own, read as a second difference)
         effect = d.findings[0]
         effect.alternatives = list(dict.fromkeys(effect.alternatives + [f"known_value:{name}"]))
         effect.evidence += (f"; the same physics as the known value {name} = {value:.4g} instead of {table:.4g} (its "
                             "refit alone reaches the noise floor too)" if same else
                             f"; cannot be told apart with this log from {name} = {value:.4g} instead of {table:.4g} "
-                            "(a known value, refitted alone, also reaches the noise floor)")
+                            + ("(a known value, refitted alone, also reaches the noise floor)" if effect_first else
+                               "(a known value, refitted alone, reaches the noise floor too and leaves the angles "
+                               "nearer it: named first)"))
+    if effect_first:
+        # the single effect leaves the angles nearer their floors, or is the library's name for this very known
+        # value: it stays first, the known value its look-alike
         d.verdict_sentence += (f" That is the known value {name}: refitted alone it comes out {value:.4g} instead of "
                                f"{table:.4g}." if same else
                                f" A known value would explain the log as well: with {name} = {value:.4g} instead of "
@@ -201,13 +207,6 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None, exclude
         d.findings.append(finding)
         d.steps.append(step)
         return d
-    if effect_alike:  # the single effect second, flagged as the value's look-alike as the value is as its
-        effect = d.findings[0]  # (measured, any_bench seed 33274 bench 22: a1 0.74x and a pitch thrust asymmetry
-        # both at the floor; the asymmetry was listed as a finding of its own, read as a second difference)
-        effect.alternatives = list(dict.fromkeys(effect.alternatives + [f"known_value:{name}"]))
-        effect.evidence += (f"; cannot be told apart with this log from {name} = {value:.4g} instead of {table:.4g} "
-                            "(a known value, refitted alone, reaches the noise floor too and leaves the angles "
-                            "nearer it: named first)")
     findings = [finding] + ([d.findings[0]] if effect_alike else [])
     return replace(d, mismatch=True, findings=findings, augmented=est, fit_after=fits_after, overlay=overlay,
                    residual=residual, verdict="explained", verdict_sentence=sentence, refused=refused,
