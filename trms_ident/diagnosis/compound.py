@@ -29,7 +29,10 @@ leads anywhere.  When neither the findings nor known values together reach the f
 seed check's search ranked best (lowest output-error cost, each leaving the angles within
 VALUE_FIRST_OVER_NOISE of their floors when refitted alone) are taken one at a time: the effect search runs
 again with that value at its refit, and each of its findings is estimated under as above, from the values given
-(so the known value is refitted beside the effect, not held at its biased refit alone).
+(so the known value is refitted beside the effect, not held at its biased refit alone).  The joint search's set
+of values, when it does not reach the floor, leads first (joint_lead): its values are freed together beside each
+effect from their joint refit (_with_leads), since the known-value search under the effect frees one value at a
+time and need not rank them (two values and an effect: three differences, each a finding).
 """
 from __future__ import annotations
 
@@ -80,6 +83,7 @@ class Hypothesis:
     fits_alone: bool = False  # the estimate's adequacy check: the effect alone brings both angles to their floors
     over_noise: dict = field(default_factory=dict)  # angle -> error RMS over its floor, alone or with ``value_fit``
     value_fit: dict | None = None  # the known value its known-value search named (KnownValueFit's JSON)
+    more_values: list = field(default_factory=list)  # further known values freed beside it (value_first's joint lead)
     look_alikes: list = field(default_factory=list)  # known values that reach the floor with it as well
     error: str = ""
     ranked_by: dict | None = None  # its first-round equation-error test when ranked() proposed it (d.tested's row)
@@ -87,14 +91,18 @@ class Hypothesis:
 
     @property
     def parameters(self) -> int:
-        return 1 if self.fits_alone else 2
+        return (1 if self.fits_alone else 2) + len(self.more_values)
 
     @property
     def explains(self) -> bool:
         return self.fits_alone or self.value_fit is not None
 
     def label(self) -> str:
-        return self.key + ("" if self.value_fit is None else f" with {self.value_fit['name']}")
+        return self.key + ("" if self.value_fit is None else f" with {self.value_names()}")
+
+    def value_names(self) -> str:
+        """The known values freed beside the effect, as text ("T0" or "T0, T11")."""
+        return ", ".join(v["name"] for v in ([self.value_fit] if self.value_fit else []) + self.more_values)
 
 
 def hypotheses(d) -> list[Hypothesis]:
@@ -308,14 +316,25 @@ def _motor_path(key: str) -> tuple:
     return MOTOR_PATH.get(axis, ()) if effect in _VOLTAGE_MODIFICATIONS else ()
 
 
-def _with_lead(h: Hypothesis, lead: str, log: Log, law: str, overrides: dict, none: Hypothesis) -> Hypothesis:
+def _with_lead(h: Hypothesis, lead: str, log: Log, law: str, overrides: dict, none: Hypothesis,
+               table: float | None = None) -> Hypothesis:
     """``h``'s modification and the known value ``lead`` freed together (_profiled_with_lead); ``none`` when the
-    model does not fit with them."""
+    model does not fit with them.  ``table``: the value the bench was given, when ``overrides`` start the lead
+    elsewhere (value_first's joint lead); its change and plausibility are judged against it."""
+    return _with_leads(h, (lead,), log, law, overrides, none, None if table is None else {lead: table})
+
+
+def _with_leads(h: Hypothesis, leads: tuple, log: Log, law: str, overrides: dict, none: Hypothesis,
+                tables: dict | None = None) -> Hypothesis:
+    """_with_lead for one or more known values ``leads`` freed together beside ``h``'s modification (value_first's
+    joint lead: the joint search's set, freed from its joint refit in ``overrides``; ``tables`` the values the
+    bench was given).  Each value must be plausible; those that did not move (known_values.PRACTICAL_CHANGE) are
+    not findings, and with none moved the modification explains the log alone."""
     from ..errors import TrmsError
     from ..model_profile import identify_with_profiles
     from ..params import BY_NAME, merge
 
-    settings = settings_of(overrides, law, effects={h.key: h.value}, free=(h.key, lead))
+    settings = settings_of(overrides, law, effects={h.key: h.value}, free=(h.key, *leads))
     try:
         with np.errstate(all="ignore"):
             res = identify_with_profiles(log, settings)
@@ -323,24 +342,29 @@ def _with_lead(h: Hypothesis, lead: str, log: Log, law: str, overrides: dict, no
         return none
     check = res.model_check
     freed = res.refined.freed if res.refined is not None else {}
-    if check.get("adequate") is not True or lead not in freed or h.key not in freed:
+    if check.get("adequate") is not True or any(k not in freed for k in leads) or h.key not in freed:
         return none
-    given = merge(dict(overrides), source="parameter overrides")[lead]
-    value = float(freed[lead]["estimate"])
-    if not known_values.plausible_value(value, given):
-        return none  # (known_values.PLAUSIBLE_VALUE_FACTOR: a value no bench has explains nothing)
-    if not known_values.practical_change(value, given):
+    given = merge(dict(overrides), source="parameter overrides")
+    fits = []
+    for lead in leads:
+        table = given[lead] if tables is None else tables[lead]
+        value = float(freed[lead]["estimate"])
+        if not known_values.plausible_value(value, table):
+            return none  # (known_values.PLAUSIBLE_VALUE_FACTOR: a value no bench has explains nothing)
+        if known_values.practical_change(value, table):
+            fits.append({"name": lead, "value": value, "table": float(table),
+                         "ci95": [float(x) for x in freed[lead]["ci95"]], "unit": BY_NAME[lead].unit,
+                         "over_noise": _over_noise(check),
+                         "estimates": {k: float(v) for k, v in res.refined.estimate.items()},
+                         "start_states": {k: float(v) for k, v in res.refined.start_states.items()},
+                         "how": f"freed with {h.key}, whose value was profiled again beside it"})
+    if not fits:
         # the lead did not move (known_values.PRACTICAL_CHANGE): the modification profiled again explains the log
         # alone, one parameter (measured: a2 named at 0.02001 for 0.02 beside a yaw saturation, twice)
         return replace(h, fitted=float(freed[h.key]["estimate"]), fitted_ci95=_ci95(freed[h.key]), fits_alone=True,
                        over_noise=_over_noise(check))
-    fit = {"name": lead, "value": value, "table": float(given),
-           "ci95": [float(x) for x in freed[lead]["ci95"]], "unit": BY_NAME[lead].unit,
-           "over_noise": _over_noise(check), "estimates": {k: float(v) for k, v in res.refined.estimate.items()},
-           "start_states": {k: float(v) for k, v in res.refined.start_states.items()},
-           "how": f"freed with {h.key}, whose value was profiled again beside it"}
     return replace(h, fitted=float(freed[h.key]["estimate"]), fitted_ci95=_ci95(freed[h.key]),
-                   over_noise=fit["over_noise"], value_fit=fit)
+                   over_noise=fits[0]["over_noise"], value_fit=fits[0], more_values=fits[1:])
 
 
 def lead_of(kv: dict, key: str, own: bool = True) -> dict | None:
@@ -410,7 +434,7 @@ def ranked_together(d, log: Log, p: dict, law: str, overrides: dict | None, refi
 
 def _record(t: Hypothesis, lead: str | None = None) -> dict:
     return {"effect": t.key, "value": t.value, "fitted": t.fitted, "fits_alone": t.fits_alone,
-            "known_value": t.value_fit["name"] if t.value_fit else None, "over_noise": t.over_noise,
+            "known_value": t.value_names() if t.value_fit else None, "over_noise": t.over_noise,
             "error": t.error or None, **({"searched_under": lead} if lead else {}),
             **({"ranked_by_equation_error": True} if t.ranked_by is not None and not t.every_motor else {}),
             **({"on_each_motor": True} if t.every_motor else {})}
@@ -426,29 +450,59 @@ def leads(kv: dict, seed_worst: float) -> list[dict]:
     return sorted(fits, key=lambda f: f["cost"])[:MAX_LEADS]
 
 
-def value_first(d, log: Log, p: dict, law: str, overrides: dict | None, kv: dict, refit, search
+def joint_lead(j, seed_worst: float) -> dict | None:
+    """The joint search's set (known_values.KnownValueSet ``j``) as value_first's first lead: when it does not
+    explain the log but left the worst angle as near its floor as a single value must to lead (leads()).  The
+    forward search's best set of known values is the model the next difference is searched under, as a single
+    value's refit is (measured, any_bench.py seed 33274 bench 33: yaw Coulomb friction beside T0 1.42x; no single
+    refit freed T0, the score test ranking it last; the joint search took T0 to 4.90 for 4.97, and under that T0 the
+    effect search finds the friction and the two, T0 freed beside it, explain the log)."""
+    if j is None or j.explains or not j.over_noise:
+        return None
+    worst = max(j.over_noise.values())
+    if not worst <= min(VALUE_FIRST_OVER_NOISE, 0.5 * seed_worst):
+        return None
+    return {"values": dict(j.values), "tables": dict(j.table), "how": "the joint search's refit"}
+
+
+def value_first(d, log: Log, p: dict, law: str, overrides: dict | None, kv: dict, refit, search, joint=None
                 ) -> tuple[object | None, list]:
     """(the diagnosis explained by a known value and the effects the search finds once that value is set, or None;
     the hypotheses tried).  ``search(overrides)``: the effect search's Diagnosis of ``log`` under those values
-    (search.effect_search); ``refit`` as in together()."""
+    (search.effect_search); ``refit`` as in together().  ``joint``: the joint search's set of known values
+    (known_values.joint), which leads first where it may (joint_lead) and is not one of the single leads."""
     record = []
     given = dict(overrides or {})
     seed = [v.get("rms_over_noise", math.nan) for v in d.seed_check.get("axes", {}).values()]
-    for lead in leads(kv, max((v for v in seed if math.isfinite(v)), default=math.nan)):
-        name = lead["name"]
+    seed_worst = max((v for v in seed if math.isfinite(v)), default=math.nan)
+    ordered = [{"values": {f["name"]: f["value"]}, "tables": {f["name"]: f["table"]}, "how": "its refit alone"}
+               for f in leads(kv, seed_worst)]
+    first = joint_lead(joint, seed_worst)
+    if first is not None and not any(set(first["values"]) == set(s["values"]) for s in ordered):
+        ordered.insert(0, first)
+    for lead in ordered:
+        name = ", ".join(lead["values"])
         try:
             with np.errstate(all="ignore"):
-                d2 = search({**given, name: lead["value"]})
+                d2 = search({**given, **lead["values"]})
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
             record.append({"searched_under": name, "error": str(exc)})
             continue
         tried = estimated_under(hypotheses(d2), log, law, given)
+        if lead is first:
+            # the joint search's values, which the known-value search under an effect need not rank (no single
+            # refit freed T0 in the measured case, nor did it beside the effect): freed together beside each effect
+            # that does not fit alone, from their joint refit
+            at = {**given, **lead["values"]}
+            tried = fan_out(lambda t: t if t.explains else _with_leads(t, tuple(lead["values"]), log, law, at, t,
+                                                                       tables=lead["tables"]), tried)
         record += [_record(t, name) for t in tried]
         chosen, alikes = best(tried)
         if chosen is None:
             continue
-        again = (f"; found by the effect search run again with {name} = {lead['value']:.4g} (its refit alone) instead "
-                 f"of {lead['table']:.4g}")
+        listed = ", ".join(f"{k} = {v:.4g}" for k, v in lead["values"].items())
+        tables = ", ".join(f"{v:.4g}" for v in lead["tables"].values())
+        again = f"; found by the effect search run again with {listed} ({lead['how']}) instead of {tables}"
         found = [replace(f, fit_before=d.fit_before.get(f.axis, f.fit_before), evidence=f.evidence + again)
                  for f in d2.findings]
         merged = replace(d, findings=found, steps=d2.steps, oe_tested=d2.oe_tested)
@@ -470,7 +524,7 @@ def _effect_finding(d, h: Hypothesis, alikes: list[Hypothesis]) -> Finding:
         f = d.findings[h.finding]
         value = h.fitted if math.isfinite(h.fitted) else f.parameter["value"]
         moved = float(value) != f.parameter["value"]
-        again = (f"; estimated again in the model with {h.value_fit['name']} free beside it: {value:.4g}"
+        again = (f"; estimated again in the model with {h.value_names()} free beside it: {value:.4g}"
                  if h.value_fit is not None and (h.key in TORQUE_KEYS or moved) else "")
         param = {**f.parameter, "value": float(value)}
         if moved:  # the search's interval was for its own value: the estimate's
@@ -483,7 +537,7 @@ def _effect_finding(d, h: Hypothesis, alikes: list[Hypothesis]) -> Finding:
                        explanation=c.said(value) if moved else f.explanation,
                        alternatives=list(dict.fromkeys(f.alternatives + others)))
     value = h.fitted if math.isfinite(h.fitted) else h.value  # an input modification applied at its value
-    beside = f" and {h.value_fit['name']}" if h.value_fit is not None else ""
+    beside = f" and {h.value_names()}" if h.value_fit is not None else ""
     param = {"name": c.parameter, "value": float(value), "unit": c.unit,
              **({"ci95": list(h.fitted_ci95)} if h.fitted_ci95 is not None and math.isfinite(h.fitted) else {})}
     explanation = c.said(value)
@@ -523,21 +577,25 @@ def _diagnosis(d, log: Log, p: dict, h: Hypothesis, alikes: list, record: list, 
     findings = [effect]
     changes = {}
     words = f"{h.key} = {effect.parameter['value']:.4g} {effect.parameter.get('unit', '')}".rstrip()
-    if h.value_fit is not None:
-        kv = h.value_fit
+    values = ([h.value_fit] if h.value_fit is not None else []) + list(h.more_values)
+    for kv in values:
         name, value, table = kv["name"], kv["value"], kv["table"]
         changes[name] = value
         lo, hi = kv["ci95"]
         alternatives = list(h.look_alikes)
+        others = [v["name"] for v in values if v["name"] != name]
         findings.append(known_value_finding(
             name, value, table, kv["unit"], (lo, hi), d.fit_before, math.nan,
-            f"with {h.key} in the model (freed beside J/B where the refinement carries it), set free and refitted by "
+            f"with {h.key} in the model (freed beside J/B where the refinement carries it), set free"
+            f"{' together with ' + ', '.join(others) if others else ''} and refitted by "
             f"output error with J1, B1, J2, B2 and the start states, it brings the angles to "
             f"{kv['over_noise']['alpha']:.3g}x and {kv['over_noise']['beta']:.3g}x their noise floors; 95 % interval "
             f"{lo:.6g} to {hi:.6g} {kv['unit']}" + (f"; cannot be told apart with this log from "
                                                      f"{', '.join(alternatives)}" if alternatives else ""),
             alternatives=alternatives))
-        words += f" and the known value {name} = {value:.4g} instead of {table:.4g}"
+    if values:
+        words += (" and the known value" + ("s " if len(values) > 1 else " ")
+                  + ", ".join(f"{v['name']} = {v['value']:.4g} instead of {v['table']:.4g}" for v in values))
     est = dict(h.value_fit["estimates"]) if h.value_fit is not None else dict(d.augmented)
     start = (motor_states(h.value_fit.get("start_states") or {}) or None) if h.value_fit is not None else None
     fits_after, overlay, residual = refit({**p, **changes}, est, start, findings)
@@ -553,9 +611,12 @@ def _diagnosis(d, log: Log, p: dict, h: Hypothesis, alikes: list, record: list, 
     sentence = (f"the model fits the log to its noise level with {words} (both angles within "
                 f"{RMS_OVER_NOISE:g}x their noise floors: {ratio.get('alpha', math.nan):.3g}x and "
                 f"{ratio.get('beta', math.nan):.3g}x)")
-    if h.value_fit is not None:
+    if len(values) == 1:
         sentence += (": two differences from the model it was given, an effect and a known value; neither alone "
                      "reaches the floor")
+    elif values:
+        sentence += (f": {len(values) + 1} differences from the model it was given, an effect and {len(values)} known "
+                     "values; the values refitted together without the effect do not reach the floor")
     if alikes:
         sentence += (f"; {', '.join(a.label() for a in alikes)} would explain it as well with as many parameters: "
                      "this log cannot tell them apart")

@@ -41,7 +41,8 @@ refitted with every one):
    A set that reaches the floor explains the log: one finding per value, the effect search's findings refused
    (they do not reach it).  A set that does not is reported in the sentence with the values the log
    determines;
-6. when that does not either, the known values that came nearest the floor alone lead (compound.value_first):
+6. when that does not either, the known values that came nearest the floor alone lead (compound.value_first),
+   after the joint search's set of values (compound.joint_lead, freed together beside each effect):
    the effect search runs again with one of them at its refit, and its findings are estimated under with the
    value freed beside them; a pair that reaches the floor explains the log, the first search's findings
    refused.  Refits that wander off to implausible numbers are never reported (known_values.far_from_table
@@ -135,7 +136,7 @@ def weigh(d, log: Log, p: dict, law: str, overrides: dict | None = None, exclude
                 first, tried_first = value_first(
                     d, log, p, law, overrides, kv, refit,
                     lambda under: search.effect_search(log, under, law, d.settings["a_rad_s"],
-                                                       lambda stage, done: None, exclude))
+                                                       lambda stage, done: None, exclude), joint=j)
                 if first is not None:
                     return first
             last, tried_last = ranked_together(d, log, p, law, overrides, refit, {t["effect"] for t in tried})
