@@ -255,6 +255,23 @@ def _joint_set(values, table, over, explains=False):
                            explains=explains)
 
 
+def _led_by_joint(log, first, seed_over, found, joint):
+    """value_first on ``log`` after an effect search that found ``first`` (seed model ``seed_over`` times the
+    floors), no single lead, the joint set ``joint``; the search under it stubbed to find ``found``.  (diagnosis,
+    tries, the values each search ran under)."""
+    d = _diagnosis([first])
+    d.seed_check = {"axes": {"pitch": {"rms_over_noise": seed_over[0]}, "yaw": {"rms_over_noise": seed_over[1]}}}
+    asked = []
+
+    def search(under):
+        asked.append(under)
+        return _diagnosis([found])
+
+    new, tried = compound.value_first(d, log, defaults(), "quadratic", {}, {"fits": []},
+                                      lambda pp, est, start, fs: ({}, {}, {}), search, joint=joint)
+    return new, tried, asked
+
+
 @pytest.mark.parametrize("values, over, explains, seed_worst, leads", [
     ({"T0": 4.9}, (1.0, 2.4), False, 800.0, True),
     ({"T0": 4.9}, (1.0, 9.9), False, 800.0, True),
@@ -280,19 +297,9 @@ def test_the_joint_searchs_value_leads_the_effect_search_and_is_freed_beside_its
     T0 at 4.90)."""
     from .test_known_values import BENCH_33, bench_33_log
 
-    table = defaults()
-    log = bench_33_log()
-    d = _diagnosis([_finding("motor_lag", "pitch", "T", 0.93)])
-    d.seed_check = {"axes": {"pitch": {"rms_over_noise": 135.0}, "yaw": {"rms_over_noise": 819.0}}}
-    asked = []
-
-    def search(under):
-        asked.append(under)
-        return _diagnosis([_finding("coulomb_friction", "yaw", "Fc", 0.0031)])
-
-    new, tried = compound.value_first(d, log, table, "quadratic", {}, {"fits": []},
-                                      lambda pp, est, start, found: ({}, {}, {}), search,
-                                      joint=_joint_set({"T0": 4.896}, {"T0": 3.5}, (1.0, 2.44)))
+    new, tried, asked = _led_by_joint(bench_33_log(), _finding("motor_lag", "pitch", "T", 0.93), (135.0, 819.0),
+                                      _finding("coulomb_friction", "yaw", "Fc", 0.0031),
+                                      _joint_set({"T0": 4.896}, {"T0": 3.5}, (1.0, 2.44)))
     assert asked == [{"T0": 4.896}]
     assert new is not None, tried
     friction, value = new.findings
@@ -338,18 +345,9 @@ def test_the_joint_searchs_two_values_lead_and_are_freed_together_beside_the_eff
     r = simulate(SimSettings(ref="square", sample_rate_hz=200.0, duration_s=60.0, quantization_rad=2 * np.pi / 4096,
                              seed=820614734, overrides=truth,
                              effects=[{"effect": "quadratic_drag", "axis": "pitch", "value": drag}]))
-    log = as_log(r)
-    d = _diagnosis([_finding("known_value", "pitch", "T11", 2.893)])
-    d.seed_check = {"axes": {"pitch": {"rms_over_noise": 2.7}, "yaw": {"rms_over_noise": 9.0}}}
-    asked = []
-
-    def search(under):
-        asked.append(under)
-        return _diagnosis([_finding("quadratic_drag", "pitch", "c", 0.0066)])
-
-    joint = _joint_set({"T0": 2.198, "T11": 1.557}, {"T0": 3.5, "T11": 1.1}, (1.6, 1.04))
-    new, tried = compound.value_first(d, log, defaults(), "quadratic", {}, {"fits": []},
-                                      lambda pp, est, start, found: ({}, {}, {}), search, joint=joint)
+    new, tried, asked = _led_by_joint(as_log(r), _finding("known_value", "pitch", "T11", 2.893), (2.7, 9.0),
+                                      _finding("quadratic_drag", "pitch", "c", 0.0066),
+                                      _joint_set({"T0": 2.198, "T11": 1.557}, {"T0": 3.5, "T11": 1.1}, (1.6, 1.04)))
     assert asked == [{"T0": 2.198, "T11": 1.557}]
     assert new is not None, tried
     found = {f.parameter["name"]: f.parameter["value"] for f in new.findings}
