@@ -657,7 +657,7 @@ def later_tries_sentence(tried: list[dict]) -> str:
     each = [f"{t['effect']} {_worst(t)}" for t in tried if t.get("on_each_motor") and t.get("over_noise")]
     out = ""
     if under:
-        out += (" The effect search run again under the known values whose refits alone came nearest the floor finds "
+        out += (" The effect search run again under the known values whose refits came nearest the floor finds "
                 f"effects that leave the worst angle above its noise floor too ({', '.join(under)}).")
     if ranked:
         out += (" The equation error's next-ranked effects of its first round, each estimated under with each known "
